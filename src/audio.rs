@@ -1,0 +1,504 @@
+//! Audio input: multichannel WAV, streamed, cut into frames of `N` samples with 50%
+//! overlap (the paper's Section II opening).
+//!
+//! The RIFF header is read here so that unsupported inputs (64-bit float, RF64,
+//! compressed formats, other file types) get a precise message, and so that headers with
+//! placeholder lengths (written by `sox`/`ffmpeg` into pipes, or by recorders that stopped
+//! before finishing the file) can be handled: hound decodes the samples, behind a
+//! synthetic header whose data length we control. Memory does not depend on the length
+//! of the recording.
+
+use anyhow::{bail, Result};
+use std::fs::File;
+use std::io::{self, BufReader, Read};
+
+/// What the header says about the samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WavFormat {
+    pub channels: usize,
+    pub sample_rate: u32,
+    pub bits_per_sample: u16,
+    pub float: bool,
+    /// Sample frames the header promises (`None`: placeholder length, read to the end).
+    pub frames: Option<u64>,
+}
+
+impl WavFormat {
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ch, {} Hz, {}-bit {}",
+            self.channels,
+            self.sample_rate,
+            self.bits_per_sample,
+            if self.float { "float" } else { "PCM" }
+        )
+    }
+}
+
+/// A reader that serves a prefix (a synthetic header for hound) before the real stream.
+struct Prefixed {
+    prefix: Vec<u8>,
+    pos: usize,
+    inner: Box<dyn Read>,
+}
+
+impl Read for Prefixed {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if self.pos < self.prefix.len() {
+            let n = buf.len().min(self.prefix.len() - self.pos);
+            buf[..n].copy_from_slice(&self.prefix[self.pos..self.pos + n]);
+            self.pos += n;
+            return Ok(n);
+        }
+        self.inner.read(buf)
+    }
+}
+
+/// A streaming WAV reader producing interleaved `f32` samples in [-1, 1).
+pub struct WavStream {
+    name: String,
+    pub format: WavFormat,
+    fmt_chunk: Vec<u8>,
+    block_align: u64,
+    reader: Option<hound::WavReader<Prefixed>>,
+    /// Frames hound may still deliver before its synthetic length runs out.
+    left_in_segment: u64,
+    frames_read: u64,
+    scale: f32,
+    done: bool,
+}
+
+/// Largest data length (bytes) one synthetic header can announce.
+const SEGMENT_BYTES: u64 = 0xFFFF_FFFF;
+
+impl WavStream {
+    /// Opens a WAV file, or standard input for `-`.
+    pub fn open(path: &str) -> Result<Self> {
+        if path == "-" {
+            return Self::from_reader(
+                "<stdin>",
+                Box::new(BufReader::with_capacity(1 << 16, io::stdin())),
+                None,
+            );
+        }
+        let file = File::open(path)
+            .map_err(|e| anyhow::anyhow!("{path}: cannot open: {}", io_reason(&e)))?;
+        let meta = file
+            .metadata()
+            .map_err(|e| anyhow::anyhow!("{path}: {}", io_reason(&e)))?;
+        if meta.is_dir() {
+            bail!("{path}: is a directory, not a WAV file");
+        }
+        Self::from_reader(
+            path,
+            Box::new(BufReader::with_capacity(1 << 16, file)),
+            Some(meta.len()),
+        )
+    }
+
+    /// Reads the header from `input`; `size` is the total byte size when known (a file).
+    pub fn from_reader(name: &str, mut input: Box<dyn Read>, size: Option<u64>) -> Result<Self> {
+        let fail = |msg: String| anyhow::anyhow!("{name}: {msg}");
+        let mut riff = [0u8; 12];
+        let got = read_full(&mut input, &mut riff).map_err(|e| fail(io_reason(&e)))?;
+        if got == 0 {
+            return Err(fail("empty file, not a WAV recording".into()));
+        }
+        if got < 12 || &riff[8..12] != b"WAVE" || &riff[0..4] != b"RIFF" {
+            return Err(fail(match &riff[0..4] {
+                b"RF64" | b"BW64" => "RF64/BW64 WAV (for files over 4 GB) is not supported: split it into WAV files under 4 GB, e.g. `sox in.wav out.wav trim 0 3600 : newfile : restart`".into(),
+                b"RIFX" => "big-endian WAV (RIFX) is not supported: convert it, e.g. `sox in.wav -L out.wav`".into(),
+                b"fLaC" => "this is a FLAC file, not WAV: convert it, e.g. `sox in.flac out.wav` or `ffmpeg -i in.flac out.wav`".into(),
+                b"OggS" => "this is an Ogg file, not WAV: convert it, e.g. `ffmpeg -i in.ogg out.wav`".into(),
+                _ => "not a WAV file (no RIFF/WAVE header)".into(),
+            }));
+        }
+        let mut consumed: u64 = 12;
+        let mut fmt: Option<Vec<u8>> = None;
+        let declared = loop {
+            let mut head = [0u8; 8];
+            if read_full(&mut input, &mut head).map_err(|e| fail(io_reason(&e)))? < 8 {
+                return Err(fail(if fmt.is_none() {
+                    "truncated WAV: the header ends before the format chunk".into()
+                } else {
+                    "truncated WAV: no data chunk (the file ends in the header)".into()
+                }));
+            }
+            consumed += 8;
+            let len = u32::from_le_bytes([head[4], head[5], head[6], head[7]]) as u64;
+            match &head[0..4] {
+                b"fmt " => {
+                    if !(16..=1024).contains(&len) {
+                        return Err(fail(format!("corrupt WAV: format chunk of {len} bytes")));
+                    }
+                    let mut body = vec![0u8; len as usize];
+                    if read_full(&mut input, &mut body).map_err(|e| fail(io_reason(&e)))?
+                        < body.len()
+                    {
+                        return Err(fail(
+                            "truncated WAV: the file ends in the format chunk".into(),
+                        ));
+                    }
+                    consumed += len;
+                    if len % 2 == 1 {
+                        let mut pad = [0u8; 1];
+                        read_full(&mut input, &mut pad).map_err(|e| fail(io_reason(&e)))?;
+                        consumed += 1;
+                    }
+                    fmt = Some(body);
+                }
+                b"data" => break len,
+                _ => {
+                    let skip = len + (len % 2);
+                    let skipped = io::copy(&mut (&mut input).take(skip), &mut io::sink())
+                        .map_err(|e| fail(io_reason(&e)))?;
+                    if skipped < skip {
+                        return Err(fail(
+                            "truncated WAV: no data chunk (the file ends in the header)".into(),
+                        ));
+                    }
+                    consumed += skip;
+                }
+            }
+        };
+        let fmt = fmt.ok_or_else(|| {
+            fail("corrupt WAV: the data chunk comes before any format chunk".into())
+        })?;
+        let (mut format, block_align) = parse_fmt(&fmt).map_err(|m| fail(m))?;
+        let available = size.map(|s| s.saturating_sub(consumed) / block_align);
+        // 0 and 0xFFFFFFFF are the placeholders streaming writers leave.
+        format.frames = if declared == 0 || declared == 0xFFFF_FFFF {
+            available
+        } else {
+            Some(declared / block_align)
+        };
+        let scale = if format.float {
+            1.0
+        } else {
+            1.0 / (1u64 << (format.bits_per_sample - 1)) as f32
+        };
+        let mut stream = WavStream {
+            name: name.to_string(),
+            format,
+            fmt_chunk: fmt,
+            block_align,
+            reader: None,
+            left_in_segment: 0,
+            frames_read: 0,
+            scale,
+            done: false,
+        };
+        stream.start_segment(Prefixed {
+            prefix: Vec::new(),
+            pos: 0,
+            inner: input,
+        })?;
+        Ok(stream)
+    }
+
+    /// Hands hound a synthetic header announcing the next segment of up to 4 GB.
+    fn start_segment(&mut self, mut source: Prefixed) -> Result<()> {
+        let remaining = self.format.frames.map(|f| f - self.frames_read);
+        let max_frames = SEGMENT_BYTES / self.block_align;
+        let frames = remaining.map_or(max_frames, |r| r.min(max_frames));
+        let data_len = (frames * self.block_align) as u32;
+        let mut h = Vec::with_capacity(28 + self.fmt_chunk.len());
+        h.extend_from_slice(b"RIFF");
+        // hound reads but does not check the RIFF size.
+        h.extend_from_slice(&u32::MAX.to_le_bytes());
+        h.extend_from_slice(b"WAVE");
+        h.extend_from_slice(b"fmt ");
+        h.extend_from_slice(&(self.fmt_chunk.len() as u32).to_le_bytes());
+        h.extend_from_slice(&self.fmt_chunk);
+        h.extend_from_slice(b"data");
+        h.extend_from_slice(&data_len.to_le_bytes());
+        source.prefix = h;
+        source.pos = 0;
+        let reader = hound::WavReader::new(source)
+            .map_err(|e| anyhow::anyhow!("{}: unsupported WAV: {e}", self.name))?;
+        self.reader = Some(reader);
+        self.left_in_segment = frames;
+        Ok(())
+    }
+
+    /// The name used in messages (path, or `<stdin>`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Sample frames delivered so far.
+    pub fn frames_read(&self) -> u64 {
+        self.frames_read
+    }
+
+    /// Reads up to `out.len() / channels` sample frames into `out` (interleaved) and returns
+    /// how many were read; 0 at the end. A truncated file or a non-finite sample is an error.
+    pub fn read(&mut self, out: &mut [f32]) -> Result<usize> {
+        let ch = self.format.channels;
+        let want = out.len() / ch;
+        let mut got = 0;
+        while got < want && !self.done {
+            if self.left_in_segment == 0 {
+                let finished = self.format.frames.is_some_and(|f| self.frames_read >= f);
+                if finished {
+                    self.done = true;
+                    break;
+                }
+                let source = self.reader.take().expect("reader present").into_inner();
+                self.start_segment(source)?;
+                if self.left_in_segment == 0 {
+                    self.done = true;
+                    break;
+                }
+            }
+            let n = (want - got).min(self.left_in_segment as usize);
+            let dst = &mut out[got * ch..(got + n) * ch];
+            let filled = self.decode(dst)?;
+            let frames = filled / ch;
+            got += frames;
+            self.frames_read += frames as u64;
+            self.left_in_segment -= frames as u64;
+            if filled < dst.len() {
+                // End of input before the announced length.
+                self.done = true;
+                match self.format.frames {
+                    Some(promised) if self.frames_read < promised => bail!(
+                        "{}: truncated WAV: the header promises {} sample frames ({:.3} s) but the data ends after {} ({:.3} s)",
+                        self.name,
+                        promised,
+                        promised as f64 / self.format.sample_rate as f64,
+                        self.frames_read,
+                        self.frames_read as f64 / self.format.sample_rate as f64
+                    ),
+                    _ => {}
+                }
+            }
+        }
+        Ok(got)
+    }
+
+    /// Decodes samples into `dst` until it is full or the input ends (returns samples
+    /// written, always whole frames).
+    fn decode(&mut self, dst: &mut [f32]) -> Result<usize> {
+        let reader = self.reader.as_mut().expect("reader present");
+        let mut written = 0;
+        let mut failure: Option<hound::Error> = None;
+        if self.format.float {
+            for (d, s) in dst.iter_mut().zip(reader.samples::<f32>()) {
+                match s {
+                    Ok(v) => {
+                        *d = v;
+                        written += 1;
+                    }
+                    Err(e) => {
+                        failure = Some(e);
+                        break;
+                    }
+                }
+            }
+        } else {
+            let scale = self.scale;
+            for (d, s) in dst.iter_mut().zip(reader.samples::<i32>()) {
+                match s {
+                    Ok(v) => {
+                        *d = v as f32 * scale;
+                        written += 1;
+                    }
+                    Err(e) => {
+                        failure = Some(e);
+                        break;
+                    }
+                }
+            }
+        }
+        if self.format.float {
+            let ch = self.format.channels;
+            if let Some(i) = dst[..written].iter().position(|v| !v.is_finite()) {
+                let frame = self.frames_read + (i / ch) as u64;
+                bail!(
+                    "{}: sample {} of channel {} is {} (at {:.6} s): the recording is corrupt",
+                    self.name,
+                    frame,
+                    i % ch,
+                    if dst[i].is_nan() { "NaN" } else { "infinite" },
+                    frame as f64 / self.format.sample_rate as f64
+                );
+            }
+        }
+        match failure {
+            None => {}
+            Some(hound::Error::IoError(e)) if e.kind() == io::ErrorKind::UnexpectedEof => {}
+            Some(hound::Error::IoError(e)) => bail!("{}: read error: {}", self.name, io_reason(&e)),
+            Some(e) => bail!("{}: corrupt WAV data: {e}", self.name),
+        }
+        Ok(written - written % self.format.channels)
+    }
+}
+
+/// Parses a `fmt ` chunk body; returns the format and the block alignment in bytes.
+fn parse_fmt(b: &[u8]) -> std::result::Result<(WavFormat, u64), String> {
+    let u16_at = |i: usize| u16::from_le_bytes([b[i], b[i + 1]]);
+    let u32_at = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+    let mut tag = u16_at(0);
+    let channels = u16_at(2) as usize;
+    let sample_rate = u32_at(4);
+    let block_align = u16_at(12) as u64;
+    let container_bits = u16_at(14);
+    let mut bits = container_bits;
+    if tag == 0xFFFE {
+        if b.len() < 40 {
+            return Err("corrupt WAV: WAVE_FORMAT_EXTENSIBLE header is too short".into());
+        }
+        let valid = u16_at(18);
+        if valid > 0 {
+            bits = valid;
+        }
+        tag = u16_at(24);
+    }
+    if channels == 0 {
+        return Err("corrupt WAV: the header says 0 channels".into());
+    }
+    if sample_rate == 0 {
+        return Err("corrupt WAV: the header says a sample rate of 0 Hz".into());
+    }
+    if block_align == 0
+        || block_align % channels as u64 != 0
+        || block_align / channels as u64 * 8 < container_bits as u64
+    {
+        return Err(format!("corrupt WAV: inconsistent block size {block_align} for {channels} channels of {container_bits} bits"));
+    }
+    let float = match tag {
+        1 => {
+            if !matches!(bits, 8 | 16 | 24 | 32) {
+                return Err(format!("{bits}-bit integer PCM is not supported (8, 16, 24 or 32 bits are)"));
+            }
+            false
+        }
+        3 => {
+            if bits == 64 {
+                return Err("64-bit float WAV is not supported: convert it to 32-bit float, e.g. `sox in.wav -e floating-point -b 32 out.wav` or `ffmpeg -i in.wav -c:a pcm_f32le out.wav`".into());
+            }
+            if bits != 32 {
+                return Err(format!("{bits}-bit float WAV is not supported (32-bit float is)"));
+            }
+            true
+        }
+        other => {
+            return Err(format!(
+                "compressed WAV (format tag 0x{other:04x}) is not supported: convert it to PCM, e.g. `sox in.wav -e signed-integer -b 16 out.wav`"
+            ))
+        }
+    };
+    Ok((
+        WavFormat {
+            channels,
+            sample_rate,
+            bits_per_sample: bits,
+            float,
+            frames: None,
+        },
+        block_align,
+    ))
+}
+
+/// Like `read_exact`, but returns how many bytes were read before the end of input.
+fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
+
+/// An I/O error as a short lower-case reason without the "(os error N)" suffix.
+pub fn io_reason(e: &io::Error) -> String {
+    match e.kind() {
+        io::ErrorKind::NotFound => "no such file".into(),
+        io::ErrorKind::PermissionDenied => "permission denied".into(),
+        _ => {
+            let s = e.to_string();
+            match s.find(" (os error") {
+                Some(i) => s[..i].to_string(),
+                None => s,
+            }
+        }
+    }
+}
+
+/// Cuts a stream into frames of `n` samples per microphone with a hop of `n / 2`,
+/// picking the geometry's channels. One planar buffer (`mics x n`) is reused.
+pub struct Framer {
+    n: usize,
+    hop: usize,
+    channels: Vec<usize>,
+    /// `mics x n`, mic-major.
+    frame: Vec<f32>,
+    interleaved: Vec<f32>,
+    started: bool,
+    index: u64,
+}
+
+impl Framer {
+    /// `channels[m]` is the WAV channel of mic `m`; `stream_channels` the file's count.
+    pub fn new(n: usize, channels: Vec<usize>, stream_channels: usize) -> Self {
+        let mics = channels.len();
+        Framer {
+            n,
+            hop: n / 2,
+            frame: vec![0.0; mics * n],
+            interleaved: vec![0.0; n * stream_channels],
+            channels,
+            started: false,
+            index: 0,
+        }
+    }
+
+    pub fn hop(&self) -> usize {
+        self.hop
+    }
+
+    /// The WAV channel of mic `m`.
+    pub fn channel_of(&self, m: usize) -> usize {
+        self.channels[m]
+    }
+
+    /// Reads the next frame. Returns its index (frame `i` starts at sample `i * hop`) and
+    /// the samples (`frame[m * n .. (m + 1) * n]` for mic `m`), or `None` at the end.
+    pub fn next_frame(&mut self, stream: &mut WavStream) -> Result<Option<(u64, &[f32])>> {
+        let n = self.n;
+        let (fresh, keep) = if self.started {
+            (self.hop, n - self.hop)
+        } else {
+            (n, 0)
+        };
+        let ch = stream.format.channels;
+        let buf = &mut self.interleaved[..fresh * ch];
+        let mut got = 0;
+        while got < fresh {
+            let k = stream.read(&mut buf[got * ch..])?;
+            if k == 0 {
+                break;
+            }
+            got += k;
+        }
+        if got < fresh {
+            return Ok(None);
+        }
+        for (m, &c) in self.channels.iter().enumerate() {
+            let row = &mut self.frame[m * n..(m + 1) * n];
+            row.copy_within(n - keep.., 0);
+            for (d, s) in row[keep..].iter_mut().zip(buf.chunks_exact(ch)) {
+                *d = s[c];
+            }
+        }
+        let index = if self.started { self.index + 1 } else { 0 };
+        self.started = true;
+        self.index = index;
+        Ok(Some((index, &self.frame)))
+    }
+}

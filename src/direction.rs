@@ -1,0 +1,330 @@
+//! Direction from delays: the far-field model of the paper's Section III.
+//!
+//! For microphones `i`, `j` and a unit vector `u` toward a far source, eq. (11)-(12) give
+//! `u . x_ij = c dT_ij` with `x_ij = p_j - p_i` and `dT_ij = t_i - t_j` (the lag of the
+//! peak of `R_ij`). Stacking one row per pair gives the linear system of eq. (13), solved
+//! by least squares through the pseudo-inverse of the difference matrix, computed once
+//! per set of live microphones, and normalised (which also removes the dependence on the
+//! speed of sound and most of the near-field error, as the paper notes).
+//!
+//! The paper stacks only the `N-1` pairs `(1, j)`. We stack every pair whose delay the
+//! consistency search matched (all `N(N-1)/2` of them), each with its own measured,
+//! sub-sample refined lag: when the delays are exact the answer is the same, and with
+//! noisy delays the extra rows average the noise down.
+//!
+//! Planar arrays: the difference matrix has rank 2, so the system is solved in the
+//! plane and the out-of-plane component is `sqrt(1 - |u_plane|^2)` on the `side` of
+//! the plane. Linear arrays: rank 1, only `cos` of the angle to the axis is known; the
+//! direction is reported in the plane of the axis and `side`.
+
+use crate::geometry::{Geometry, Shape};
+use anyhow::{bail, Result};
+use nalgebra::{DMatrix, Vector2, Vector3};
+
+/// Index of pair `(a, b)`, `a < b`, among `k` microphones, pairs ordered `(0,1), (0,2), ..,
+/// (0,k-1), (1,2), ..`.
+#[inline]
+pub fn pair_index(a: usize, b: usize, k: usize) -> usize {
+    debug_assert!(a < b && b < k);
+    a * (2 * k - a - 1) / 2 + (b - a - 1)
+}
+
+/// Number of pairs among `k` microphones.
+#[inline]
+pub fn pair_count(k: usize) -> usize {
+    k * (k - 1) / 2
+}
+
+enum Solver {
+    /// Rows of the pseudo-inverse (3 x P) stored per pair: `u = sum_p col_p * b_p`.
+    Volumetric { cols: Vec<Vector3<f64>> },
+    Planar {
+        cols: Vec<Vector2<f64>>,
+        e1: Vector3<f64>,
+        e2: Vector3<f64>,
+        normal: Vector3<f64>,
+    },
+    Linear {
+        weights: Vec<f64>,
+        axis: Vector3<f64>,
+        perp: Vector3<f64>,
+    },
+}
+
+/// Solves eq. (13) for one set of live microphones. Built once, used every frame.
+pub struct DirectionSolver {
+    solver: Solver,
+    /// Converts a lag in samples to metres: `c / fs`.
+    metres_per_sample: f64,
+    pairs: usize,
+}
+
+impl DirectionSolver {
+    /// `mask` selects the live microphones (bit `i` = mic `i` of `geometry`).
+    pub fn new(geometry: &Geometry, mask: u64, sample_rate: f64, speed: f64) -> Result<Self> {
+        let live: Vec<usize> = (0..geometry.mics.len())
+            .filter(|i| mask & (1u64 << i) != 0)
+            .collect();
+        let k = live.len();
+        if k < 2 {
+            bail!("fewer than 2 live microphones");
+        }
+        let p = pair_count(k);
+        let mut d = DMatrix::<f64>::zeros(p, 3);
+        for a in 0..k {
+            for b in a + 1..k {
+                let row = pair_index(a, b, k);
+                let x = geometry.mics[live[b]].position - geometry.mics[live[a]].position;
+                for c in 0..3 {
+                    d[(row, c)] = x[c];
+                }
+            }
+        }
+        let shape = geometry.subset_shape(mask)?;
+        let solver = match shape {
+            Shape::Volumetric => {
+                let pinv = d.pseudo_inverse(1e-12).map_err(anyhow::Error::msg)?;
+                Solver::Volumetric {
+                    cols: (0..p)
+                        .map(|r| Vector3::new(pinv[(0, r)], pinv[(1, r)], pinv[(2, r)]))
+                        .collect(),
+                }
+            }
+            Shape::Planar { normal } => {
+                // An orthonormal basis of the plane.
+                let helper = if normal.x.abs() < 0.9 {
+                    Vector3::x()
+                } else {
+                    Vector3::y()
+                };
+                let e1 = (helper - normal * normal.dot(&helper)).normalize();
+                let e2 = normal.cross(&e1);
+                let mut dp = DMatrix::<f64>::zeros(p, 2);
+                for r in 0..p {
+                    let row = Vector3::new(d[(r, 0)], d[(r, 1)], d[(r, 2)]);
+                    dp[(r, 0)] = row.dot(&e1);
+                    dp[(r, 1)] = row.dot(&e2);
+                }
+                let pinv = dp.pseudo_inverse(1e-12).map_err(anyhow::Error::msg)?;
+                Solver::Planar {
+                    cols: (0..p)
+                        .map(|r| Vector2::new(pinv[(0, r)], pinv[(1, r)]))
+                        .collect(),
+                    e1,
+                    e2,
+                    normal,
+                }
+            }
+            Shape::Linear { axis } => {
+                let proj: Vec<f64> = (0..p)
+                    .map(|r| Vector3::new(d[(r, 0)], d[(r, 1)], d[(r, 2)]).dot(&axis))
+                    .collect();
+                let norm2: f64 = proj.iter().map(|v| v * v).sum();
+                let side = geometry.side;
+                let perp = (side - axis * axis.dot(&side)).normalize();
+                Solver::Linear {
+                    weights: proj.iter().map(|v| v / norm2).collect(),
+                    axis,
+                    perp,
+                }
+            }
+        };
+        Ok(DirectionSolver {
+            solver,
+            metres_per_sample: speed / sample_rate,
+            pairs: p,
+        })
+    }
+
+    /// Number of pair delays `solve` expects.
+    pub fn pairs(&self) -> usize {
+        self.pairs
+    }
+
+    /// The unit direction from pair lags in samples (`lags[pair_index(a, b, k)]` is the
+    /// lag of the peak of `R_ab`). `None` when the system gives no direction (zero vector).
+    pub fn solve(&self, lags: &[f64]) -> Option<Vector3<f64>> {
+        debug_assert_eq!(lags.len(), self.pairs);
+        let s = self.metres_per_sample;
+        let u = match &self.solver {
+            Solver::Volumetric { cols } => {
+                let u: Vector3<f64> = cols.iter().zip(lags).map(|(c, l)| c * (l * s)).sum();
+                let n = u.norm();
+                if !(n > 1e-12) {
+                    return None;
+                }
+                u / n
+            }
+            Solver::Planar {
+                cols,
+                e1,
+                e2,
+                normal,
+            } => {
+                let v: Vector2<f64> = cols.iter().zip(lags).map(|(c, l)| c * (l * s)).sum();
+                let r2 = v.norm_squared();
+                let inplane = e1 * v.x + e2 * v.y;
+                if r2 >= 1.0 {
+                    inplane / r2.sqrt()
+                } else {
+                    inplane + normal * (1.0 - r2).sqrt()
+                }
+            }
+            Solver::Linear {
+                weights,
+                axis,
+                perp,
+            } => {
+                let c: f64 = weights.iter().zip(lags).map(|(w, l)| w * l * s).sum();
+                let c = c.clamp(-1.0, 1.0);
+                axis * c + perp * (1.0 - c * c).sqrt()
+            }
+        };
+        u.iter().all(|v| v.is_finite()).then_some(u)
+    }
+}
+
+/// Azimuth and elevation in degrees per the contract: azimuth = atan2(y, x) in
+/// (-180, 180], elevation = asin(z).
+pub fn angles_deg(u: &Vector3<f64>) -> (f64, f64) {
+    let mut az = u.y.atan2(u.x).to_degrees();
+    if az <= -180.0 {
+        az += 360.0;
+    }
+    let el = u.z.clamp(-1.0, 1.0).asin().to_degrees();
+    (az, el)
+}
+
+/// The unit vector for an azimuth and elevation in degrees (inverse of [`angles_deg`]).
+pub fn unit_from_angles(azimuth_deg: f64, elevation_deg: f64) -> Vector3<f64> {
+    let (az, el) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
+    Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin())
+}
+
+/// Angle between two directions in degrees.
+pub fn angle_between_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    // atan2 of cross and dot is accurate at small angles, unlike acos of the dot.
+    a.cross(b).norm().atan2(a.dot(b)).to_degrees()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Exact far-field lags (samples) for every pair of `positions` and direction `u`.
+    fn exact_lags(positions: &[Vector3<f64>], u: &Vector3<f64>, fs: f64, c: f64) -> Vec<f64> {
+        let k = positions.len();
+        let mut lags = vec![0.0; pair_count(k)];
+        for a in 0..k {
+            for b in a + 1..k {
+                // t_a - t_b with t_i = -u . p_i / c
+                lags[pair_index(a, b, k)] = u.dot(&(positions[b] - positions[a])) / c * fs;
+            }
+        }
+        lags
+    }
+
+    fn directions() -> Vec<Vector3<f64>> {
+        let mut v = Vec::new();
+        for el in [-60.0, -20.0, 0.0, 15.0, 45.0, 80.0] {
+            for az in [-170.0, -95.0, -30.0, 0.0, 40.0, 90.0, 135.0, 180.0] {
+                v.push(unit_from_angles(az, el));
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn pair_indexing_is_dense() {
+        let k = 7;
+        let mut seen = vec![false; pair_count(k)];
+        for a in 0..k {
+            for b in a + 1..k {
+                assert!(!seen[pair_index(a, b, k)]);
+                seen[pair_index(a, b, k)] = true;
+            }
+        }
+        assert!(seen.into_iter().all(|s| s));
+    }
+
+    #[test]
+    fn exact_delays_give_exact_directions_3d() {
+        let g = Geometry::from_positions(&[
+            [0.25, 0.20, 0.18],
+            [0.25, -0.20, 0.18],
+            [-0.25, 0.20, 0.18],
+            [-0.25, -0.20, 0.18],
+            [0.25, 0.20, -0.18],
+            [0.25, -0.20, -0.18],
+            [-0.25, 0.20, -0.18],
+            [-0.25, -0.20, -0.18],
+        ])
+        .unwrap();
+        let solver = DirectionSolver::new(&g, 0xff, 48000.0, 343.0).unwrap();
+        for u in directions() {
+            let lags = exact_lags(&g.positions(), &u, 48000.0, 343.0);
+            let got = solver.solve(&lags).unwrap();
+            assert!(angle_between_deg(&got, &u) < 0.01, "{u:?} -> {got:?}");
+        }
+    }
+
+    #[test]
+    fn exact_delays_give_exact_directions_planar() {
+        // A 6-mic circular array in the horizontal plane, reporting the upper half-space.
+        let pos: Vec<[f64; 3]> = (0..6)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::PI / 3.0;
+                [0.05 * a.cos(), 0.05 * a.sin(), 0.0]
+            })
+            .collect();
+        let g = Geometry::from_positions(&pos).unwrap();
+        let solver = DirectionSolver::new(&g, 0x3f, 16000.0, 343.0).unwrap();
+        for u in directions() {
+            let lags = exact_lags(&g.positions(), &u, 16000.0, 343.0);
+            let got = solver.solve(&lags).unwrap();
+            // The mirror image below the plane is reported above it.
+            let expect = Vector3::new(u.x, u.y, u.z.abs());
+            assert!(angle_between_deg(&got, &expect) < 0.01, "{u:?} -> {got:?}");
+        }
+    }
+
+    #[test]
+    fn exact_delays_give_exact_directions_linear() {
+        // Along y; the contract's default side for an array not along x is +x.
+        let g = Geometry::from_positions(&[
+            [0.0, -0.1, 0.0],
+            [0.0, 0.0, 0.0],
+            [0.0, 0.05, 0.0],
+            [0.0, 0.12, 0.0],
+        ])
+        .unwrap();
+        let solver = DirectionSolver::new(&g, 0xf, 48000.0, 343.0).unwrap();
+        let axis = match g.shape {
+            Shape::Linear { axis } => axis,
+            _ => unreachable!(),
+        };
+        for u in directions() {
+            let lags = exact_lags(&g.positions(), &u, 48000.0, 343.0);
+            let got = solver.solve(&lags).unwrap();
+            // Same angle to the axis, in the axis-x plane, on the +x side.
+            let cos = u.dot(&axis);
+            let expect = axis * cos + Vector3::x() * (1.0 - cos * cos).sqrt();
+            assert!(angle_between_deg(&got, &expect) < 0.01, "{u:?} -> {got:?}");
+        }
+    }
+
+    #[test]
+    fn angles_follow_the_contract() {
+        let (az, el) = angles_deg(&Vector3::new(0.0, 1.0, 0.0));
+        assert!((az - 90.0).abs() < 1e-12 && el.abs() < 1e-12);
+        let (az, _) = angles_deg(&Vector3::new(-1.0, -0.0, 0.0));
+        assert_eq!(az, 180.0);
+        let (_, el) = angles_deg(&Vector3::new(0.0, 0.0, 1.0));
+        assert!((el - 90.0).abs() < 1e-12);
+        for u in directions() {
+            let (az, el) = angles_deg(&u);
+            assert!(az > -180.0 && az <= 180.0);
+            assert!(angle_between_deg(&unit_from_angles(az, el), &u) < 1e-9);
+        }
+    }
+}

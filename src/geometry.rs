@@ -1,0 +1,508 @@
+//! Array geometry: the microphone positions `p_i` behind the difference vectors
+//! `x_ij = p_j - p_i` of the paper's eq. (9)-(13), read from the TOML file described in
+//! the interface contract, validated, and classified as 3-D, planar or linear.
+//!
+//! A 3-D array determines the full direction (eq. 13 has rank 3). A planar array only
+//! determines the in-plane part of the direction; the out-of-plane part comes from
+//! `|u| = 1` and is reported on the `side` of the plane. A linear array only determines
+//! the angle to its axis; the direction is reported in the plane spanned by the axis and
+//! `side`.
+
+use anyhow::{bail, Context, Result};
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use serde::Deserialize;
+use std::path::Path;
+
+/// Default speed of sound in m/s (dry air at about 20 degrees C), as in the contract.
+pub const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
+/// The most microphones an array may have (subsets of live microphones are bit masks).
+pub const MAX_MICS: usize = 64;
+/// A spread along an axis below this fraction of the largest spread counts as flat.
+pub const FLATNESS: f64 = 0.02;
+/// Two microphones closer than this (metres) are taken as the same position.
+const MIN_SPACING_M: f64 = 1e-4;
+/// An aperture larger than this (metres) draws a "were millimetres given as metres?" warning.
+const SUSPICIOUS_APERTURE_M: f64 = 5.0;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GeometryFile {
+    name: Option<String>,
+    speed_of_sound: Option<f64>,
+    side: Option<[f64; 3]>,
+    #[serde(default)]
+    mic: Vec<MicEntry>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MicEntry {
+    position: [f64; 3],
+    channel: Option<usize>,
+}
+
+/// One microphone: its position in the array frame (metres) and its 0-based WAV channel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mic {
+    pub position: Vector3<f64>,
+    pub channel: usize,
+}
+
+/// What a set of microphone positions can resolve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// All microphones on one line (unit axis vector): only the angle to the axis is known.
+    Linear { axis: Vector3<f64> },
+    /// All microphones in one plane (unit normal, oriented toward `side`): up/down ambiguous.
+    Planar { normal: Vector3<f64> },
+    /// Microphones span 3-D space: the full direction is determined.
+    Volumetric,
+}
+
+impl Shape {
+    pub fn label(&self) -> &'static str {
+        match self {
+            Shape::Linear { .. } => "linear",
+            Shape::Planar { .. } => "planar",
+            Shape::Volumetric => "3-D",
+        }
+    }
+}
+
+/// A validated microphone array.
+#[derive(Debug, Clone)]
+pub struct Geometry {
+    pub name: Option<String>,
+    pub speed_of_sound: f64,
+    pub mics: Vec<Mic>,
+    /// Mean of the microphone positions: directions point from here.
+    pub centre: Vector3<f64>,
+    /// The side vector used to resolve the planar/linear ambiguity (given or default).
+    pub side: Vector3<f64>,
+    /// Whether `side` came from the file (`false`: the contract's default).
+    pub side_given: bool,
+    pub shape: Shape,
+    /// Whether the file assigned channels explicitly with `channel` keys.
+    pub explicit_channels: bool,
+    /// Non-fatal remarks about the geometry (shown to the user as warnings).
+    pub warnings: Vec<String>,
+}
+
+impl Geometry {
+    /// Reads and validates a geometry TOML file. Errors name the file.
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("{}: cannot read geometry file", path.display()))?;
+        Self::from_toml_str(&text).with_context(|| format!("{}", path.display()))
+    }
+
+    /// Parses and validates geometry TOML text.
+    pub fn from_toml_str(text: &str) -> Result<Self> {
+        let file: GeometryFile = toml::from_str(text).map_err(|e| {
+            // toml's messages span several lines with a source excerpt; keep one line.
+            let msg = e.message().trim().to_string();
+            match e.span() {
+                Some(span) => {
+                    let line = text[..span.start.min(text.len())].lines().count().max(1);
+                    anyhow::anyhow!("invalid geometry TOML at line {line}: {msg}")
+                }
+                None => anyhow::anyhow!("invalid geometry TOML: {msg}"),
+            }
+        })?;
+        let explicit = file.mic.iter().filter(|m| m.channel.is_some()).count();
+        if explicit != 0 && explicit != file.mic.len() {
+            bail!(
+                "{} of {} microphones have a `channel` key: give it to all of them or to none",
+                explicit,
+                file.mic.len()
+            );
+        }
+        let mics: Vec<Mic> = file
+            .mic
+            .iter()
+            .enumerate()
+            .map(|(i, m)| Mic {
+                position: Vector3::from(m.position),
+                channel: m.channel.unwrap_or(i),
+            })
+            .collect();
+        Self::new(
+            file.name,
+            mics,
+            file.speed_of_sound,
+            file.side.map(Vector3::from),
+            explicit != 0,
+        )
+    }
+
+    /// Builds a geometry from microphone positions with channels in order of appearance.
+    pub fn from_positions(positions: &[[f64; 3]]) -> Result<Self> {
+        let mics = positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| Mic {
+                position: Vector3::from(*p),
+                channel: i,
+            })
+            .collect();
+        Self::new(None, mics, None, None, false)
+    }
+
+    /// Validates microphones and options and classifies the array.
+    pub fn new(
+        name: Option<String>,
+        mics: Vec<Mic>,
+        speed_of_sound: Option<f64>,
+        side: Option<Vector3<f64>>,
+        explicit_channels: bool,
+    ) -> Result<Self> {
+        let mut warnings = Vec::new();
+        if mics.len() < 2 {
+            bail!(
+                "the array has {} microphone(s); at least 2 `[[mic]]` tables are needed",
+                mics.len()
+            );
+        }
+        if mics.len() > MAX_MICS {
+            bail!(
+                "the array has {} microphones; at most {MAX_MICS} are supported",
+                mics.len()
+            );
+        }
+        for (i, m) in mics.iter().enumerate() {
+            if !m.position.iter().all(|v| v.is_finite()) {
+                bail!(
+                    "mic {} has a non-finite position {:?}",
+                    i + 1,
+                    m.position.as_slice()
+                );
+            }
+        }
+        let mut seen = std::collections::HashMap::new();
+        for (i, m) in mics.iter().enumerate() {
+            if let Some(j) = seen.insert(m.channel, i) {
+                bail!(
+                    "mics {} and {} both use channel {}: each microphone needs its own channel",
+                    j + 1,
+                    i + 1,
+                    m.channel
+                );
+            }
+        }
+        let speed = speed_of_sound.unwrap_or(DEFAULT_SPEED_OF_SOUND);
+        if !(speed.is_finite() && speed > 0.0) {
+            bail!("speed_of_sound must be a positive number of m/s, got {speed}");
+        }
+        let mut aperture: f64 = 0.0;
+        for i in 0..mics.len() {
+            for j in i + 1..mics.len() {
+                let d = (mics[j].position - mics[i].position).norm();
+                if d < MIN_SPACING_M {
+                    bail!(
+                        "mics {} and {} have the same position {:?}",
+                        i + 1,
+                        j + 1,
+                        mics[i].position.as_slice()
+                    );
+                }
+                aperture = aperture.max(d);
+            }
+        }
+        if aperture > SUSPICIOUS_APERTURE_M {
+            warnings.push(format!(
+                "microphones are up to {aperture:.1} m apart: positions are in metres; were millimetres given as metres?"
+            ));
+        }
+        let positions: Vec<Vector3<f64>> = mics.iter().map(|m| m.position).collect();
+        let centre = positions.iter().sum::<Vector3<f64>>() / positions.len() as f64;
+        if let Some(s) = side {
+            if !(s.iter().all(|v| v.is_finite()) && s.norm() > 0.0) {
+                bail!(
+                    "side must be a finite non-zero vector, got {:?}",
+                    s.as_slice()
+                );
+            }
+        }
+        let raw_shape = classify(&positions);
+        let (shape, side_vec) = orient(raw_shape, side)?;
+        if side.is_some() && shape == Shape::Volumetric {
+            warnings
+                .push("`side` is ignored: a 3-D array determines the full direction".to_string());
+        }
+        Ok(Geometry {
+            name,
+            speed_of_sound: speed,
+            mics,
+            centre,
+            side: side_vec,
+            side_given: side.is_some(),
+            shape,
+            explicit_channels,
+            warnings,
+        })
+    }
+
+    /// Microphone positions in geometry order.
+    pub fn positions(&self) -> Vec<Vector3<f64>> {
+        self.mics.iter().map(|m| m.position).collect()
+    }
+
+    /// Distance between mics `i` and `j` (metres).
+    pub fn spacing(&self, i: usize, j: usize) -> f64 {
+        (self.mics[j].position - self.mics[i].position).norm()
+    }
+
+    /// The largest spacing and the pair (0-based) that has it.
+    pub fn aperture(&self) -> (f64, usize, usize) {
+        let mut best = (0.0, 0, 1);
+        for i in 0..self.mics.len() {
+            for j in i + 1..self.mics.len() {
+                let d = self.spacing(i, j);
+                if d > best.0 {
+                    best = (d, i, j);
+                }
+            }
+        }
+        best
+    }
+
+    /// The largest physically possible lag between mics `i` and `j`, in samples at `rate`.
+    pub fn max_lag_samples(&self, i: usize, j: usize, rate: f64, speed: f64) -> f64 {
+        self.spacing(i, j) * rate / speed
+    }
+
+    /// The shape (and orientation) of a subset of the microphones, given as a bit mask.
+    /// Used when dead channels leave fewer microphones in a frame.
+    pub fn subset_shape(&self, mask: u64) -> Result<Shape> {
+        let pos: Vec<Vector3<f64>> = (0..self.mics.len())
+            .filter(|i| mask & (1u64 << i) != 0)
+            .map(|i| self.mics[i].position)
+            .collect();
+        if pos.len() < 2 {
+            bail!("fewer than 2 microphones");
+        }
+        let side = if self.side_given {
+            Some(self.side)
+        } else {
+            None
+        };
+        Ok(orient(classify(&pos), side)?.0)
+    }
+}
+
+/// Classifies positions by the spread of their principal axes: the square roots of the
+/// eigenvalues of the scatter matrix. An axis whose spread is below [`FLATNESS`] times
+/// the largest counts as flat: solving it in 3-D would amplify timing noise on it by
+/// the inverse of that ratio.
+fn classify(positions: &[Vector3<f64>]) -> RawShape {
+    let n = positions.len() as f64;
+    let centre = positions.iter().sum::<Vector3<f64>>() / n;
+    let mut scatter = Matrix3::zeros();
+    for p in positions {
+        let d = p - centre;
+        scatter += d * d.transpose();
+    }
+    let eig = SymmetricEigen::new(scatter);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    let spread = |k: usize| eig.eigenvalues[order[k]].max(0.0).sqrt();
+    let axis = |k: usize| eig.eigenvectors.column(order[k]).into_owned().normalize();
+    if spread(1) < FLATNESS * spread(0) {
+        RawShape::Linear(axis(0))
+    } else if spread(2) < FLATNESS * spread(0) {
+        RawShape::Planar(axis(2))
+    } else {
+        RawShape::Volumetric
+    }
+}
+
+enum RawShape {
+    Linear(Vector3<f64>),
+    Planar(Vector3<f64>),
+    Volumetric,
+}
+
+/// Applies the contract's `side` rules: a planar array reports directions on the side of
+/// its plane that `side` points to (default +z; +x when the plane contains the z axis;
+/// +y when it contains both); a linear array reports directions in the plane of its axis
+/// and `side`, on `side`'s side (default +x; +y when the array lies along x).
+fn orient(raw: RawShape, side: Option<Vector3<f64>>) -> Result<(Shape, Vector3<f64>)> {
+    const PARALLEL: f64 = 1e-6;
+    let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
+    match raw {
+        RawShape::Volumetric => Ok((Shape::Volumetric, side.unwrap_or(z))),
+        RawShape::Planar(n) => {
+            let s = match side {
+                Some(s) => {
+                    if n.dot(&s).abs() < PARALLEL * s.norm() {
+                        bail!(
+                            "side {:?} lies in the plane of this planar array: it must point out of the plane (normal {:?})",
+                            s.as_slice(),
+                            round3(&n)
+                        );
+                    }
+                    s
+                }
+                None => [z, x, y]
+                    .into_iter()
+                    .find(|c| n.dot(c).abs() > PARALLEL)
+                    .expect("a unit normal is not orthogonal to all three axes"),
+            };
+            let normal = if n.dot(&s) < 0.0 { -n } else { n };
+            Ok((Shape::Planar { normal }, s))
+        }
+        RawShape::Linear(a) => {
+            let s = match side {
+                Some(s) => {
+                    if (s - a * a.dot(&s)).norm() < PARALLEL * s.norm() {
+                        bail!(
+                            "side {:?} is parallel to the axis of this linear array: it must point away from the axis",
+                            s.as_slice()
+                        );
+                    }
+                    s
+                }
+                None => {
+                    if (x - a * a.dot(&x)).norm() > 1e-3 {
+                        x
+                    } else {
+                        y
+                    }
+                }
+            };
+            Ok((Shape::Linear { axis: a }, s))
+        }
+    }
+}
+
+fn round3(v: &Vector3<f64>) -> [f64; 3] {
+    [v.x, v.y, v.z].map(|c| (c * 1000.0).round() / 1000.0 + 0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PRISM: &str = r#"
+name = "prism"
+[[mic]]
+position = [0.25, 0.20, 0.18]
+[[mic]]
+position = [0.25, -0.20, 0.18]
+[[mic]]
+position = [-0.25, 0.20, 0.18]
+[[mic]]
+position = [-0.25, -0.20, 0.18]
+[[mic]]
+position = [0.25, 0.20, -0.18]
+[[mic]]
+position = [0.25, -0.20, -0.18]
+[[mic]]
+position = [-0.25, 0.20, -0.18]
+[[mic]]
+position = [-0.25, -0.20, -0.18]
+"#;
+
+    #[test]
+    fn prism_is_3d_with_expected_aperture() {
+        let g = Geometry::from_toml_str(PRISM).unwrap();
+        assert_eq!(g.mics.len(), 8);
+        assert_eq!(g.shape, Shape::Volumetric);
+        let (a, _, _) = g.aperture();
+        assert!((a - (0.5f64.powi(2) + 0.4f64.powi(2) + 0.36f64.powi(2)).sqrt()).abs() < 1e-12);
+        assert!(g.centre.norm() < 1e-12);
+        assert_eq!(g.speed_of_sound, 343.0);
+        assert!(g.warnings.is_empty());
+    }
+
+    #[test]
+    fn planar_default_side_is_up_or_forward() {
+        let g = Geometry::from_positions(&[
+            [0.1, 0.0, 0.0],
+            [0.0, 0.1, 0.0],
+            [-0.1, 0.0, 0.0],
+            [0.0, -0.1, 0.0],
+        ])
+        .unwrap();
+        match g.shape {
+            Shape::Planar { normal } => assert!((normal - Vector3::z()).norm() < 1e-9),
+            s => panic!("{s:?}"),
+        }
+        // A vertical plane containing the z axis (the y-z plane): default side +x.
+        let g = Geometry::from_positions(&[
+            [0.0, 0.1, 0.0],
+            [0.0, 0.0, 0.1],
+            [0.0, -0.1, 0.0],
+            [0.0, 0.0, -0.1],
+        ])
+        .unwrap();
+        match g.shape {
+            Shape::Planar { normal } => assert!((normal - Vector3::x()).norm() < 1e-9),
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn linear_arrays_are_recognised() {
+        let g = Geometry::from_positions(&[[0.0, 0.0, 0.0], [0.05, 0.0, 0.0], [0.1, 0.0, 0.0]])
+            .unwrap();
+        match g.shape {
+            Shape::Linear { axis } => assert!((axis.x.abs() - 1.0).abs() < 1e-9),
+            s => panic!("{s:?}"),
+        }
+        assert_eq!(g.side, Vector3::y());
+        let g = Geometry::from_positions(&[[0.0, 0.0, 0.0], [0.0, 0.1, 0.0]]).unwrap();
+        assert!(matches!(g.shape, Shape::Linear { .. }));
+        assert_eq!(g.side, Vector3::x());
+    }
+
+    #[test]
+    fn bad_geometries_are_rejected_with_reasons() {
+        let cases: &[(&str, &str)] = &[
+            ("[[mic]]\nposition = [0,0,0]\n", "at least 2"),
+            ("[[mic]]\nposition = [0.0,0,0]\n[[mic]]\nposition = [0.0,0,0]\n", "same position"),
+            ("[[mic]]\nposition = [nan,0,0]\n[[mic]]\nposition = [1.0,0,0]\n", "non-finite"),
+            ("bogus = 1\n[[mic]]\nposition = [0.0,0,0]\n[[mic]]\nposition = [1.0,0,0]\n", "unknown field"),
+            ("[[mic]]\nposition = [0.0,0,0]\ngain = 2\n[[mic]]\nposition = [1.0,0,0]\n", "unknown field"),
+            ("speed_of_sound = -3\n[[mic]]\nposition = [0.0,0,0]\n[[mic]]\nposition = [1.0,0,0]\n", "speed_of_sound"),
+            ("[[mic]]\nposition = [0.0,0,0]\nchannel = 1\n[[mic]]\nposition = [1.0,0,0]\n", "give it to all"),
+            ("[[mic]]\nposition = [0.0,0,0]\nchannel = 1\n[[mic]]\nposition = [1.0,0,0]\nchannel = 1\n", "both use channel 1"),
+            ("[[mic]]\nposition = [0.0,0]\n[[mic]]\nposition = [1.0,0,0]\n", "invalid geometry TOML"),
+            ("side = [1.0, 0, 0]\n[[mic]]\nposition = [0.0,0,0]\n[[mic]]\nposition = [1.0,0,0]\n", "parallel"),
+            ("side = [1.0, 0, 0]\n[[mic]]\nposition = [0.0,0,0]\n[[mic]]\nposition = [1.0,0,0]\n[[mic]]\nposition = [0.0,1,0]\n", "lies in the plane"),
+            ("side = [0.0, 0, 0]\n[[mic]]\nposition = [0.0,0,0]\n[[mic]]\nposition = [1.0,0,0]\n", "non-zero"),
+        ];
+        for (text, needle) in cases {
+            let err = format!("{:#}", Geometry::from_toml_str(text).unwrap_err());
+            assert!(err.contains(needle), "{text:?}: {err}");
+            assert!(!err.contains('\n'), "one line: {err}");
+        }
+    }
+
+    #[test]
+    fn millimetres_as_metres_warns() {
+        let g = Geometry::from_positions(&[
+            [250.0, 200.0, 180.0],
+            [-250.0, 200.0, 180.0],
+            [0.0, -200.0, 0.0],
+            [0.0, 0.0, -180.0],
+        ])
+        .unwrap();
+        assert!(
+            g.warnings.iter().any(|w| w.contains("millimetres")),
+            "{:?}",
+            g.warnings
+        );
+    }
+
+    #[test]
+    fn explicit_channels_are_kept() {
+        let g = Geometry::from_toml_str(
+            "[[mic]]\nposition=[0.0,0,0]\nchannel=3\n[[mic]]\nposition=[0.1,0,0]\nchannel=0\n",
+        )
+        .unwrap();
+        assert!(g.explicit_channels);
+        assert_eq!(g.mics[0].channel, 3);
+        assert_eq!(g.mics[1].channel, 0);
+    }
+}

@@ -1,0 +1,272 @@
+//! SNR-based spectral weighting: the paper's eq. (4) and (5).
+//!
+//! `X(k)` is the mean power spectrum over the (live) microphones of the current frame and
+//! `X_n(k)` a noise estimate from previous frames. The paper only says "time average of
+//! previous X(k)"; a plain average climbs to the level of any source that lasts a few
+//! seconds and so erases it. We use minima-controlled recursive averaging (MCRA, Cohen &
+//! Berdugo 2002): `X_n` is a recursive average of `X` that is frozen in proportion to the
+//! probability that a bin holds signal, and that probability comes from comparing a
+//! smoothed `X` with its minimum over the last few seconds. A source is only absorbed
+//! into the noise once it has been on without a pause for longer than the minimum
+//! window ([`MIN_WINDOW_S`]).
+
+/// Time constant of the smoothing of `X` before minimum tracking (seconds).
+pub const SMOOTH_TAU_S: f64 = 0.04;
+/// Length of the minimum-tracking window (seconds).
+pub const MIN_WINDOW_S: f64 = 4.0;
+/// The minimum window is tracked as this many sub-windows (so it slides in steps of
+/// `MIN_WINDOW_S / SUBWINDOWS`).
+pub const SUBWINDOWS: usize = 8;
+/// A bin whose smoothed power exceeds this multiple of its minimum is taken to hold signal.
+pub const PRESENCE_RATIO: f32 = 5.0;
+/// Time constant of the signal-presence probability (seconds).
+pub const PRESENCE_TAU_S: f64 = 0.01;
+/// Time constant of the noise average in bins without signal (seconds).
+pub const NOISE_TAU_S: f64 = 0.5;
+/// Largest `X / X_n` the enhancement of eq. (5) uses (60 dB): keeps `w_e` finite when the
+/// noise estimate is zero (after digital silence).
+pub const MAX_SNR_RATIO: f32 = 1e6;
+
+/// The smoothing coefficient for a time constant at a given frame hop.
+fn coefficient(tau_s: f64, hop_s: f64) -> f32 {
+    (-hop_s / tau_s).exp() as f32
+}
+
+/// Minima-controlled recursive average noise estimate `X_n(k)`.
+#[derive(Clone)]
+pub struct NoiseEstimator {
+    a_s: f32,
+    a_p: f32,
+    a_d: f32,
+    frames_per_sub: usize,
+    /// Frequency- and time-smoothed power.
+    smooth: Vec<f32>,
+    scratch: Vec<f32>,
+    /// Minimum of the current sub-window.
+    sub_min: Vec<f32>,
+    /// Minima of the last `SUBWINDOWS` complete sub-windows, `SUBWINDOWS` rows of `bins`.
+    ring: Vec<f32>,
+    ring_pos: usize,
+    frame_in_sub: usize,
+    presence: Vec<f32>,
+    noise: Vec<f32>,
+    started: bool,
+}
+
+impl NoiseEstimator {
+    /// An estimator for `bins` frequency bins updated every `hop_s` seconds.
+    pub fn new(bins: usize, hop_s: f64) -> Self {
+        let frames_per_sub = ((MIN_WINDOW_S / SUBWINDOWS as f64) / hop_s)
+            .round()
+            .max(1.0) as usize;
+        NoiseEstimator {
+            a_s: coefficient(SMOOTH_TAU_S, hop_s),
+            a_p: coefficient(PRESENCE_TAU_S, hop_s),
+            a_d: coefficient(NOISE_TAU_S, hop_s),
+            frames_per_sub,
+            smooth: vec![0.0; bins],
+            scratch: vec![0.0; bins],
+            sub_min: vec![0.0; bins],
+            ring: vec![0.0; bins * SUBWINDOWS],
+            ring_pos: 0,
+            frame_in_sub: 0,
+            presence: vec![0.0; bins],
+            noise: vec![0.0; bins],
+            started: false,
+        }
+    }
+
+    /// Whether any frame has been seen.
+    pub fn started(&self) -> bool {
+        self.started
+    }
+
+    /// The current estimate `X_n(k)` from the frames seen so far. Before the first frame
+    /// it is zero; call [`NoiseEstimator::start`] with the first frame's `X(k)`.
+    pub fn noise(&self) -> &[f32] {
+        &self.noise
+    }
+
+    /// Starts the estimate at the first frame's spectrum (the only information there is).
+    pub fn start(&mut self, x: &[f32]) {
+        self.smooth.copy_from_slice(x);
+        self.sub_min.copy_from_slice(x);
+        for row in self.ring.chunks_exact_mut(x.len()) {
+            row.copy_from_slice(x);
+        }
+        self.noise.copy_from_slice(x);
+        self.presence.fill(0.0);
+        self.started = true;
+    }
+
+    /// Folds the current frame's `X(k)` into the estimate (after it has been used for the
+    /// current frame's weights: the estimate is of *previous* frames).
+    pub fn update(&mut self, x: &[f32]) {
+        if !self.started {
+            self.start(x);
+            return;
+        }
+        let n = x.len();
+        // Smooth over frequency (1/4, 1/2, 1/4), then over time.
+        for k in 0..n {
+            let lo = x[k.saturating_sub(1)];
+            let hi = x[(k + 1).min(n - 1)];
+            self.scratch[k] = 0.25 * lo + 0.5 * x[k] + 0.25 * hi;
+        }
+        let (a_s, a_p, a_d) = (self.a_s, self.a_p, self.a_d);
+        for k in 0..n {
+            self.smooth[k] = a_s * self.smooth[k] + (1.0 - a_s) * self.scratch[k];
+            self.sub_min[k] = self.sub_min[k].min(self.smooth[k]);
+        }
+        self.frame_in_sub += 1;
+        if self.frame_in_sub == self.frames_per_sub {
+            let row = &mut self.ring[self.ring_pos * n..(self.ring_pos + 1) * n];
+            row.copy_from_slice(&self.sub_min);
+            self.sub_min.copy_from_slice(&self.smooth);
+            self.ring_pos = (self.ring_pos + 1) % SUBWINDOWS;
+            self.frame_in_sub = 0;
+        }
+        for k in 0..n {
+            let mut minimum = self.sub_min[k];
+            for s in 0..SUBWINDOWS {
+                minimum = minimum.min(self.ring[s * n + k]);
+            }
+            let present = if self.smooth[k] > PRESENCE_RATIO * minimum {
+                1.0
+            } else {
+                0.0
+            };
+            self.presence[k] = a_p * self.presence[k] + (1.0 - a_p) * present;
+            let a = a_d + (1.0 - a_d) * self.presence[k];
+            self.noise[k] = a * self.noise[k] + (1.0 - a) * x[k];
+        }
+    }
+}
+
+/// The enhanced weights `w_e(k)` of eq. (5) from `X(k)` and `X_n(k)`:
+/// `w = max(0.1, (X - alpha X_n) / X)` (eq. 4), times `(X / X_n)^gamma` where `X > X_n`.
+/// A bin with no power gets the floor 0.1; `X / X_n` is capped at [`MAX_SNR_RATIO`].
+pub fn enhanced_weights(x: &[f32], xn: &[f32], alpha: f32, gamma: f32, out: &mut [f32]) {
+    for ((o, &x), &xn) in out.iter_mut().zip(x).zip(xn) {
+        let w = if x > 0.0 {
+            ((x - alpha * xn) / x).max(0.1)
+        } else {
+            0.1
+        };
+        *o = if x > xn {
+            let ratio = if xn > 0.0 {
+                (x / xn).min(MAX_SNR_RATIO)
+            } else {
+                MAX_SNR_RATIO
+            };
+            w * ratio.powf(gamma)
+        } else {
+            w
+        };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn weights_match_hand_computed_values() {
+        // X, X_n -> w, w_e with alpha = 0.4, gamma = 0.3
+        // X=10, Xn=1: w = (10-0.4)/10 = 0.96, w_e = 0.96 * 10^0.3 = 1.915452..
+        // X=1,  Xn=1: w = 0.6, X <= Xn so w_e = 0.6
+        // X=1,  Xn=5: w = max(0.1, (1-2)/1) = 0.1, w_e = 0.1
+        // X=2,  Xn=4: w = max(0.1, (2-1.6)/2) = 0.2, w_e = 0.2
+        // X=0,  Xn=1: floor 0.1
+        // X=1,  Xn=0: w = 1, ratio capped at 1e6: w_e = 1e6^0.3 = 63.0957..
+        let x = [10.0, 1.0, 1.0, 2.0, 0.0, 1.0];
+        let xn = [1.0, 1.0, 5.0, 4.0, 1.0, 0.0];
+        let mut out = [0.0; 6];
+        enhanced_weights(&x, &xn, 0.4, 0.3, &mut out);
+        let expect = [0.96 * 10f32.powf(0.3), 0.6, 0.1, 0.2, 0.1, 1e6f32.powf(0.3)];
+        for (o, e) in out.iter().zip(expect) {
+            assert!((o - e).abs() < 1e-5 * e.max(1.0), "{out:?} vs {expect:?}");
+        }
+        assert!((out[0] - 1.915_452).abs() < 1e-5);
+    }
+
+    #[test]
+    fn gamma_zero_and_alpha_zero_reduce_to_plain_whitening() {
+        let x = [3.0, 0.5, 7.0];
+        let xn = [1.0, 1.0, 1.0];
+        let mut out = [0.0; 3];
+        enhanced_weights(&x, &xn, 0.0, 0.0, &mut out);
+        assert_eq!(out, [1.0, 1.0, 1.0]);
+    }
+
+    /// Deterministic pseudo-random exponential (periodogram-like) power values.
+    fn periodogram(seed: &mut u64) -> f32 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let u = ((*seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+        (-u.ln()) as f32
+    }
+
+    #[test]
+    fn noise_estimate_tracks_noise_and_not_a_long_steady_source() {
+        let hop = 512.0 / 48000.0;
+        let bins = 64;
+        let mut est = NoiseEstimator::new(bins, hop);
+        let mut ema = vec![0.0f32; bins]; // the plain time average, for contrast
+        let a = coefficient(NOISE_TAU_S, hop);
+        let mut seed = 1;
+        let mut x = vec![0.0f32; bins];
+        let frames = |s: f64| (s / hop) as usize;
+        // 2 s of noise at power 1 (averaged over 8 mics: 8 exponentials / 8).
+        let mut frame = |level_src: f32, seed: &mut u64, x: &mut Vec<f32>| {
+            for (k, v) in x.iter_mut().enumerate() {
+                let noise: f32 = (0..8).map(|_| periodogram(seed)).sum::<f32>() / 8.0;
+                *v = noise + if k < bins / 2 { level_src } else { 0.0 };
+            }
+        };
+        for _ in 0..frames(2.0) {
+            frame(0.0, &mut seed, &mut x);
+            est.update(&x);
+            for k in 0..bins {
+                ema[k] = a * ema[k] + (1.0 - a) * x[k];
+            }
+        }
+        let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+        let n0 = mean(est.noise());
+        assert!((0.7..1.3).contains(&n0), "noise estimate {n0}");
+        // A steady source 20 dB above the noise in the lower half for 3 s.
+        for _ in 0..frames(3.0) {
+            frame(100.0, &mut seed, &mut x);
+            est.update(&x);
+            for k in 0..bins {
+                ema[k] = a * ema[k] + (1.0 - a) * x[k];
+            }
+        }
+        let low = mean(&est.noise()[..bins / 2]);
+        let high = mean(&est.noise()[bins / 2..]);
+        assert!(low < 3.0, "estimate climbed to the source: {low}");
+        assert!((0.7..1.3).contains(&high), "{high}");
+        // The plain average would have erased the source.
+        assert!(mean(&ema[..bins / 2]) > 90.0);
+        // So the source bins keep high weights.
+        let mut w = vec![0.0; bins];
+        enhanced_weights(&x, est.noise(), 0.4, 0.3, &mut w);
+        assert!(mean(&w[..bins / 2]) > 3.0 * mean(&w[bins / 2..]), "{w:?}");
+    }
+
+    #[test]
+    fn noise_estimate_follows_a_drop_after_a_loud_start() {
+        let hop = 512.0 / 48000.0;
+        let mut est = NoiseEstimator::new(4, hop);
+        est.update(&[100.0; 4]);
+        for _ in 0..(MIN_WINDOW_S * 2.5 / hop) as usize {
+            est.update(&[1.0; 4]);
+        }
+        assert!(
+            est.noise().iter().all(|&v| (0.9..1.2).contains(&v)),
+            "{:?}",
+            est.noise()
+        );
+    }
+}
