@@ -9,8 +9,10 @@
 //! of the recording.
 
 use anyhow::{bail, Result};
+use std::cell::Cell;
 use std::fs::File;
 use std::io::{self, BufReader, Read};
+use std::rc::Rc;
 
 /// What the header says about the samples.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,11 +37,13 @@ impl WavFormat {
     }
 }
 
-/// A reader that serves a prefix (a synthetic header for hound) before the real stream.
+/// A reader that serves a prefix (a synthetic header for hound) before the real stream,
+/// and records when the real stream ends (hound reports that as a generic error).
 struct Prefixed {
     prefix: Vec<u8>,
     pos: usize,
     inner: Box<dyn Read>,
+    ended: Rc<Cell<bool>>,
 }
 
 impl Read for Prefixed {
@@ -50,7 +54,11 @@ impl Read for Prefixed {
             self.pos += n;
             return Ok(n);
         }
-        self.inner.read(buf)
+        let n = self.inner.read(buf)?;
+        if n == 0 && !buf.is_empty() {
+            self.ended.set(true);
+        }
+        Ok(n)
     }
 }
 
@@ -61,6 +69,7 @@ pub struct WavStream {
     fmt_chunk: Vec<u8>,
     block_align: u64,
     reader: Option<hound::WavReader<Prefixed>>,
+    ended: Rc<Cell<bool>>,
     /// Frames hound may still deliver before its synthetic length runs out.
     left_in_segment: u64,
     frames_read: u64,
@@ -164,7 +173,7 @@ impl WavStream {
         let fmt = fmt.ok_or_else(|| {
             fail("corrupt WAV: the data chunk comes before any format chunk".into())
         })?;
-        let (mut format, block_align) = parse_fmt(&fmt).map_err(|m| fail(m))?;
+        let (mut format, block_align) = parse_fmt(&fmt).map_err(fail)?;
         let available = size.map(|s| s.saturating_sub(consumed) / block_align);
         // 0 and 0xFFFFFFFF are the placeholders streaming writers leave.
         format.frames = if declared == 0 || declared == 0xFFFF_FFFF {
@@ -183,15 +192,18 @@ impl WavStream {
             fmt_chunk: fmt,
             block_align,
             reader: None,
+            ended: Rc::new(Cell::new(false)),
             left_in_segment: 0,
             frames_read: 0,
             scale,
             done: false,
         };
+        let ended = stream.ended.clone();
         stream.start_segment(Prefixed {
             prefix: Vec::new(),
             pos: 0,
             inner: input,
+            ended,
         })?;
         Ok(stream)
     }
@@ -327,7 +339,8 @@ impl WavStream {
         }
         match failure {
             None => {}
-            Some(hound::Error::IoError(e)) if e.kind() == io::ErrorKind::UnexpectedEof => {}
+            // The input ended (checked by the caller against the announced length).
+            Some(hound::Error::IoError(_)) if self.ended.get() => {}
             Some(hound::Error::IoError(e)) => bail!("{}: read error: {}", self.name, io_reason(&e)),
             Some(e) => bail!("{}: corrupt WAV data: {e}", self.name),
         }

@@ -32,22 +32,22 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Localize sound sources in WAV recordings
+    #[command(
+        about = "Localize sound sources in WAV recordings",
+        long_about = "Localize sound sources in WAV recordings.\n\n\
+        Writes one record per detected source per analysis frame (frames of N samples, hop N/2): \
+        time_s (frame centre), azimuth_deg, elevation_deg, x, y, z (unit vector from the array centre), \
+        score (summed weighted correlation of the chosen delays, at most 1 per microphone pair), then \
+        file, frame and mics. Frames with no consistent set of delays give no record. Files are analysed \
+        in argument order; a file that fails is reported on stderr and the others still run (exit status 1).\n\n\
+        Exit status: 0 success, 1 a file or the geometry could not be analysed, 2 a usage error."
+    )]
     Analyze(AnalyzeArgs),
     /// Show what ssl understood of an array geometry file
     Geometry(GeometryArgs),
 }
 
 #[derive(Debug, Args)]
-#[command(
-    about = "Localize sound sources in WAV recordings",
-    long_about = "Localize sound sources in WAV recordings.\n\n\
-        Writes one record per detected source per analysis frame (frames of N samples, hop N/2): \
-        time_s (frame centre), azimuth_deg, elevation_deg, x, y, z (unit vector from the array centre), \
-        score (summed weighted correlation of the chosen delays, at most 1 per microphone pair), then \
-        file, frame and mics. Frames with no consistent set of delays give no record. Files are analysed \
-        in argument order; a file that fails is reported on stderr and the others still run (exit status 1)."
-)]
 pub struct AnalyzeArgs {
     /// WAV recordings (8/16/24/32-bit PCM or 32-bit float); `-` reads standard input
     #[arg(required = true, value_name = "FILE")]
@@ -285,7 +285,7 @@ fn analyze(args: &AnalyzeArgs) -> Result<bool> {
         let bar = progress_bar(show_progress, path, analysis.total_frames());
         let name = analysis.name().to_string();
         let mut output_error: Option<anyhow::Error> = None;
-        let result = analysis.run(|index, det| {
+        let (summary, result) = analysis.run(|index, det| {
             if index % 64 == 0 {
                 bar.set_position(index);
             }
@@ -305,22 +305,15 @@ fn analyze(args: &AnalyzeArgs) -> Result<bool> {
                 None => "cannot write to standard output".to_string(),
             }));
         }
-        match result {
-            Ok(summary) => {
-                for w in &summary.warnings {
-                    warn(args.quiet, w);
-                }
-                files.push(output::file_json(path, Some(&summary), None));
-            }
-            Err((e, summary)) => {
-                for w in &summary.warnings {
-                    warn(args.quiet, w);
-                }
-                eprintln!("ssl: error: {}", one_line(&e));
-                files.push(output::file_json(path, Some(&summary), Some(&one_line(&e))));
-                all_ok = false;
-            }
+        for w in &summary.warnings {
+            warn(args.quiet, w);
         }
+        let error = result.err().map(|e| one_line(&e));
+        if let Some(e) = &error {
+            eprintln!("ssl: error: {e}");
+            all_ok = false;
+        }
+        files.push(output::file_json(path, Some(&summary), error.as_deref()));
     }
     let sink = writer.finish(&files)?;
     if let (Sink::File(w), Some(path)) = (sink, &args.output) {

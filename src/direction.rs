@@ -150,7 +150,7 @@ impl DirectionSolver {
             Solver::Volumetric { cols } => {
                 let u: Vector3<f64> = cols.iter().zip(lags).map(|(c, l)| c * (l * s)).sum();
                 let n = u.norm();
-                if !(n > 1e-12) {
+                if n.is_nan() || n <= 1e-12 {
                     return None;
                 }
                 u / n

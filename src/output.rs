@@ -70,7 +70,7 @@ impl<W: Write> DetectionWriter<W> {
         DetectionWriter {
             format,
             out: match format {
-                Format::Csv => Out::Csv(csv::WriterBuilder::new().from_writer(out)),
+                Format::Csv => Out::Csv(Box::new(csv::WriterBuilder::new().from_writer(out))),
                 _ => Out::Json(out),
             },
             first: true,
@@ -158,7 +158,7 @@ impl<W: Write> DetectionWriter<W> {
 }
 
 enum Out<W: Write> {
-    Csv(csv::Writer<W>),
+    Csv(Box<csv::Writer<W>>),
     Json(W),
 }
 

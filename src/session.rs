@@ -91,11 +91,11 @@ impl FileAnalysis {
 
     /// Streams every frame through the analyzer. `sink` sees each frame's index and its
     /// detection, if any; an error from `sink` (a closed pipe) stops the run. Returns the
-    /// summary, or the first error with the summary of what was analysed before it.
+    /// summary of what was analysed and the error that stopped the file, if any.
     pub fn run(
         mut self,
         mut sink: impl FnMut(u64, Option<&Detection>) -> Result<()>,
-    ) -> std::result::Result<FileSummary, (anyhow::Error, FileSummary)> {
+    ) -> (FileSummary, Result<()>) {
         let result = (|| -> Result<()> {
             while let Some((index, frame)) = self.framer.next_frame(&mut self.stream)? {
                 let det = self.analyzer.process(index, frame);
@@ -104,19 +104,16 @@ impl FileAnalysis {
             Ok(())
         })();
         let summary = self.summary();
-        match result {
-            Err(e) => Err((e, summary)),
-            Ok(()) if summary.stats.frames == 0 => {
-                let msg = too_short(
-                    &summary.name,
-                    self.stream.frames_read(),
-                    summary.frame_size,
-                    summary.format.sample_rate,
-                );
-                Err((anyhow::anyhow!(msg), summary))
-            }
-            Ok(()) => Ok(summary),
-        }
+        let result = match result {
+            Ok(()) if summary.stats.frames == 0 => Err(anyhow::anyhow!(too_short(
+                &summary.name,
+                self.stream.frames_read(),
+                summary.frame_size,
+                summary.format.sample_rate,
+            ))),
+            other => other,
+        };
+        (summary, result)
     }
 
     fn summary(&self) -> FileSummary {

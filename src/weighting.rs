@@ -101,6 +101,7 @@ impl NoiseEstimator {
 
     /// Folds the current frame's `X(k)` into the estimate (after it has been used for the
     /// current frame's weights: the estimate is of *previous* frames).
+    #[allow(clippy::needless_range_loop)] // several arrays indexed by bin, and neighbours
     pub fn update(&mut self, x: &[f32]) {
         if !self.started {
             self.start(x);
@@ -219,7 +220,7 @@ mod tests {
         let mut x = vec![0.0f32; bins];
         let frames = |s: f64| (s / hop) as usize;
         // 2 s of noise at power 1 (averaged over 8 mics: 8 exponentials / 8).
-        let mut frame = |level_src: f32, seed: &mut u64, x: &mut Vec<f32>| {
+        let frame = |level_src: f32, seed: &mut u64, x: &mut Vec<f32>| {
             for (k, v) in x.iter_mut().enumerate() {
                 let noise: f32 = (0..8).map(|_| periodogram(seed)).sum::<f32>() / 8.0;
                 *v = noise + if k < bins / 2 { level_src } else { 0.0 };

@@ -1,0 +1,212 @@
+//! Helpers shared by the integration tests: synthetic recordings with known truth,
+//! hand-made WAV bytes for corner cases, and running the `ssl` binary.
+#![allow(dead_code)]
+
+use nalgebra::Vector3;
+use ssl::direction::{angle_between_deg, unit_from_angles};
+use ssl::synth::{self, Encoding, Place, Scene, Signal, Source};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+pub const PRISM: [[f64; 3]; 8] = [
+    [0.25, 0.20, 0.18],
+    [0.25, -0.20, 0.18],
+    [-0.25, -0.20, 0.18],
+    [-0.25, 0.20, 0.18],
+    [0.25, 0.20, -0.18],
+    [0.25, -0.20, -0.18],
+    [-0.25, -0.20, -0.18],
+    [-0.25, 0.20, -0.18],
+];
+
+pub fn prism() -> Vec<Vector3<f64>> {
+    PRISM.iter().map(|p| Vector3::from(*p)).collect()
+}
+
+/// A geometry TOML for positions, with optional extra top-level lines.
+pub fn geometry_toml(positions: &[Vector3<f64>], extra: &str) -> String {
+    let mut s = format!("{extra}\n");
+    for p in positions {
+        s += &format!("[[mic]]\nposition = [{}, {}, {}]\n", p.x, p.y, p.z);
+    }
+    s
+}
+
+pub fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, contents).unwrap();
+    p
+}
+
+/// One source per time slot: `(azimuth, elevation, signal)`, each active for `slot_s`
+/// seconds with a 0.1 s gap, far field, at level 0.05 with sensor noise `noise`.
+pub fn scene(
+    mics: Vec<Vector3<f64>>,
+    rate: u32,
+    dirs: &[(f64, f64, Signal)],
+    slot_s: f64,
+    noise: f64,
+    seed: u64,
+) -> Scene {
+    let sources = dirs
+        .iter()
+        .enumerate()
+        .map(|(i, (az, el, sig))| Source {
+            place: Place::Direction(unit_from_angles(*az, *el)),
+            signal: sig.clone(),
+            start_s: 0.1 + i as f64 * (slot_s + 0.1),
+            end_s: 0.1 + i as f64 * (slot_s + 0.1) + slot_s,
+            level: 0.05,
+        })
+        .collect::<Vec<_>>();
+    let duration_s = 0.2 + dirs.len() as f64 * (slot_s + 0.1);
+    Scene {
+        sample_rate: rate,
+        duration_s,
+        mics,
+        speed_of_sound: 343.0,
+        sources,
+        sensor_noise: noise,
+        seed,
+    }
+}
+
+pub fn render_wav(dir: &Path, name: &str, scene: &Scene, encoding: Encoding) -> PathBuf {
+    let channels = synth::render(scene);
+    let p = dir.join(name);
+    synth::write_wav(&p, &channels, scene.sample_rate, encoding).unwrap();
+    p
+}
+
+pub fn ssl() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_ssl"))
+}
+
+pub fn run(args: &[&str]) -> Output {
+    ssl().args(args).stdin(Stdio::null()).output().unwrap()
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub time_s: f64,
+    pub azimuth_deg: f64,
+    pub elevation_deg: f64,
+    pub u: Vector3<f64>,
+    pub score: f64,
+    pub file: String,
+    pub frame: u64,
+    pub mics: usize,
+}
+
+pub fn parse_csv(text: &str) -> Vec<Row> {
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics"
+    );
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let n = |i: usize| f[i].parse::<f64>().unwrap();
+            Row {
+                time_s: n(0),
+                azimuth_deg: n(1),
+                elevation_deg: n(2),
+                u: Vector3::new(n(3), n(4), n(5)),
+                score: n(6),
+                file: f[7].to_string(),
+                frame: f[8].parse().unwrap(),
+                mics: f[9].parse().unwrap(),
+            }
+        })
+        .collect()
+}
+
+/// For each source of the scene: (detections whose frame lies inside its active
+/// interval, frames inside it, mean angular error, max angular error) against `expect`.
+pub fn score_sources(
+    scene: &Scene,
+    rows: &[Row],
+    n: usize,
+    expect: impl Fn(&Vector3<f64>) -> Vector3<f64>,
+) -> Vec<(usize, usize, f64, f64)> {
+    let fs = scene.sample_rate as f64;
+    let half = n as f64 / 2.0 / fs;
+    let centre = scene.mics.iter().sum::<Vector3<f64>>() / scene.mics.len() as f64;
+    scene
+        .sources
+        .iter()
+        .map(|s| {
+            let truth = expect(&s.direction_from(&centre));
+            let inside = |t: f64| t - half >= s.start_s && t + half <= s.end_s;
+            let errs: Vec<f64> = rows
+                .iter()
+                .filter(|r| inside(r.time_s))
+                .map(|r| angle_between_deg(&r.u, &truth))
+                .collect();
+            let hop = n as f64 / 2.0 / fs;
+            let frames = (((s.end_s - s.start_s) - 2.0 * half) / hop).floor() as usize + 1;
+            let mean = errs.iter().sum::<f64>() / errs.len().max(1) as f64;
+            let max = errs.iter().cloned().fold(0.0, f64::max);
+            (errs.len(), frames, mean, max)
+        })
+        .collect()
+}
+
+/// A WAV file made by hand: `fmt` body and data bytes, with the data chunk's length
+/// field set to `data_len` (`None`: the true length) and the RIFF tag `riff`.
+pub fn raw_wav(riff: &[u8; 4], fmt: &[u8], data: &[u8], data_len: Option<u32>) -> Vec<u8> {
+    let mut v = Vec::new();
+    v.extend_from_slice(riff);
+    v.extend_from_slice(&((4 + 8 + fmt.len() + 8 + data.len()) as u32).to_le_bytes());
+    v.extend_from_slice(b"WAVE");
+    v.extend_from_slice(b"fmt ");
+    v.extend_from_slice(&(fmt.len() as u32).to_le_bytes());
+    v.extend_from_slice(fmt);
+    v.extend_from_slice(b"data");
+    v.extend_from_slice(&data_len.unwrap_or(data.len() as u32).to_le_bytes());
+    v.extend_from_slice(data);
+    v
+}
+
+/// A plain `fmt ` body (16 bytes).
+pub fn fmt_body(tag: u16, channels: u16, rate: u32, bits: u16) -> Vec<u8> {
+    let block = channels * bits / 8;
+    let mut v = Vec::new();
+    v.extend_from_slice(&tag.to_le_bytes());
+    v.extend_from_slice(&channels.to_le_bytes());
+    v.extend_from_slice(&rate.to_le_bytes());
+    v.extend_from_slice(&(rate * block as u32).to_le_bytes());
+    v.extend_from_slice(&block.to_le_bytes());
+    v.extend_from_slice(&bits.to_le_bytes());
+    v
+}
+
+/// Interleaves channels as 16-bit little-endian PCM bytes.
+pub fn pcm16(channels: &[Vec<f32>]) -> Vec<u8> {
+    let len = channels[0].len();
+    let mut v = Vec::with_capacity(len * channels.len() * 2);
+    for i in 0..len {
+        for ch in channels {
+            let q = (ch[i] * 32768.0).round().clamp(-32768.0, 32767.0) as i16;
+            v.extend_from_slice(&q.to_le_bytes());
+        }
+    }
+    v
+}
+
+pub fn tempdir() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+pub fn signals() -> [Signal; 2] {
+    [Signal::WhiteNoise, Signal::Clicks { per_second: 25.0 }]
+}
+
+pub fn int_enc() -> Encoding {
+    Encoding::Int16
+}
