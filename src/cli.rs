@@ -93,9 +93,9 @@ pub struct AnalyzeArgs {
     #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
     pub speed_of_sound: Option<f64>,
 
-    /// Drop detections whose score is below this
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub min_score: f64,
+    /// Drop detections whose score is below this [default: 0.5 per microphone pair, 14 for 8 mics]
+    #[arg(long, value_name = "SCORE", allow_negative_numbers = true, value_parser = parse_f64)]
+    pub min_score: Option<f64>,
 
     /// Analysis window
     #[arg(long, value_enum, default_value_t = Window::Hann)]

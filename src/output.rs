@@ -178,7 +178,10 @@ pub fn run_metadata(geometry: &Geometry, geometry_path: &str, params: &Params) -
             "tolerance_samples": params.tolerance,
             "interpolation": params.interpolation,
             "speed_of_sound": params.speed_of_sound.unwrap_or(geometry.speed_of_sound),
-            "min_score": params.min_score,
+            "min_score": params.min_score.map_or(
+                json!(format!("{} per microphone pair", crate::pipeline::DEFAULT_MIN_SCORE_PER_PAIR)),
+                |s| json!(s)
+            ),
         },
     })
 }

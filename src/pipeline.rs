@@ -9,7 +9,7 @@ use crate::correlation::{self, Correlator, ForwardFft, Interpolation, Peak, Wind
 use crate::direction::{angles_deg, pair_count, pair_index, DirectionSolver};
 use crate::geometry::Geometry;
 use crate::search::Searcher;
-use crate::weighting::{enhanced_weights, NoiseEstimator};
+use crate::weighting::{enhanced_weights, NoiseEstimator, NoiseSettings};
 use anyhow::{bail, Result};
 use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
@@ -32,12 +32,15 @@ pub struct Params {
     pub tolerance: f32,
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
-    /// Detections with a lower score are dropped.
-    pub min_score: f64,
+    /// Detections with a lower score are dropped (`None`: [`DEFAULT_MIN_SCORE_PER_PAIR`]
+    /// times the number of microphone pairs in the frame).
+    pub min_score: Option<f64>,
     pub window: Window,
     pub interpolation: Interpolation,
     /// Node budget of the consistency search per frame.
     pub max_nodes: u64,
+    /// The noise estimator behind `X_n(k)`.
+    pub noise: NoiseSettings,
 }
 
 impl Default for Params {
@@ -50,16 +53,22 @@ impl Default for Params {
             peaks: 8,
             tolerance: DEFAULT_TOLERANCE,
             speed_of_sound: None,
-            min_score: 0.0,
+            min_score: None,
             window: Window::Hann,
             interpolation: Interpolation::Parabolic,
             max_nodes: 1_000_000,
+            noise: NoiseSettings::default(),
         }
     }
 }
 
 /// Default consistency tolerance in samples (see the README for how it was chosen).
 pub const DEFAULT_TOLERANCE: f32 = 2.0;
+
+/// Default detection threshold per microphone pair. Stationary background alone gives
+/// weights near 0.6 and so correlation peaks near 0.36 or below per pair; a source that
+/// stands out of the background scores higher (see the README for the measurement).
+pub const DEFAULT_MIN_SCORE_PER_PAIR: f64 = 0.5;
 
 /// The default frame size: the power of two nearest (in ratio) to 1024 samples at
 /// 48 kHz, i.e. about 21 ms: 128 at 8 kHz, 256 at 16 kHz, 1024 at 44.1/48 kHz, 2048 at
@@ -101,6 +110,8 @@ pub struct FrameStats {
     pub budget_frames: u64,
     /// Frames with no consistent delay set.
     pub inconsistent_frames: u64,
+    /// Frames whose best set scored below the threshold.
+    pub below_threshold_frames: u64,
 }
 
 /// The per-frame engine for one geometry and sample rate.
@@ -177,7 +188,7 @@ impl Analyzer {
             whitened: vec![vec![Complex32::default(); bins]; mics],
             power: vec![0.0; bins],
             weights: vec![1.0; bins],
-            noise: NoiseEstimator::new(bins, hop as f64 / rate),
+            noise: NoiseEstimator::new(bins, hop as f64 / rate, params.noise),
             correlator: Correlator::new(n),
             corr: vec![0.0; n],
             max_lag,
@@ -269,7 +280,8 @@ impl Analyzer {
         for &m in &self.live {
             correlation::whiten(&self.spectra[m], &self.weights, &mut self.whitened[m]);
         }
-        let norm = correlation::full_spectrum_energy(&self.weights);
+        // Eq. (6) divided by N (see the `correlation` module on the scale).
+        let norm = n as f32;
 
         // R_ij of every live pair (eq. 6) and its M highest peaks (eq. 7).
         let k = self.live.len();
@@ -306,7 +318,12 @@ impl Analyzer {
         if !solution.complete {
             self.stats.budget_frames += 1;
         }
-        if solution.score < self.params.min_score {
+        let threshold = self
+            .params
+            .min_score
+            .unwrap_or(DEFAULT_MIN_SCORE_PER_PAIR * pair_count(k) as f64);
+        if solution.score < threshold {
+            self.stats.below_threshold_frames += 1;
             return None;
         }
 

@@ -12,17 +12,36 @@
 
 /// Time constant of the smoothing of `X` before minimum tracking (seconds).
 pub const SMOOTH_TAU_S: f64 = 0.04;
-/// Length of the minimum-tracking window (seconds).
-pub const MIN_WINDOW_S: f64 = 4.0;
 /// The minimum window is tracked as this many sub-windows (so it slides in steps of
-/// `MIN_WINDOW_S / SUBWINDOWS`).
+/// `min_window_s / SUBWINDOWS`).
 pub const SUBWINDOWS: usize = 8;
-/// A bin whose smoothed power exceeds this multiple of its minimum is taken to hold signal.
-pub const PRESENCE_RATIO: f32 = 5.0;
 /// Time constant of the signal-presence probability (seconds).
 pub const PRESENCE_TAU_S: f64 = 0.01;
-/// Time constant of the noise average in bins without signal (seconds).
-pub const NOISE_TAU_S: f64 = 0.5;
+
+/// The noise estimator's settings. The defaults were chosen by measurement (README,
+/// "Choices and evidence"): Cohen's speech settings (ratio 5, 0.5 s) let a steady source
+/// 3 dB above the floor be absorbed within a second; these keep it for the whole window
+/// without letting stationary background through.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct NoiseSettings {
+    /// Length of the minimum-tracking window (seconds): a source that stays on without a
+    /// pause for longer than this is taken as background.
+    pub min_window_s: f64,
+    /// A bin whose smoothed power exceeds this multiple of its minimum holds signal.
+    pub presence_ratio: f32,
+    /// Time constant of the noise average in bins without signal (seconds).
+    pub noise_tau_s: f64,
+}
+
+impl Default for NoiseSettings {
+    fn default() -> Self {
+        NoiseSettings {
+            min_window_s: 4.0,
+            presence_ratio: 2.0,
+            noise_tau_s: 2.0,
+        }
+    }
+}
 /// Largest `X / X_n` the enhancement of eq. (5) uses (60 dB): keeps `w_e` finite when the
 /// noise estimate is zero (after digital silence).
 pub const MAX_SNR_RATIO: f32 = 1e6;
@@ -39,12 +58,17 @@ pub struct NoiseEstimator {
     a_p: f32,
     a_d: f32,
     frames_per_sub: usize,
+    delta: f32,
+    /// Per bin, how many frames the noise average holds (frames judged to be without
+    /// signal): until it reaches the time constant the average is a plain mean.
+    count: Vec<f32>,
     /// Frequency- and time-smoothed power.
     smooth: Vec<f32>,
     scratch: Vec<f32>,
     /// Minimum of the current sub-window.
     sub_min: Vec<f32>,
-    /// Minima of the last `SUBWINDOWS` complete sub-windows, `SUBWINDOWS` rows of `bins`.
+    /// Minima of the last `SUBWINDOWS` complete sub-windows, `SUBWINDOWS` rows of `bins`
+    /// (infinite until filled, so that they do not take part in the minimum).
     ring: Vec<f32>,
     ring_pos: usize,
     frame_in_sub: usize,
@@ -55,14 +79,16 @@ pub struct NoiseEstimator {
 
 impl NoiseEstimator {
     /// An estimator for `bins` frequency bins updated every `hop_s` seconds.
-    pub fn new(bins: usize, hop_s: f64) -> Self {
-        let frames_per_sub = ((MIN_WINDOW_S / SUBWINDOWS as f64) / hop_s)
+    pub fn new(bins: usize, hop_s: f64, settings: NoiseSettings) -> Self {
+        let frames_per_sub = ((settings.min_window_s / SUBWINDOWS as f64) / hop_s)
             .round()
             .max(1.0) as usize;
         NoiseEstimator {
+            count: vec![0.0; bins],
             a_s: coefficient(SMOOTH_TAU_S, hop_s),
             a_p: coefficient(PRESENCE_TAU_S, hop_s),
-            a_d: coefficient(NOISE_TAU_S, hop_s),
+            a_d: coefficient(settings.noise_tau_s, hop_s),
+            delta: settings.presence_ratio,
             frames_per_sub,
             smooth: vec![0.0; bins],
             scratch: vec![0.0; bins],
@@ -87,15 +113,17 @@ impl NoiseEstimator {
         &self.noise
     }
 
-    /// Starts the estimate at the first frame's spectrum (the only information there is).
+    /// Starts the estimate at the first frame's spectrum (the only information there is;
+    /// the following frames without signal are averaged in with equal weights until the
+    /// average spans the noise time constant).
     pub fn start(&mut self, x: &[f32]) {
-        self.smooth.copy_from_slice(x);
-        self.sub_min.copy_from_slice(x);
-        for row in self.ring.chunks_exact_mut(x.len()) {
-            row.copy_from_slice(x);
-        }
+        smooth_frequency(x, &mut self.smooth);
+        self.sub_min.copy_from_slice(&self.smooth);
+        self.ring.fill(f32::INFINITY);
         self.noise.copy_from_slice(x);
         self.presence.fill(0.0);
+        self.frame_in_sub = 0;
+        self.count.fill(1.0);
         self.started = true;
     }
 
@@ -108,13 +136,30 @@ impl NoiseEstimator {
             return;
         }
         let n = x.len();
-        // Smooth over frequency (1/4, 1/2, 1/4), then over time.
-        for k in 0..n {
-            let lo = x[k.saturating_sub(1)];
-            let hi = x[(k + 1).min(n - 1)];
-            self.scratch[k] = 0.25 * lo + 0.5 * x[k] + 0.25 * hi;
-        }
+        smooth_frequency(x, &mut self.scratch);
         let (a_s, a_p, a_d) = (self.a_s, self.a_p, self.a_d);
+        // Signal presence is judged from the smoothed power of the frames *before* this
+        // one: gating the average of X on a statistic that contains X itself would bias
+        // the estimate low (updates would favour the frames where X happens to be low).
+        for k in 0..n {
+            let mut minimum = self.sub_min[k];
+            for s in 0..SUBWINDOWS {
+                minimum = minimum.min(self.ring[s * n + k]);
+            }
+            let present = if self.smooth[k] > self.delta * minimum {
+                1.0
+            } else {
+                0.0
+            };
+            let p = a_p * self.presence[k] + (1.0 - a_p) * present;
+            self.presence[k] = p;
+            // A plain mean of the frames without signal until it spans the time constant,
+            // then the recursive average; frozen in proportion to signal presence.
+            let base = a_d.min(1.0 - 1.0 / (self.count[k] + 1.0));
+            let a = base + (1.0 - base) * p;
+            self.noise[k] = a * self.noise[k] + (1.0 - a) * x[k];
+            self.count[k] += 1.0 - p;
+        }
         for k in 0..n {
             self.smooth[k] = a_s * self.smooth[k] + (1.0 - a_s) * self.scratch[k];
             self.sub_min[k] = self.sub_min[k].min(self.smooth[k]);
@@ -127,20 +172,16 @@ impl NoiseEstimator {
             self.ring_pos = (self.ring_pos + 1) % SUBWINDOWS;
             self.frame_in_sub = 0;
         }
-        for k in 0..n {
-            let mut minimum = self.sub_min[k];
-            for s in 0..SUBWINDOWS {
-                minimum = minimum.min(self.ring[s * n + k]);
-            }
-            let present = if self.smooth[k] > PRESENCE_RATIO * minimum {
-                1.0
-            } else {
-                0.0
-            };
-            self.presence[k] = a_p * self.presence[k] + (1.0 - a_p) * present;
-            let a = a_d + (1.0 - a_d) * self.presence[k];
-            self.noise[k] = a * self.noise[k] + (1.0 - a) * x[k];
-        }
+    }
+}
+
+/// Smooths a spectrum over frequency with weights (1/4, 1/2, 1/4).
+fn smooth_frequency(x: &[f32], out: &mut [f32]) {
+    let n = x.len();
+    for k in 0..n {
+        let lo = x[k.saturating_sub(1)];
+        let hi = x[(k + 1).min(n - 1)];
+        out[k] = 0.25 * lo + 0.5 * x[k] + 0.25 * hi;
     }
 }
 
@@ -213,9 +254,9 @@ mod tests {
     fn noise_estimate_tracks_noise_and_not_a_long_steady_source() {
         let hop = 512.0 / 48000.0;
         let bins = 64;
-        let mut est = NoiseEstimator::new(bins, hop);
-        let mut ema = vec![0.0f32; bins]; // the plain time average, for contrast
-        let a = coefficient(NOISE_TAU_S, hop);
+        let mut est = NoiseEstimator::new(bins, hop, NoiseSettings::default());
+        let mut ema = vec![0.0f32; bins]; // a plain 0.5 s time average, for contrast
+        let a = coefficient(0.5, hop);
         let mut seed = 1;
         let mut x = vec![0.0f32; bins];
         let frames = |s: f64| (s / hop) as usize;
@@ -259,9 +300,10 @@ mod tests {
     #[test]
     fn noise_estimate_follows_a_drop_after_a_loud_start() {
         let hop = 512.0 / 48000.0;
-        let mut est = NoiseEstimator::new(4, hop);
+        let settings = NoiseSettings::default();
+        let mut est = NoiseEstimator::new(4, hop, settings);
         est.update(&[100.0; 4]);
-        for _ in 0..(MIN_WINDOW_S * 2.5 / hop) as usize {
+        for _ in 0..(settings.min_window_s * 2.5 / hop) as usize {
             est.update(&[1.0; 4]);
         }
         assert!(

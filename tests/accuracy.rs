@@ -107,16 +107,30 @@ fn prism_localizes_noise_and_clicks_in_every_direction_within_2_degrees() {
 
 #[test]
 fn low_snr_still_localizes_broadband_noise() {
-    // Sensor noise at the level of the source (0 dB SNR per channel).
     let dirs: Vec<_> = [(60.0, 20.0), (-150.0, -10.0)]
         .iter()
         .map(|&(a, e)| (a, e, Signal::WhiteNoise))
         .collect();
-    let scene = scene(prism(), 48000, &dirs, 0.5, 0.05, 5);
-    let rows = analyze_scene(&scene, &prism(), "", Encoding::Float32, &[]);
-    for (found, frames, mean, _) in score_sources(&scene, &rows, 1024, |u| *u) {
-        assert!(mean < 2.0, "mean {mean}");
-        assert!(found * 2 >= frames, "{found} of {frames}");
+    // Independent sensor noise 3 dB below the source in every channel: default settings.
+    let scene3 = scene(prism(), 48000, &dirs, 0.5, 0.035, 5);
+    let rows = analyze_scene(&scene3, &prism(), "", Encoding::Float32, &[]);
+    for (found, frames, mean, _) in score_sources(&scene3, &rows, 1024, |u| *u) {
+        assert!(mean < 2.0, "3 dB: mean {mean}");
+        assert!(found * 10 >= frames * 9, "3 dB: {found} of {frames}");
+    }
+    // At 0 dB a source scores about 0.48 per pair, under the default threshold (0.5,
+    // chosen to reject stationary background); without the threshold it is still found.
+    let scene0 = scene(prism(), 48000, &dirs, 0.5, 0.05, 5);
+    let rows = analyze_scene(
+        &scene0,
+        &prism(),
+        "",
+        Encoding::Float32,
+        &["--min-score", "0"],
+    );
+    for (found, frames, mean, _) in score_sources(&scene0, &rows, 1024, |u| *u) {
+        assert!(mean < 2.0, "0 dB: mean {mean}");
+        assert!(found * 2 >= frames, "0 dB: {found} of {frames}");
     }
 }
 
