@@ -15,20 +15,10 @@
 use nalgebra::Vector3;
 use ssl::correlation::{Interpolation, Window};
 use ssl::direction::{angle_between_deg, unit_from_angles};
+use ssl::geometry::PAPER_PRISM;
 use ssl::synth::{self, Place, Scene, Signal, Source};
 use ssl::weighting::NoiseSettings;
 use ssl::{Analyzer, Geometry, Params};
-
-const PRISM: [[f64; 3]; 8] = [
-    [0.25, 0.20, 0.18],
-    [0.25, -0.20, 0.18],
-    [-0.25, -0.20, 0.18],
-    [-0.25, 0.20, 0.18],
-    [0.25, 0.20, -0.18],
-    [0.25, -0.20, -0.18],
-    [-0.25, -0.20, -0.18],
-    [-0.25, 0.20, -0.18],
-];
 
 struct Condition {
     name: &'static str,
@@ -78,7 +68,7 @@ fn render(c: &Condition, seed: u64) -> Rendered {
     let scene = Scene {
         sample_rate: 48000,
         duration_s,
-        mics: PRISM.iter().map(|p| Vector3::from(*p)).collect(),
+        mics: PAPER_PRISM.iter().map(|p| Vector3::from(*p)).collect(),
         speed_of_sound: 343.0,
         sources,
         sensor_noise: c.sensor_noise,
@@ -157,7 +147,7 @@ fn evaluate(r: &Rendered, geometry: &Geometry, params: &Params) -> Score {
 }
 
 fn main() {
-    let geometry = Geometry::from_positions(&PRISM).unwrap();
+    let geometry = Geometry::from_positions(&PAPER_PRISM).unwrap();
     let conditions = [
         Condition {
             name: "white, sensor noise 20 dB",

@@ -13,6 +13,20 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use serde::Deserialize;
 use std::path::Path;
 
+/// The paper's array: 8 microphones on the corners of a 50 x 40 x 36 cm rectangular
+/// prism, centred on the origin (x forward, y left, z up; metres). The same positions,
+/// in the same order, as `testdata/prism.toml`.
+pub const PAPER_PRISM: [[f64; 3]; 8] = [
+    [0.25, 0.20, 0.18],
+    [0.25, -0.20, 0.18],
+    [-0.25, -0.20, 0.18],
+    [-0.25, 0.20, 0.18],
+    [0.25, 0.20, -0.18],
+    [0.25, -0.20, -0.18],
+    [-0.25, -0.20, -0.18],
+    [-0.25, 0.20, -0.18],
+];
+
 /// Default speed of sound in m/s (dry air at about 20 degrees C), as in the contract.
 pub const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
 /// The most microphones an array may have (subsets of live microphones are bit masks).
@@ -413,6 +427,14 @@ position = [-0.25, -0.20, -0.18]
         assert!(g.centre.norm() < 1e-12);
         assert_eq!(g.speed_of_sound, 343.0);
         assert!(g.warnings.is_empty());
+    }
+
+    #[test]
+    fn shipped_prism_file_is_the_paper_prism() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml");
+        let g = Geometry::from_file(&path).unwrap();
+        let expect = Geometry::from_positions(&PAPER_PRISM).unwrap();
+        assert_eq!(g.mics, expect.mics);
     }
 
     #[test]

@@ -8,16 +8,7 @@ use ssl::synth::{self, Encoding, Place, Scene, Signal, Source};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-pub const PRISM: [[f64; 3]; 8] = [
-    [0.25, 0.20, 0.18],
-    [0.25, -0.20, 0.18],
-    [-0.25, -0.20, 0.18],
-    [-0.25, 0.20, 0.18],
-    [0.25, 0.20, -0.18],
-    [0.25, -0.20, -0.18],
-    [-0.25, -0.20, -0.18],
-    [-0.25, 0.20, -0.18],
-];
+pub use ssl::geometry::PAPER_PRISM as PRISM;
 
 pub fn prism() -> Vec<Vector3<f64>> {
     PRISM.iter().map(|p| Vector3::from(*p)).collect()

@@ -1,0 +1,155 @@
+//! Per-stage costs of one analysis frame, and the consistency search against the FFT
+//! work it rides on. `cargo bench --bench stages`
+//!
+//! Prints, before the timings, the search's node counts on real frames (a source in
+//! sensor noise, and sensor noise alone) for 8, 16 and 32 microphones.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::Vector3;
+use realfft::num_complex::Complex32;
+use ssl::correlation::{find_peaks, whiten, Correlator, ForwardFft, Interpolation, Peak, Window};
+use ssl::direction::{pair_count, pair_index, unit_from_angles};
+use ssl::geometry::PAPER_PRISM;
+use ssl::search::Searcher;
+use ssl::synth::{self, Place, Scene, Signal, Source};
+use ssl::{Analyzer, Geometry, Params};
+use std::hint::black_box;
+
+const N: usize = 1024;
+
+/// `mics` positions: the prism for 8, else points spread over a 0.5 m sphere (fixed).
+fn array(mics: usize) -> Vec<[f64; 3]> {
+    if mics == 8 {
+        return PAPER_PRISM.to_vec();
+    }
+    // A Fibonacci sphere of radius 0.25 m.
+    (0..mics)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / mics as f64;
+            let r = (1.0 - z * z).sqrt();
+            let phi = i as f64 * 2.399_963_229_728_653;
+            [0.25 * r * phi.cos(), 0.25 * r * phi.sin(), 0.25 * z]
+        })
+        .collect()
+}
+
+/// One frame (mic-major) of a scene: with a source, or sensor noise alone.
+fn frame(positions: &[[f64; 3]], with_source: bool) -> Vec<f32> {
+    let scene = Scene {
+        sample_rate: 48000,
+        duration_s: 0.1,
+        mics: positions.iter().map(|p| Vector3::from(*p)).collect(),
+        speed_of_sound: 343.0,
+        sources: if with_source {
+            vec![Source {
+                place: Place::Direction(unit_from_angles(35.0, 12.0)),
+                signal: Signal::WhiteNoise,
+                start_s: 0.0,
+                end_s: 0.1,
+                level: 0.05,
+            }]
+        } else {
+            vec![]
+        },
+        sensor_noise: 0.01,
+        seed: 5,
+    };
+    let ch = synth::render(&scene);
+    ch.iter()
+        .flat_map(|c| c[1000..1000 + N].iter().copied())
+        .collect()
+}
+
+/// The peak table of a frame, as the pipeline builds it (plain PHAT weights).
+fn peaks(positions: &[[f64; 3]], frame: &[f32]) -> Vec<Vec<Peak>> {
+    let k = positions.len();
+    let g = Geometry::from_positions(positions).unwrap();
+    let mut fft = ForwardFft::new(N, Window::Hann);
+    let ones = vec![1.0f32; N / 2 + 1];
+    let spectra: Vec<Vec<Complex32>> = (0..k)
+        .map(|m| {
+            let mut x = vec![Complex32::default(); N / 2 + 1];
+            fft.transform(&frame[m * N..(m + 1) * N], &mut x);
+            let mut y = x.clone();
+            whiten(&x, &ones, &mut y);
+            y
+        })
+        .collect();
+    let mut corr = Correlator::new(N);
+    let mut r = vec![0.0; N];
+    let mut table = vec![Vec::new(); pair_count(k)];
+    for a in 0..k {
+        for b in a + 1..k {
+            corr.correlate(&spectra[a], &spectra[b], N as f32, &mut r);
+            let lag = (g.max_lag_samples(a, b, 48000.0, 343.0) * 1.03).ceil() as usize + 1;
+            find_peaks(
+                &r,
+                lag,
+                8,
+                Interpolation::Parabolic,
+                &mut table[pair_index(a, b, k)],
+            );
+        }
+    }
+    table
+}
+
+fn stages(c: &mut Criterion) {
+    for mics in [8usize, 16, 32] {
+        let pos = array(mics);
+        for (label, with_source) in [("source", true), ("noise only", false)] {
+            let table = peaks(&pos, &frame(&pos, with_source));
+            let mut s = Searcher::new(2.0, u64::MAX);
+            let found = s.search(mics, &table).is_some();
+            eprintln!(
+                "search, {mics} mics, {label}: {} nodes (of 8^{} sets), consistent set found: {found}",
+                s.nodes(),
+                mics - 1
+            );
+        }
+    }
+
+    let pos = array(8);
+    let frame8 = frame(&pos, true);
+    let mut fft = ForwardFft::new(N, Window::Hann);
+    let mut spec = vec![Complex32::default(); N / 2 + 1];
+    c.bench_function("forward FFTs, 8 ch x 1024", |b| {
+        b.iter(|| {
+            for m in 0..8 {
+                fft.transform(black_box(&frame8[m * N..(m + 1) * N]), &mut spec);
+            }
+        })
+    });
+    let mut corr = Correlator::new(N);
+    let mut out = vec![0.0f32; N];
+    let y = vec![Complex32::new(0.5, 0.5); N / 2 + 1];
+    c.bench_function("pair inverse FFTs, 28 x 1024", |b| {
+        b.iter(|| {
+            for _ in 0..28 {
+                corr.correlate(black_box(&y), black_box(&y), N as f32, &mut out);
+            }
+        })
+    });
+    for mics in [8usize, 16, 32] {
+        let pos = array(mics);
+        for (label, with_source) in [("source", true), ("noise only", false)] {
+            let table = peaks(&pos, &frame(&pos, with_source));
+            let mut s = Searcher::new(2.0, u64::MAX);
+            c.bench_function(&format!("search, {mics} mics x 8 peaks, {label}"), |b| {
+                b.iter(|| black_box(s.search(mics, black_box(&table)).is_some()))
+            });
+        }
+    }
+    let g = Geometry::from_positions(&pos).unwrap();
+    let mut analyzer = Analyzer::new(&g, 48000, &Params::default()).unwrap();
+    let mut index = 0;
+    c.bench_function("whole frame, 8 mics (Analyzer::process)", |b| {
+        b.iter(|| {
+            index += 1;
+            black_box(analyzer.process(index, black_box(&frame8)))
+        })
+    });
+}
+
+criterion_group!(benches, stages);
+criterion_main!(benches);
