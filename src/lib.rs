@@ -16,6 +16,24 @@
 //!
 //! [`pipeline::Analyzer`] runs one frame through the stages; [`session::FileAnalysis`]
 //! streams one file through it. The `ssl` binary is a thin layer over [`cli`].
+//!
+//! ```
+//! use ssl::{FileAnalysis, Geometry, Params};
+//!
+//! let geometry = Geometry::from_file("testdata/prism.toml".as_ref())?;
+//! let analysis = FileAnalysis::open("testdata/example.wav", &geometry, &Params::default())?;
+//! let mut detections = Vec::new();
+//! let (summary, result) = analysis.run(|_frame, detection| {
+//!     detections.extend(detection.cloned());
+//!     Ok(())
+//! });
+//! result?;
+//! // The example's first source is at azimuth 30, elevation 10 (testdata/example.truth.json).
+//! let first = &detections[0];
+//! assert!((first.azimuth_deg - 30.0).abs() < 1.0 && (first.elevation_deg - 10.0).abs() < 1.0);
+//! assert_eq!(summary.stats.detections as usize, detections.len());
+//! # Ok::<(), anyhow::Error>(())
+//! ```
 
 pub mod audio;
 pub mod cli;
