@@ -42,6 +42,7 @@ pub mod direction;
 pub mod geometry;
 pub mod output;
 pub mod pipeline;
+pub mod room;
 pub mod search;
 pub mod session;
 pub mod synth;
