@@ -2,8 +2,7 @@
 //! (noise burst, clicks, noise burst) from known directions around the paper's prism
 //! array, free field, 20 dB SNR of independent sensor noise, 48 kHz 16-bit.
 //!
-//! `cargo run --example make_testdata` (the test `example_is_reproducible` checks that
-//! the committed files are what this writes).
+//! `cargo run --example make_testdata`
 
 use ssl::direction::{angles_deg, unit_from_angles};
 use ssl::synth::{self, Encoding, Place, Scene, Signal, Source};
@@ -12,12 +11,17 @@ use std::path::Path;
 
 /// The example scene (shared with the test that checks the committed files).
 pub fn scene(geometry: &Geometry) -> Scene {
+    // Noise at -26 dBFS RMS; clicks (2 ms transients) at -14 dBFS RMS during each click.
     let src = |az: f64, el: f64, signal: Signal, start_s: f64, end_s: f64| Source {
         place: Place::Direction(unit_from_angles(az, el)),
+        level: if matches!(signal, Signal::Clicks { .. }) {
+            0.2
+        } else {
+            0.05
+        },
         signal,
         start_s,
         end_s,
-        level: 0.05,
     };
     Scene {
         sample_rate: 48000,

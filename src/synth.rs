@@ -19,7 +19,8 @@ use std::path::Path;
 pub enum Signal {
     /// White Gaussian noise.
     WhiteNoise,
-    /// Short decaying noise bursts (about 2 ms) at this many per second.
+    /// Short decaying noise bursts (2 ms) at this many per second; the level is the RMS
+    /// during a burst.
     Clicks { per_second: f64 },
     /// A sine at this frequency (Hz).
     Tone { hz: f64 },
@@ -146,7 +147,19 @@ fn emit(src: &Source, fs: f64, len: usize, buf: &mut [f64], rng: &mut ChaCha8Rng
     if a >= b {
         return;
     }
-    let active = &mut buf[a..b];
+    generate(&src.signal, src.level, fs, &mut buf[a..b], rng);
+}
+
+/// Fills `active` with `signal` at RMS `level` (clicks: RMS over each 2 ms click),
+/// with 5 ms fades at both ends of continuous signals.
+pub fn generate(signal: &Signal, level: f64, fs: f64, active: &mut [f64], rng: &mut ChaCha8Rng) {
+    let src = Source {
+        place: Place::Direction(Vector3::x()),
+        signal: signal.clone(),
+        start_s: 0.0,
+        end_s: 0.0,
+        level,
+    };
     match src.signal {
         Signal::WhiteNoise => {
             for v in active.iter_mut() {
@@ -206,9 +219,9 @@ fn emit(src: &Source, fs: f64, len: usize, buf: &mut [f64], rng: &mut ChaCha8Rng
             let period = (fs / per_second).max(1.0) as usize;
             let decay = 0.0005 * fs; // 0.5 ms time constant
             let burst = (0.002 * fs) as usize;
-            // Scaled so that a click's RMS over its period is `level`.
+            // Scaled so that the RMS over each 2 ms click is `level`.
             let energy: f64 = (0..burst).map(|i| (-2.0 * i as f64 / decay).exp()).sum();
-            let gain = src.level * (period as f64 / energy).sqrt();
+            let gain = src.level * (burst as f64 / energy).sqrt();
             let mut start = 0;
             while start < active.len() {
                 for i in 0..burst.min(active.len() - start) {

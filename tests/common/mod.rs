@@ -30,7 +30,8 @@ pub fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
 }
 
 /// One source per time slot: `(azimuth, elevation, signal)`, each active for `slot_s`
-/// seconds with a 0.1 s gap, far field, at level 0.05 with sensor noise `noise`.
+/// seconds with a 0.1 s gap, far field, at RMS 0.05 (-26 dBFS; clicks, which are 2 ms
+/// transients, at 0.2 during each click), with sensor noise `noise`.
 pub fn scene(
     mics: Vec<Vector3<f64>>,
     rate: u32,
@@ -47,7 +48,11 @@ pub fn scene(
             signal: sig.clone(),
             start_s: 0.1 + i as f64 * (slot_s + 0.1),
             end_s: 0.1 + i as f64 * (slot_s + 0.1) + slot_s,
-            level: 0.05,
+            level: if matches!(sig, Signal::Clicks { .. }) {
+                0.2
+            } else {
+                0.05
+            },
         })
         .collect::<Vec<_>>();
     let duration_s = 0.2 + dirs.len() as f64 * (slot_s + 0.1);
