@@ -62,6 +62,10 @@ impl Default for Params {
     }
 }
 
+/// How much of the start of a file primes the noise estimate before it is analysed
+/// (seconds; see [`Analyzer::prime`]).
+pub const PRIMING_S: f64 = 0.25;
+
 /// Default consistency tolerance in samples (see the README for how it was chosen).
 pub const DEFAULT_TOLERANCE: f32 = 2.0;
 
@@ -137,6 +141,8 @@ pub struct Analyzer {
     solvers: HashMap<u64, Option<DirectionSolver>>,
     live: Vec<usize>,
     stats: FrameStats,
+    /// Frames folded in by [`Analyzer::prime`] and not yet processed.
+    primed: usize,
 }
 
 impl Analyzer {
@@ -202,6 +208,7 @@ impl Analyzer {
                 dead_frames: vec![0; mics],
                 ..Default::default()
             },
+            primed: 0,
         })
     }
 
@@ -227,14 +234,25 @@ impl Analyzer {
     }
 
     /// Analyses frame `index`; `frame[m * N .. (m + 1) * N]` holds mic `m`'s samples.
-    pub fn process(&mut self, index: u64, frame: &[f32]) -> Option<Detection> {
-        let n = self.n;
-        let mics = self.geometry.mics.len();
-        self.stats.frames += 1;
+    /// Folds a frame into the noise estimate only (no detection, no statistics). Files
+    /// prime the estimate with their first [`PRIMING_S`] seconds before analysing them,
+    /// so that their first frames are weighted against a formed noise estimate.
+    /// The primed frames must then be processed, in order, before any other: they are
+    /// not folded into the estimate a second time.
+    pub fn prime(&mut self, frame: &[f32]) {
+        if self.spectra_and_power(frame) {
+            self.noise.update(&self.power);
+        }
+        self.primed += 1;
+    }
 
+    /// Finds the live microphones, their spectra and `X(k)`, the mean power spectrum over
+    /// them. Returns `false` when no microphone is live (digital silence).
+    fn spectra_and_power(&mut self, frame: &[f32]) -> bool {
+        let n = self.n;
         // Live microphones: a channel stuck at one value carries no delay information.
         self.live.clear();
-        for m in 0..mics {
+        for m in 0..self.geometry.mics.len() {
             let s = &frame[m * n..(m + 1) * n];
             let first = s[0];
             if s.iter().any(|&v| v != first) {
@@ -242,16 +260,8 @@ impl Analyzer {
             }
         }
         if self.live.is_empty() {
-            self.stats.silent_frames += 1;
-            return None;
+            return false;
         }
-        for m in 0..mics {
-            if !self.live.contains(&m) {
-                self.stats.dead_frames[m] += 1;
-            }
-        }
-
-        // Spectra and X(k), the mean power spectrum over the live microphones.
         self.power.fill(0.0);
         for &m in &self.live {
             self.fft
@@ -262,6 +272,24 @@ impl Analyzer {
         }
         let inv = 1.0 / self.live.len() as f32;
         self.power.iter_mut().for_each(|p| *p *= inv);
+        true
+    }
+
+    pub fn process(&mut self, index: u64, frame: &[f32]) -> Option<Detection> {
+        let n = self.n;
+        let mics = self.geometry.mics.len();
+        self.stats.frames += 1;
+        let primed = self.primed > 0;
+        self.primed = self.primed.saturating_sub(1);
+        if !self.spectra_and_power(frame) {
+            self.stats.silent_frames += 1;
+            return None;
+        }
+        for m in 0..mics {
+            if !self.live.contains(&m) {
+                self.stats.dead_frames[m] += 1;
+            }
+        }
 
         // w_e(k) from X(k) and the noise estimate of previous frames (eq. 4-5).
         if !self.noise.started() {
@@ -276,7 +304,9 @@ impl Analyzer {
                 &mut self.weights,
             );
         }
-        self.noise.update(&self.power);
+        if !primed {
+            self.noise.update(&self.power);
+        }
         for &m in &self.live {
             correlation::whiten(&self.spectra[m], &self.weights, &mut self.whitened[m]);
         }

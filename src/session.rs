@@ -2,7 +2,7 @@
 
 use crate::audio::{Framer, WavFormat, WavStream};
 use crate::geometry::Geometry;
-use crate::pipeline::{Analyzer, Detection, FrameStats, Params};
+use crate::pipeline::{Analyzer, Detection, FrameStats, Params, PRIMING_S};
 use anyhow::{bail, Result};
 
 /// A recording opened for analysis with one geometry and set of parameters.
@@ -97,6 +97,24 @@ impl FileAnalysis {
         mut sink: impl FnMut(u64, Option<&Detection>) -> Result<()>,
     ) -> (FileSummary, Result<()>) {
         let result = (|| -> Result<()> {
+            // Prime the noise estimate with the first frames, then analyse them too.
+            let hop_s = self.analyzer.hop() as f64 / self.stream.format.sample_rate as f64;
+            let priming = (PRIMING_S / hop_s).ceil() as usize;
+            let mut first: Vec<(u64, Vec<f32>)> = Vec::with_capacity(priming);
+            while first.len() < priming {
+                match self.framer.next_frame(&mut self.stream)? {
+                    Some((index, frame)) => first.push((index, frame.to_vec())),
+                    None => break,
+                }
+            }
+            for (_, frame) in &first {
+                self.analyzer.prime(frame);
+            }
+            for (index, frame) in &first {
+                let det = self.analyzer.process(*index, frame);
+                sink(*index, det.as_ref())?;
+            }
+            drop(first);
             while let Some((index, frame)) = self.framer.next_frame(&mut self.stream)? {
                 let det = self.analyzer.process(index, frame);
                 sink(index, det.as_ref())?;
