@@ -1,0 +1,263 @@
+//! `ssl simulate` and `ssl evaluate` end to end: reproducible scenes, truth in the array
+//! frame, a reverberant scene localized and scored, background alone, bad scenes.
+
+mod common;
+
+use common::*;
+use std::path::Path;
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn prism_file(dir: &Path) {
+    write(dir, "prism.toml", geometry_toml(&prism(), ""));
+}
+
+#[test]
+fn same_scene_and_seed_give_the_same_bytes() {
+    let dir = tempdir();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = root.join("testdata/scene.toml");
+    let (a, b) = (dir.path().join("a.wav"), dir.path().join("b.wav"));
+    for out in [&a, &b] {
+        let o = run(&["simulate", s(&scene), "-o", s(out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    // The truth goes beside the WAV by default.
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("a.truth.json")).unwrap())
+            .unwrap();
+    assert_eq!(truth["sources"].as_array().unwrap().len(), 2);
+    let measured = truth["room"]["rt60_measured"].as_f64().unwrap();
+    assert!((measured - 0.35).abs() < 0.02, "{measured}");
+}
+
+#[test]
+fn truth_directions_are_in_the_array_frame() {
+    let dir = tempdir();
+    prism_file(dir.path());
+    // The array faces +y of the room (yaw 90): a source due +y in the room is straight
+    // ahead (azimuth 0) for the array; one due -x of the room is to its left (+90),
+    // 1 m above the array centre at 2 m horizontal distance: elevation atan(1/2).
+    let scene = r#"
+sample_rate = 16000
+duration = 1.0
+[room]
+dimensions = [6.0, 6.0, 3.0]
+rt60 = 0.2
+[array]
+geometry = "prism.toml"
+position = [3.0, 3.0, 1.0]
+yaw_deg = 90.0
+[[source]]
+position = [3.0, 5.0, 1.0]
+signal = "white"
+active = [[0.1, 0.4]]
+[[source]]
+position = [1.0, 3.0, 2.0]
+signal = "white"
+active = [[0.5, 0.9]]
+"#;
+    let path = write(dir.path(), "scene.toml", scene);
+    let out = dir.path().join("out.wav");
+    let truth_path = dir.path().join("t.json");
+    let o = run(&[
+        "simulate",
+        s(&path),
+        "-o",
+        s(&out),
+        "--truth",
+        s(&truth_path),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&truth_path).unwrap()).unwrap();
+    let src = &t["sources"];
+    assert!(src[0]["azimuth_deg"].as_f64().unwrap().abs() < 1e-9);
+    assert!((src[0]["distance_m"].as_f64().unwrap() - 2.0).abs() < 1e-9);
+    assert!((src[1]["azimuth_deg"].as_f64().unwrap() - 90.0).abs() < 1e-9);
+    let el = src[1]["elevation_deg"].as_f64().unwrap();
+    assert!((el - 0.5f64.atan().to_degrees()).abs() < 1e-9, "{el}");
+    // Active intervals are as heard at the array: shifted by distance / c.
+    let start = src[0]["active"][0][0].as_f64().unwrap();
+    assert!((start - (0.1 + 2.0 / 343.0)).abs() < 1e-6, "{start}");
+}
+
+#[test]
+fn reverberant_scene_is_localized_and_scored() {
+    let dir = tempdir();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let wav = dir.path().join("scene.wav");
+    let o = run(&[
+        "simulate",
+        s(&root.join("testdata/scene.toml")),
+        "-o",
+        s(&wav),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = dir.path().join("scene.csv");
+    let o = run(&[
+        "analyze",
+        s(&wav),
+        "-g",
+        s(&root.join("testdata/prism.toml")),
+        "-o",
+        s(&csv),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        "evaluate",
+        "--truth",
+        s(&dir.path().join("scene.truth.json")),
+        s(&csv),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(r["mean_error_deg"].as_f64().unwrap() < 2.0, "{r}");
+    assert_eq!(r["event_detection_rate"].as_f64().unwrap(), 1.0, "{r}");
+    assert!(r["false_per_minute"].as_f64().unwrap() < 1.0, "{r}");
+    // The table form names every source.
+    let o = run(&[
+        "evaluate",
+        "--truth",
+        s(&dir.path().join("scene.truth.json")),
+        s(&csv),
+    ]);
+    let table = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        table.contains("speech") && table.contains("clicks") && table.contains("false detections"),
+        "{table}"
+    );
+}
+
+#[test]
+fn background_alone_gives_no_detections_from_the_first_frame() {
+    // A fan and diffuse noise from time 0; the only source plays in the last 0.2 s.
+    let dir = tempdir();
+    prism_file(dir.path());
+    let scene = r#"
+sample_rate = 48000
+duration = 8.0
+seed = 4
+[room]
+dimensions = [7.0, 6.0, 3.0]
+rt60 = 0.35
+[array]
+geometry = "prism.toml"
+position = [3.5, 3.0, 1.0]
+[[source]]
+azimuth_deg = 30.0
+distance = 2.0
+signal = "white"
+active = [[7.8, 8.0]]
+[noise]
+snr_db = 10
+sensor_db = -70
+[[noise.fan]]
+position = [6.5, 1.0, 2.7]
+[noise.diffuse]
+weight_db = -6
+"#;
+    let path = write(dir.path(), "noise.toml", scene);
+    let wav = dir.path().join("noise.wav");
+    let o = run(&["simulate", s(&path), "-o", s(&wav)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["analyze", s(&wav), "-g", s(&dir.path().join("prism.toml"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows = parse_csv(&String::from_utf8(o.stdout).unwrap());
+    let early: Vec<&Row> = rows.iter().filter(|r| r.time_s < 7.7).collect();
+    assert!(
+        early.is_empty(),
+        "{} detections of background: {:?}",
+        early.len(),
+        &early[..early.len().min(5)]
+    );
+    // The analysis is live: the source at the end is found.
+    let truth = ssl::direction::unit_from_angles(30.0, 0.0);
+    assert!(
+        rows.iter()
+            .any(|r| r.time_s > 7.8 && ssl::direction::angle_between_deg(&r.u, &truth) < 5.0),
+        "{rows:?}"
+    );
+}
+
+#[test]
+fn bad_scenes_are_explained() {
+    let dir = tempdir();
+    prism_file(dir.path());
+    let base = "sample_rate = 16000\nduration = 1.0\n[room]\ndimensions = [4.0, 4.0, 3.0]\nrt60 = 0.3\n[array]\ngeometry = \"prism.toml\"\nposition = [2.0, 2.0, 1.0]\n";
+    let cases = [
+        (format!("{base}[[source]]\nposition = [9.0, 2.0, 1.0]\nsignal = \"white\"\n"), "outside the room"),
+        (format!("{base}[[source]]\nposition = [3.0, 2.0, 1.0]\nsignal = \"white\"\nloudness = 3\n"), "unknown field"),
+        (format!("{base}[[source]]\nposition = [3.0, 2.0, 1.0]\nsignal = \"file\"\n"), "needs `file"),
+        (format!("{base}[[source]]\nposition = [3.0, 2.0, 1.0]\nsignal = \"white\"\nactive = [[0.5, 0.2]]\n"), "active interval"),
+        (format!("{base}[[source]]\nposition = [3.0, 2.0, 1.0]\nsignal = \"white\"\nlevel_db = 6\n"), "clips"),
+        ("sample_rate = 16000\nduration = 1.0\n[array]\ngeometry = \"missing.toml\"\nposition = [0.0, 0.0, 0.0]\n".to_string(), "missing.toml"),
+    ];
+    for (i, (text, needle)) in cases.iter().enumerate() {
+        let path = write(dir.path(), &format!("bad{i}.toml"), text);
+        let o = run(&["simulate", s(&path), "-o", s(&dir.path().join("x.wav"))]);
+        assert_eq!(o.status.code(), Some(1), "{text}");
+        let err = stderr(&o);
+        assert!(
+            err.contains(needle) && err.lines().count() == 1,
+            "{needle}: {err}"
+        );
+        assert!(!dir.path().join("x.wav").exists());
+    }
+}
+
+#[test]
+fn source_from_a_wav_file() {
+    let dir = tempdir();
+    prism_file(dir.path());
+    // A mono noise recording as the source signal.
+    let mono = ssl::synth::render(&ssl::synth::Scene {
+        sample_rate: 16000,
+        duration_s: 0.5,
+        mics: vec![nalgebra::Vector3::zeros()],
+        speed_of_sound: 343.0,
+        sources: vec![ssl::synth::Source {
+            place: ssl::synth::Place::Direction(nalgebra::Vector3::x()),
+            signal: ssl::synth::Signal::WhiteNoise,
+            start_s: 0.0,
+            end_s: 0.5,
+            level: 0.1,
+        }],
+        sensor_noise: 0.0,
+        seed: 2,
+    });
+    ssl::synth::write_wav(
+        &dir.path().join("voice.wav"),
+        &mono,
+        16000,
+        ssl::synth::Encoding::Int16,
+    )
+    .unwrap();
+    let scene = "sample_rate = 16000\nduration = 1.0\n[array]\ngeometry = \"prism.toml\"\nposition = [0.0, 0.0, 0.0]\n[[source]]\nazimuth_deg = -60.0\nelevation_deg = 20.0\ndistance = 3.0\nsignal = \"file\"\nfile = \"voice.wav\"\nactive = [[0.2, 0.9]]\n";
+    let path = write(dir.path(), "file.toml", scene);
+    let wav = dir.path().join("f.wav");
+    let o = run(&["simulate", s(&path), "-o", s(&wav)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&[
+        "analyze",
+        s(&wav),
+        "-g",
+        s(&dir.path().join("prism.toml")),
+        "--min-score",
+        "0",
+    ]);
+    let rows = parse_csv(&String::from_utf8(o.stdout).unwrap());
+    let truth = ssl::direction::unit_from_angles(-60.0, 20.0);
+    let inside: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.time_s > 0.25 && r.time_s < 0.85)
+        .collect();
+    assert!(inside.len() > 30, "{}", inside.len());
+    assert!(inside
+        .iter()
+        .all(|r| ssl::direction::angle_between_deg(&r.u, &truth) < 2.0));
+}
