@@ -36,6 +36,7 @@
 //! ```
 
 pub mod audio;
+pub mod benchmark;
 pub mod cli;
 pub mod correlation;
 pub mod direction;
