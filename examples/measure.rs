@@ -8,9 +8,10 @@
 //!
 //! Scenes: the paper's 50 x 40 x 36 cm prism at 48 kHz; 16 target directions (8 azimuths
 //! x elevations -20 and +25 deg), each active for 0.5 s with 0.3 s gaps, after 1 s of
-//! background alone. Background: independent sensor noise, plus in the "fan" scenes a
-//! continuous pink-noise point source (azimuth -100, elevation -30, 1.5 m away) at
-//! the target's level (0 dB) or 6 dB above it.
+//! background alone. Sources are at -26 dBFS RMS (clicks, 2 ms transients, at -14 dBFS
+//! RMS during each click). Background: independent sensor noise, plus in the "fan" scenes
+//! a continuous pink-noise point source (azimuth -100, elevation -30, 1.5 m away) at
+//! -26 dBFS (0 dB) or -20 dBFS (+6 dB).
 
 use nalgebra::Vector3;
 use ssl::correlation::{Interpolation, Window};
@@ -49,7 +50,12 @@ fn render(c: &Condition, seed: u64) -> Rendered {
                 signal: c.signal.clone(),
                 start_s: t,
                 end_s: t + 0.5,
-                level,
+                // Clicks are 2 ms transients: -14 dBFS RMS during each click.
+                level: if matches!(c.signal, Signal::Clicks { .. }) {
+                    0.2
+                } else {
+                    level
+                },
             });
             targets.push((t, t + 0.5, u));
             t += 0.8;
@@ -315,10 +321,15 @@ fn main() {
                 pct(&mut s.target_scores, 0.1),
                 pct(&mut s.target_scores, 0.5),
             ];
-            println!(
-                "| {} | {:.2} / {:.2} / {:.2} | {:.2} / {:.2} / {:.2} |",
-                c.name, b[0], b[1], b[2], t[0], t[1], t[2]
-            );
+            // No detections at all (no background frames detected, or no source).
+            let show = |x: [f64; 3]| {
+                if x[0].is_nan() {
+                    "none".to_string()
+                } else {
+                    format!("{:.2} / {:.2} / {:.2}", x[0], x[1], x[2])
+                }
+            };
+            println!("| {} | {} | {} |", c.name, show(b), show(t));
         }
         return;
     }
