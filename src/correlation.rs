@@ -88,7 +88,8 @@ impl ForwardFft {
 /// The whitened, weighted spectrum `Y(k) = w_e(k) X(k) / |X(k)|` (0 where `X(k) = 0`).
 pub fn whiten(x: &[Complex32], we: &[f32], out: &mut [Complex32]) {
     for ((o, &v), &w) in out.iter_mut().zip(x).zip(we) {
-        let mag = v.norm();
+        // |X| of an audio spectrum is far below f32's overflow, so no hypot is needed.
+        let mag = v.norm_sqr().sqrt();
         *o = if mag > 0.0 && mag.is_finite() {
             v * (w / mag)
         } else {
@@ -139,43 +140,74 @@ pub struct Peak {
     pub value: f32,
 }
 
-/// The `m` highest local maxima of the circular correlation `r` with `|lag| <= max_lag`,
-/// highest first (ties: smaller lag first), each refined per `interp`. `out` is cleared
-/// and refilled; it does not allocate once its capacity reaches `m`.
+/// The `m` highest local maxima of the circular correlation `r` with `|lag| <= max_lag`
+/// (ranked by their sample value), each refined per `interp`, then ordered by refined
+/// value, highest first (ties: smaller lag first). `out` is cleared and refilled; it does
+/// not allocate once its capacity reaches `m`. Only the `m` kept peaks are refined.
 pub fn find_peaks(r: &[f32], max_lag: usize, m: usize, interp: Interpolation, out: &mut Vec<Peak>) {
     out.clear();
     let n = r.len();
     let max_lag = max_lag.min(n / 2 - 1) as isize;
-    let at = |lag: isize| r[lag.rem_euclid(n as isize) as usize];
-    for lag in -max_lag..=max_lag {
-        let (prev, here, next) = (at(lag - 1), at(lag), at(lag + 1));
-        // A plateau counts once, at its first sample.
-        if !(here > prev && here >= next) {
-            continue;
-        }
-        let peak = match interp {
-            Interpolation::None => Peak {
-                lag: lag as f32,
-                value: here,
-            },
-            Interpolation::Parabolic => {
-                let denom = prev - 2.0 * here + next;
-                let delta = if denom < 0.0 {
-                    (0.5 * (prev - next) / denom).clamp(-0.5, 0.5)
-                } else {
-                    0.0
-                };
+    // Negative lags sit at the end of the buffer (a branch is far cheaper than a modulo).
+    let at = |lag: isize| {
+        r[if lag < 0 {
+            (n as isize + lag) as usize
+        } else {
+            lag as usize
+        }]
+    };
+    // A plateau counts once, at its first sample.
+    let mut consider = |lag: isize, w: [f32; 3]| {
+        if w[1] > w[0] && w[1] >= w[2] {
+            insert_top(
+                out,
                 Peak {
-                    lag: lag as f32 + delta,
-                    value: here - 0.25 * (prev - next) * delta,
-                }
+                    lag: lag as f32,
+                    value: w[1],
+                },
+                m,
+            );
+        }
+    };
+    // Lags -max_lag..=-2 and 2..=max_lag as contiguous windows; -1, 0, 1 across the wrap.
+    let l = max_lag as usize;
+    for (i, w) in r[n - l - 1..n].windows(3).enumerate() {
+        consider(i as isize - max_lag, [w[0], w[1], w[2]]);
+    }
+    consider(-1, [r[n - 2], r[n - 1], r[0]]);
+    consider(0, [r[n - 1], r[0], r[1]]);
+    for (i, w) in r[0..l + 2].windows(3).enumerate() {
+        consider(i as isize + 1, [w[0], w[1], w[2]]);
+    }
+    if interp == Interpolation::Parabolic {
+        for p in out.iter_mut() {
+            let lag = p.lag as isize;
+            let (prev, here, next) = (at(lag - 1), p.value, at(lag + 1));
+            let denom = prev - 2.0 * here + next;
+            let delta = if denom < 0.0 {
+                (0.5 * (prev - next) / denom).clamp(-0.5, 0.5)
+            } else {
+                0.0
+            };
+            *p = Peak {
+                lag: lag as f32 + delta,
+                value: here - 0.25 * (prev - next) * delta,
+            };
+        }
+        // Refinement can reorder close peaks; the search expects highest first. (A stable
+        // insertion sort of at most M entries: no allocation.)
+        for i in 1..out.len() {
+            let mut j = i;
+            while j > 0 && out[j - 1].value < out[j].value {
+                out.swap(j - 1, j);
+                j -= 1;
             }
-        };
-        insert_top(out, peak, m);
+        }
     }
 }
 
 /// Inserts `p` into `list` (sorted by value, highest first) keeping at most `m` entries.
+#[inline]
 fn insert_top(list: &mut Vec<Peak>, p: Peak, m: usize) {
     if m == 0 {
         return;
@@ -314,6 +346,25 @@ mod tests {
                 value: 1.0
             }]
         );
+    }
+
+    #[test]
+    fn peaks_next_to_lag_zero_are_found() {
+        for lag in [-2isize, -1, 0, 1, 2] {
+            let n = 32;
+            let mut r = vec![0.0f32; n];
+            r[lag.rem_euclid(n as isize) as usize] = 1.0;
+            let mut peaks = Vec::with_capacity(1);
+            find_peaks(&r, 5, 1, Interpolation::None, &mut peaks);
+            assert_eq!(
+                peaks,
+                vec![Peak {
+                    lag: lag as f32,
+                    value: 1.0
+                }],
+                "lag {lag}"
+            );
+        }
     }
 
     #[test]
