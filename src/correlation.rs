@@ -156,29 +156,43 @@ pub fn find_peaks(r: &[f32], max_lag: usize, m: usize, interp: Interpolation, ou
             lag as usize
         }]
     };
-    // A plateau counts once, at its first sample.
-    let mut consider = |lag: isize, w: [f32; 3]| {
-        if w[1] > w[0] && w[1] >= w[2] {
-            insert_top(
-                out,
-                Peak {
-                    lag: lag as f32,
-                    value: w[1],
-                },
-                m,
-            );
+    // A plateau counts once, at its first sample. Candidates are marked 32 lags at a time
+    // without branches (the compiler vectorises the comparisons); only samples above the
+    // lowest peak kept so far (`floor`, once `m` are kept) are marked, and those go to
+    // `insert_top`, which has the final word, so the result does not depend on blocking.
+    let mut floor = f32::NEG_INFINITY;
+    let mut scan = |samples: &[f32], first_lag: isize| {
+        // samples[i + 1] is the sample at lag first_lag + i; its neighbours are i and i + 2.
+        let count = samples.len() - 2;
+        let mut start = 0;
+        while start < count {
+            let len = (count - start).min(32);
+            let mut mask = 0u32;
+            for (b, w) in samples[start..start + len + 2].windows(3).enumerate() {
+                let hit = (w[1] > floor) & (w[1] > w[0]) & (w[1] >= w[2]);
+                mask |= (hit as u32) << b;
+            }
+            while mask != 0 {
+                let b = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let i = start + b;
+                let peak = Peak {
+                    lag: (first_lag + i as isize) as f32,
+                    value: samples[i + 1],
+                };
+                insert_top(out, peak, m);
+                if out.len() == m {
+                    floor = out[m - 1].value;
+                }
+            }
+            start += len;
         }
     };
-    // Lags -max_lag..=-2 and 2..=max_lag as contiguous windows; -1, 0, 1 across the wrap.
+    // Lags -max_lag..=-2 and 1..=max_lag as contiguous runs; -1 and 0 across the wrap.
     let l = max_lag as usize;
-    for (i, w) in r[n - l - 1..n].windows(3).enumerate() {
-        consider(i as isize - max_lag, [w[0], w[1], w[2]]);
-    }
-    consider(-1, [r[n - 2], r[n - 1], r[0]]);
-    consider(0, [r[n - 1], r[0], r[1]]);
-    for (i, w) in r[0..l + 2].windows(3).enumerate() {
-        consider(i as isize + 1, [w[0], w[1], w[2]]);
-    }
+    scan(&r[n - l - 1..n], -max_lag);
+    scan(&[r[n - 2], r[n - 1], r[0], r[1]], -1);
+    scan(&r[0..l + 2], 1);
     if interp == Interpolation::Parabolic {
         for p in out.iter_mut() {
             let lag = p.lag as isize;

@@ -14,6 +14,24 @@ use anyhow::{bail, Result};
 use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+/// Time spent in each stage (only measured after [`Analyzer::enable_stage_timing`]).
+#[derive(Debug, Clone, Default)]
+pub struct StageTimes {
+    /// Live-channel check, forward FFTs, mean power spectrum.
+    pub spectra: Duration,
+    /// Weights (eq. 4-5), noise estimate update, whitening.
+    pub weighting: Duration,
+    /// Cross-spectra and inverse FFTs of every pair (eq. 6).
+    pub correlation: Duration,
+    /// The M highest peaks of every pair (eq. 7).
+    pub peaks: Duration,
+    /// The consistency search (eq. 8).
+    pub search: Duration,
+    /// Direction (eq. 13) and the detection record.
+    pub direction: Duration,
+}
 
 /// The method's parameters (defaults are the paper's where it gives them).
 #[derive(Debug, Clone, serde::Serialize)]
@@ -143,6 +161,19 @@ pub struct Analyzer {
     stats: FrameStats,
     /// Frames folded in by [`Analyzer::prime`] and not yet processed.
     primed: usize,
+    timing: bool,
+    times: StageTimes,
+}
+
+/// Adds the time since `$clock` to `$self.times.$stage` (when timing) and restarts it.
+macro_rules! lap {
+    ($self:ident, $clock:ident, $stage:ident) => {
+        if let Some(t) = $clock.as_mut() {
+            let now = Instant::now();
+            $self.times.$stage += now - *t;
+            *t = now;
+        }
+    };
 }
 
 impl Analyzer {
@@ -209,6 +240,8 @@ impl Analyzer {
                 ..Default::default()
             },
             primed: 0,
+            timing: false,
+            times: StageTimes::default(),
         })
     }
 
@@ -222,6 +255,19 @@ impl Analyzer {
 
     pub fn speed_of_sound(&self) -> f64 {
         self.speed
+    }
+
+    /// Starts measuring the time spent in each stage (costs about 1 us a frame).
+    pub fn enable_stage_timing(&mut self) {
+        self.timing = true;
+    }
+
+    pub fn timing_enabled(&self) -> bool {
+        self.timing
+    }
+
+    pub fn stage_times(&self) -> &StageTimes {
+        &self.times
     }
 
     pub fn stats(&self) -> &FrameStats {
@@ -281,7 +327,10 @@ impl Analyzer {
         self.stats.frames += 1;
         let primed = self.primed > 0;
         self.primed = self.primed.saturating_sub(1);
-        if !self.spectra_and_power(frame) {
+        let mut clock = self.timing.then(Instant::now);
+        let live = self.spectra_and_power(frame);
+        lap!(self, clock, spectra);
+        if !live {
             self.stats.silent_frames += 1;
             return None;
         }
@@ -312,6 +361,7 @@ impl Analyzer {
         }
         // Eq. (6) divided by N (see the `correlation` module on the scale).
         let norm = n as f32;
+        lap!(self, clock, weighting);
 
         // R_ij of every live pair (eq. 6) and its M highest peaks (eq. 7).
         let k = self.live.len();
@@ -327,6 +377,7 @@ impl Analyzer {
                     norm,
                     &mut self.corr,
                 );
+                lap!(self, clock, correlation);
                 correlation::find_peaks(
                     &self.corr,
                     self.max_lag[pair_index(i, j, mics)],
@@ -334,11 +385,14 @@ impl Analyzer {
                     self.params.interpolation,
                     &mut self.peaks[pair_index(a, b, k)],
                 );
+                lap!(self, clock, peaks);
             }
         }
 
         // The consistent delay set with the greatest correlation (eq. 8).
-        let Some(solution) = self.searcher.search(k, &self.peaks) else {
+        self.searcher.search(k, &self.peaks);
+        lap!(self, clock, search);
+        let Some(solution) = self.searcher.solution() else {
             if self.searcher.exhausted() {
                 self.stats.budget_frames += 1;
             }
@@ -368,6 +422,7 @@ impl Analyzer {
         let u = solver.solve(&solution.lags)?;
         let (azimuth_deg, elevation_deg) = angles_deg(&u);
         self.stats.detections += 1;
+        lap!(self, clock, direction);
         Some(Detection {
             frame: index,
             time_s: (index as f64 * self.hop as f64 + n as f64 / 2.0) / self.rate,

@@ -82,6 +82,11 @@ impl Searcher {
         }
     }
 
+    /// The last search's solution (meaningful only when that search found one).
+    pub fn solution(&self) -> Option<&Solution> {
+        self.found.then_some(&self.solution)
+    }
+
     /// Nodes (candidate peaks tried) in the last search.
     pub fn nodes(&self) -> u64 {
         self.nodes

@@ -19,6 +19,8 @@ pub struct FileSummary {
     pub format: WavFormat,
     pub frame_size: usize,
     pub stats: FrameStats,
+    /// Time per stage, when stage timing was enabled.
+    pub stage_times: Option<crate::pipeline::StageTimes>,
     /// Remarks for the user (dead channels, silence, search budget).
     pub warnings: Vec<String>,
 }
@@ -77,6 +79,11 @@ impl FileAnalysis {
 
     pub fn analyzer(&self) -> &Analyzer {
         &self.analyzer
+    }
+
+    /// Measures the time spent in each stage (reported in the summary).
+    pub fn enable_stage_timing(&mut self) {
+        self.analyzer.enable_stage_timing();
     }
 
     /// Frames the file will give, when its length is known.
@@ -163,6 +170,10 @@ impl FileAnalysis {
             name,
             format: self.stream.format.clone(),
             frame_size: self.analyzer.frame_size(),
+            stage_times: self
+                .analyzer
+                .timing_enabled()
+                .then(|| self.analyzer.stage_times().clone()),
             stats,
             warnings,
         }

@@ -1,0 +1,199 @@
+//! Whole-run speed and memory of `ssl analyze` against the FFT floor, on an 8-channel
+//! 48 kHz recording with N = 1024 (issue 4's yardstick).
+//!
+//! `cargo run --release --example speed -- [SECONDS]` (default 600; 3600 for the
+//! one-hour memory check). It:
+//! 1. writes a 16-bit recording of SECONDS to a temporary file, streaming a 10 s block
+//!    of sources and fan noise repeatedly (the recording never sits in memory);
+//! 2. runs the `ssl` binary on it (`target/release/ssl`, build it first) and reports wall
+//!    time, x real time and peak resident memory (VmHWM, polled from /proc);
+//! 3. runs the same analysis in this process with stage timing, and measures the FFT
+//!    floor in the same run: only the 8 forward and 28 inverse real FFTs per frame,
+//!    with the same library and sizes, on the same data sizes;
+//! 4. prints the stages as microseconds per frame and as a ratio to the floor.
+
+use nalgebra::Vector3;
+use realfft::num_complex::Complex32;
+use realfft::RealFftPlanner;
+use ssl::direction::unit_from_angles;
+use ssl::geometry::PAPER_PRISM;
+use ssl::synth::{self, Place, Scene, Signal, Source};
+use ssl::{FileAnalysis, Geometry, Params};
+use std::io::Write;
+use std::time::{Duration, Instant};
+
+fn main() -> anyhow::Result<()> {
+    let seconds: f64 = std::env::args()
+        .nth(1)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(600.0);
+    let dir = tempfile::tempdir()?;
+    let wav = dir.path().join("speed.wav");
+    let geo = dir.path().join("prism.toml");
+    let mut toml = String::new();
+    for p in PAPER_PRISM {
+        toml += &format!("[[mic]]\nposition = [{}, {}, {}]\n", p[0], p[1], p[2]);
+    }
+    std::fs::write(&geo, toml)?;
+    write_recording(&wav, seconds)?;
+    let frames = ((seconds * 48000.0 - 1024.0) / 512.0).floor() + 1.0;
+
+    // The binary, end to end.
+    let exe = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/release/ssl");
+    if !exe.exists() {
+        anyhow::bail!("build the binary first: cargo build --release");
+    }
+    let t0 = Instant::now();
+    let mut child = std::process::Command::new(&exe)
+        .args([
+            "analyze",
+            wav.to_str().unwrap(),
+            "-g",
+            geo.to_str().unwrap(),
+            "-o",
+            "/dev/null",
+        ])
+        .spawn()?;
+    let mut peak_kb = 0u64;
+    let status = loop {
+        if let Ok(s) = std::fs::read_to_string(format!("/proc/{}/status", child.id())) {
+            if let Some(v) = s.lines().find(|l| l.starts_with("VmHWM:")) {
+                peak_kb = peak_kb.max(
+                    v.split_whitespace()
+                        .nth(1)
+                        .and_then(|x| x.parse().ok())
+                        .unwrap_or(0),
+                );
+            }
+        }
+        if let Some(status) = child.try_wait()? {
+            break status;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let wall = t0.elapsed().as_secs_f64();
+    anyhow::ensure!(status.success(), "ssl analyze failed");
+
+    // The same analysis in-process with stage timing.
+    let g = Geometry::from_file(&geo)?;
+    let mut analysis = FileAnalysis::open(wav.to_str().unwrap(), &g, &Params::default())?;
+    analysis.enable_stage_timing();
+    let t1 = Instant::now();
+    let (summary, result) = analysis.run(|_, _| Ok(()));
+    result?;
+    let in_process = t1.elapsed().as_secs_f64();
+    let st = summary.stage_times.clone().unwrap_or_default();
+
+    // The FFT floor: 8 forward + 28 inverse real FFTs of 1024 per frame.
+    let mut planner = RealFftPlanner::<f32>::new();
+    let fwd = planner.plan_fft_forward(1024);
+    let inv = planner.plan_fft_inverse(1024);
+    let mut input = vec![0.1f32; 1024];
+    let mut spec = fwd.make_output_vec();
+    let mut scratch = fwd.make_scratch_vec();
+    let mut out = vec![0.0f32; 1024];
+    let mut iscratch = inv.make_scratch_vec();
+    let mut cross = vec![Complex32::new(0.5, 0.1); 513];
+    let sample = (frames as usize).min(20000);
+    let t2 = Instant::now();
+    for _ in 0..sample {
+        for _ in 0..8 {
+            fwd.process_with_scratch(&mut input, &mut spec, &mut scratch)?;
+        }
+        for _ in 0..28 {
+            cross[0].im = 0.0;
+            cross[512].im = 0.0;
+            inv.process_with_scratch(&mut cross, &mut out, &mut iscratch)?;
+        }
+    }
+    let floor_per_frame = t2.elapsed().as_secs_f64() / sample as f64;
+
+    let us = |d: Duration| d.as_secs_f64() / frames * 1e6;
+    let floor_us = floor_per_frame * 1e6;
+    println!("recording: {seconds:.0} s, 8 channels, 48 kHz, 16-bit, {frames:.0} frames of 1024");
+    println!(
+        "ssl analyze (one thread): {wall:.2} s wall, {:.0}x real time, peak memory {:.1} MB",
+        seconds / wall,
+        peak_kb as f64 / 1024.0
+    );
+    println!(
+        "FFT floor: {floor_us:.1} us per frame ({:.0}x real time)",
+        512.0 / 48000.0 / floor_per_frame
+    );
+    println!(
+        "pipeline in-process: {:.1} us per frame = {:.2}x the floor\n",
+        in_process / frames * 1e6,
+        in_process / frames * 1e6 / floor_us
+    );
+    println!("| stage | us per frame | x floor |");
+    println!("|---|---|---|");
+    let timed = st.spectra + st.weighting + st.correlation + st.peaks + st.search + st.direction;
+    let read = Duration::from_secs_f64((in_process - timed.as_secs_f64()).max(0.0));
+    for (name, d) in [
+        ("read, convert, frame (the rest)", read),
+        ("forward FFTs + power", st.spectra),
+        ("weighting + whitening", st.weighting),
+        ("cross-spectra + inverse FFTs", st.correlation),
+        ("peaks", st.peaks),
+        ("search", st.search),
+        ("direction", st.direction),
+    ] {
+        println!("| {name} | {:.1} | {:.2} |", us(d), us(d) / floor_us);
+    }
+    std::io::stdout().flush()?;
+    Ok(())
+}
+
+/// Writes `seconds` of a 16-bit 8-channel recording by repeating a 10 s rendered block.
+fn write_recording(path: &std::path::Path, seconds: f64) -> anyhow::Result<()> {
+    let mics: Vec<Vector3<f64>> = PAPER_PRISM.iter().map(|p| Vector3::from(*p)).collect();
+    let mut sources: Vec<Source> = (0..6)
+        .map(|i| Source {
+            place: Place::Direction(unit_from_angles(
+                -150.0 + 60.0 * i as f64,
+                -10.0 + 8.0 * i as f64,
+            )),
+            signal: if i % 2 == 0 {
+                Signal::SpeechLike
+            } else {
+                Signal::WhiteNoise
+            },
+            start_s: 0.3 + 1.6 * i as f64,
+            end_s: 1.3 + 1.6 * i as f64,
+            level: 0.05,
+        })
+        .collect();
+    sources.push(Source {
+        place: Place::Direction(unit_from_angles(80.0, 40.0)),
+        signal: Signal::PinkNoise,
+        start_s: 0.0,
+        end_s: 10.0,
+        level: 0.015,
+    });
+    let block = synth::render(&Scene {
+        sample_rate: 48000,
+        duration_s: 10.0,
+        mics,
+        speed_of_sound: 343.0,
+        sources,
+        sensor_noise: 0.001,
+        seed: 9,
+    });
+    let spec = hound::WavSpec {
+        channels: 8,
+        sample_rate: 48000,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut w = hound::WavWriter::create(path, spec)?;
+    let total = (seconds * 48000.0) as usize;
+    let len = block[0].len();
+    for i in 0..total {
+        for ch in &block {
+            w.write_sample((ch[i % len] * 32768.0).round().clamp(-32768.0, 32767.0) as i16)?;
+        }
+    }
+    w.finalize()?;
+    Ok(())
+}
