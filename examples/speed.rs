@@ -5,8 +5,9 @@
 //! one-hour memory check). It:
 //! 1. writes a 16-bit recording of SECONDS to a temporary file, streaming a 10 s block
 //!    of sources and fan noise repeatedly (the recording never sits in memory);
-//! 2. runs the `ssl` binary on it (`target/release/ssl`, build it first) and reports wall
-//!    time, x real time and peak resident memory (VmHWM, polled from /proc);
+//! 2. runs the `ssl` binary on it (`target/release/ssl`, build it first) on one thread and
+//!    on all cores, and reports wall time, x real time and peak resident memory (VmHWM,
+//!    polled from /proc);
 //! 3. runs the same analysis in this process with stage timing, and measures the FFT
 //!    floor in the same run: only the 8 forward and 28 inverse real FFTs per frame,
 //!    with the same library and sizes, on the same data sizes;
@@ -44,36 +45,42 @@ fn main() -> anyhow::Result<()> {
     if !exe.exists() {
         anyhow::bail!("build the binary first: cargo build --release");
     }
-    let t0 = Instant::now();
-    let mut child = std::process::Command::new(&exe)
-        .args([
-            "analyze",
-            wav.to_str().unwrap(),
-            "-g",
-            geo.to_str().unwrap(),
-            "-o",
-            "/dev/null",
-        ])
-        .spawn()?;
-    let mut peak_kb = 0u64;
-    let status = loop {
-        if let Ok(s) = std::fs::read_to_string(format!("/proc/{}/status", child.id())) {
-            if let Some(v) = s.lines().find(|l| l.starts_with("VmHWM:")) {
-                peak_kb = peak_kb.max(
-                    v.split_whitespace()
-                        .nth(1)
-                        .and_then(|x| x.parse().ok())
-                        .unwrap_or(0),
-                );
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut runs = Vec::new();
+    for threads in [1, cores] {
+        let t0 = Instant::now();
+        let mut child = std::process::Command::new(&exe)
+            .args([
+                "analyze",
+                wav.to_str().unwrap(),
+                "-g",
+                geo.to_str().unwrap(),
+                "-o",
+                "/dev/null",
+                "--threads",
+                &threads.to_string(),
+            ])
+            .spawn()?;
+        let mut peak_kb = 0u64;
+        let status = loop {
+            if let Ok(s) = std::fs::read_to_string(format!("/proc/{}/status", child.id())) {
+                if let Some(v) = s.lines().find(|l| l.starts_with("VmHWM:")) {
+                    peak_kb = peak_kb.max(
+                        v.split_whitespace()
+                            .nth(1)
+                            .and_then(|x| x.parse().ok())
+                            .unwrap_or(0),
+                    );
+                }
             }
-        }
-        if let Some(status) = child.try_wait()? {
-            break status;
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    let wall = t0.elapsed().as_secs_f64();
-    anyhow::ensure!(status.success(), "ssl analyze failed");
+            if let Some(status) = child.try_wait()? {
+                break status;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        anyhow::ensure!(status.success(), "ssl analyze failed");
+        runs.push((threads, t0.elapsed().as_secs_f64(), peak_kb));
+    }
 
     // The same analysis in-process with stage timing.
     let g = Geometry::from_file(&geo)?;
@@ -112,11 +119,13 @@ fn main() -> anyhow::Result<()> {
     let us = |d: Duration| d.as_secs_f64() / frames * 1e6;
     let floor_us = floor_per_frame * 1e6;
     println!("recording: {seconds:.0} s, 8 channels, 48 kHz, 16-bit, {frames:.0} frames of 1024");
-    println!(
-        "ssl analyze (one thread): {wall:.2} s wall, {:.0}x real time, peak memory {:.1} MB",
-        seconds / wall,
-        peak_kb as f64 / 1024.0
-    );
+    for (threads, wall, peak_kb) in &runs {
+        println!(
+            "ssl analyze --threads {threads}: {wall:.2} s wall, {:.0}x real time, peak memory {:.1} MB",
+            seconds / wall,
+            *peak_kb as f64 / 1024.0
+        );
+    }
     println!(
         "FFT floor: {floor_us:.1} us per frame ({:.0}x real time)",
         512.0 / 48000.0 / floor_per_frame

@@ -127,6 +127,10 @@ pub struct AnalyzeArgs {
     #[arg(long, value_enum, default_value_t = Interpolation::Parabolic)]
     pub interpolation: Interpolation,
 
+    /// Threads to analyse with (0: all cores); the output is the same for any number
+    #[arg(short = 'j', long, default_value_t = 0, value_name = "N")]
+    pub threads: usize,
+
     /// No progress bar and no warnings (errors are still reported)
     #[arg(short, long)]
     pub quiet: bool,
@@ -243,7 +247,11 @@ pub fn main() -> i32 {
         }
     };
     let result = match cli.command {
-        Command::Analyze(args) => analyze(&args),
+        Command::Analyze(args) => rayon::ThreadPoolBuilder::new()
+            .num_threads(args.threads)
+            .build()
+            .map_err(anyhow::Error::from)
+            .and_then(|pool| pool.install(|| analyze(&args))),
         Command::Geometry(args) => geometry(&args).map(|()| true),
         Command::Simulate(args) => simulate(&args).map(|()| true),
         Command::Evaluate(args) => evaluate(&args).map(|()| true),

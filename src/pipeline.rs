@@ -103,7 +103,7 @@ pub fn default_frame_size(sample_rate: u32) -> usize {
 }
 
 /// One detected source in one frame.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Detection {
     /// Frame index (frame `i` starts at sample `i * N / 2`).
     pub frame: u64,
@@ -136,47 +136,19 @@ pub struct FrameStats {
     pub below_threshold_frames: u64,
 }
 
-/// The per-frame engine for one geometry and sample rate.
-pub struct Analyzer {
+/// What the method needs that does not change during a run (shared by all threads).
+pub struct Setup {
     geometry: Geometry,
     params: Params,
     n: usize,
     hop: usize,
     rate: f64,
     speed: f64,
-    fft: ForwardFft,
-    spectra: Vec<Vec<Complex32>>,
-    whitened: Vec<Vec<Complex32>>,
-    power: Vec<f32>,
-    weights: Vec<f32>,
-    noise: NoiseEstimator,
-    correlator: Correlator,
-    corr: Vec<f32>,
     /// Lag search range per global pair (samples).
     max_lag: Vec<usize>,
-    peaks: Vec<Vec<Peak>>,
-    searcher: Searcher,
-    solvers: HashMap<u64, Option<DirectionSolver>>,
-    live: Vec<usize>,
-    stats: FrameStats,
-    /// Frames folded in by [`Analyzer::prime`] and not yet processed.
-    primed: usize,
-    timing: bool,
-    times: StageTimes,
 }
 
-/// Adds the time since `$clock` to `$self.times.$stage` (when timing) and restarts it.
-macro_rules! lap {
-    ($self:ident, $clock:ident, $stage:ident) => {
-        if let Some(t) = $clock.as_mut() {
-            let now = Instant::now();
-            $self.times.$stage += now - *t;
-            *t = now;
-        }
-    };
-}
-
-impl Analyzer {
+impl Setup {
     pub fn new(geometry: &Geometry, sample_rate: u32, params: &Params) -> Result<Self> {
         let n = params
             .frame_size
@@ -211,37 +183,14 @@ impl Analyzer {
                 "the array's largest delay ({widest} samples at {sample_rate} Hz) does not fit in a frame of {n} samples: use --frame-size {needed} or more"
             );
         }
-        let bins = n / 2 + 1;
-        let hop = n / 2;
-        Ok(Analyzer {
+        Ok(Setup {
             geometry: geometry.clone(),
             params: params.clone(),
             n,
-            hop,
+            hop: n / 2,
             rate,
             speed,
-            fft: ForwardFft::new(n, params.window),
-            spectra: vec![vec![Complex32::default(); bins]; mics],
-            whitened: vec![vec![Complex32::default(); bins]; mics],
-            power: vec![0.0; bins],
-            weights: vec![1.0; bins],
-            noise: NoiseEstimator::new(bins, hop as f64 / rate, params.noise),
-            correlator: Correlator::new(n),
-            corr: vec![0.0; n],
             max_lag,
-            peaks: (0..pair_count(mics))
-                .map(|_| Vec::with_capacity(params.peaks))
-                .collect(),
-            searcher: Searcher::new(params.tolerance, params.max_nodes),
-            solvers: HashMap::new(),
-            live: Vec::with_capacity(mics),
-            stats: FrameStats {
-                dead_frames: vec![0; mics],
-                ..Default::default()
-            },
-            primed: 0,
-            timing: false,
-            times: StageTimes::default(),
         })
     }
 
@@ -253,8 +202,334 @@ impl Analyzer {
         self.hop
     }
 
+    fn bins(&self) -> usize {
+        self.n / 2 + 1
+    }
+
+    /// Number of microphones.
+    pub fn geometry_mics(&self) -> usize {
+        self.geometry.mics.len()
+    }
+}
+
+/// One frame between the stages: its live microphones, spectra, `X(k)` and `w_e(k)`.
+pub struct FrameState {
+    live: Vec<usize>,
+    spectra: Vec<Vec<Complex32>>,
+    power: Vec<f32>,
+    weights: Vec<f32>,
+}
+
+impl FrameState {
+    pub fn new(setup: &Setup) -> Self {
+        let mics = setup.geometry.mics.len();
+        FrameState {
+            live: Vec::with_capacity(mics),
+            spectra: vec![vec![Complex32::default(); setup.bins()]; mics],
+            power: vec![0.0; setup.bins()],
+            weights: vec![1.0; setup.bins()],
+        }
+    }
+}
+
+/// How a frame ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Outcome {
+    /// Every channel constant.
+    Silent,
+    /// Fewer than two live microphones, or no direction from the delays.
+    Unsolved,
+    /// No consistent set of delays (`true`: the search hit its node budget).
+    Inconsistent(bool),
+    /// The best set scored under the threshold.
+    BelowThreshold(bool),
+    Detected(Detection, bool),
+}
+
+/// Per-thread buffers for the parallel stages (plans, scratch, peak tables, search).
+pub struct Worker {
+    fft: ForwardFft,
+    correlator: Correlator,
+    corr: Vec<f32>,
+    whitened: Vec<Vec<Complex32>>,
+    peaks: Vec<Vec<Peak>>,
+    searcher: Searcher,
+    solvers: HashMap<u64, Option<DirectionSolver>>,
+}
+
+impl Worker {
+    pub fn new(setup: &Setup) -> Self {
+        let mics = setup.geometry.mics.len();
+        Worker {
+            fft: ForwardFft::new(setup.n, setup.params.window),
+            correlator: Correlator::new(setup.n),
+            corr: vec![0.0; setup.n],
+            whitened: vec![vec![Complex32::default(); setup.bins()]; mics],
+            peaks: (0..pair_count(mics))
+                .map(|_| Vec::with_capacity(setup.params.peaks))
+                .collect(),
+            searcher: Searcher::new(setup.params.tolerance, setup.params.max_nodes),
+            solvers: HashMap::new(),
+        }
+    }
+
+    /// Stage 1 (independent per frame): live microphones, spectra and `X(k)`, the mean
+    /// power spectrum over the live microphones. Returns `false` when none is live.
+    pub fn spectra(&mut self, setup: &Setup, frame: &[f32], state: &mut FrameState) -> bool {
+        let n = setup.n;
+        // Live microphones: a channel stuck at one value carries no delay information.
+        state.live.clear();
+        for m in 0..setup.geometry.mics.len() {
+            let s = &frame[m * n..(m + 1) * n];
+            let first = s[0];
+            if s.iter().any(|&v| v != first) {
+                state.live.push(m);
+            }
+        }
+        if state.live.is_empty() {
+            return false;
+        }
+        state.power.fill(0.0);
+        for &m in &state.live {
+            self.fft
+                .transform(&frame[m * n..(m + 1) * n], &mut state.spectra[m]);
+            for (p, x) in state.power.iter_mut().zip(&state.spectra[m]) {
+                *p += x.norm_sqr();
+            }
+        }
+        let inv = 1.0 / state.live.len() as f32;
+        state.power.iter_mut().for_each(|p| *p *= inv);
+        true
+    }
+
+    /// Stage 3 (independent per frame, given its weights): whitening, the correlation of
+    /// every live pair (eq. 6), its M peaks (eq. 7), the search (eq. 8), the direction
+    /// (eq. 13).
+    pub fn localize(
+        &mut self,
+        setup: &Setup,
+        state: &FrameState,
+        index: u64,
+        mut times: Option<&mut StageTimes>,
+    ) -> Outcome {
+        let mut clock = times.is_some().then(Instant::now);
+        let mut lap = |clock: &mut Option<Instant>, pick: fn(&mut StageTimes) -> &mut Duration| {
+            if let (Some(t), Some(times)) = (clock.as_mut(), times.as_deref_mut()) {
+                let now = Instant::now();
+                *pick(times) += now - *t;
+                *t = now;
+            }
+        };
+        let (n, mics) = (setup.n, setup.geometry.mics.len());
+        for &m in &state.live {
+            correlation::whiten(&state.spectra[m], &state.weights, &mut self.whitened[m]);
+        }
+        lap(&mut clock, |t| &mut t.weighting);
+        let k = state.live.len();
+        if k < 2 {
+            return Outcome::Unsolved;
+        }
+        // Eq. (6) divided by N (see the `correlation` module on the scale).
+        let norm = n as f32;
+        for a in 0..k {
+            for b in a + 1..k {
+                let (i, j) = (state.live[a], state.live[b]);
+                self.correlator.correlate(
+                    &self.whitened[i],
+                    &self.whitened[j],
+                    norm,
+                    &mut self.corr,
+                );
+                lap(&mut clock, |t| &mut t.correlation);
+                correlation::find_peaks(
+                    &self.corr,
+                    setup.max_lag[pair_index(i, j, mics)],
+                    setup.params.peaks,
+                    setup.params.interpolation,
+                    &mut self.peaks[pair_index(a, b, k)],
+                );
+                lap(&mut clock, |t| &mut t.peaks);
+            }
+        }
+        // The consistent delay set with the greatest correlation (eq. 8).
+        self.searcher.search(k, &self.peaks);
+        lap(&mut clock, |t| &mut t.search);
+        let budget = self.searcher.exhausted();
+        let Some(solution) = self.searcher.solution() else {
+            return Outcome::Inconsistent(budget);
+        };
+        let threshold = setup
+            .params
+            .min_score
+            .unwrap_or(DEFAULT_MIN_SCORE_PER_PAIR * pair_count(k) as f64);
+        if solution.score < threshold {
+            return Outcome::BelowThreshold(budget);
+        }
+        // Direction (eq. 13) for this set of live microphones.
+        let mask = state.live.iter().fold(0u64, |acc, &m| acc | (1u64 << m));
+        let solver = self.solvers.entry(mask).or_insert_with(|| {
+            DirectionSolver::new(&setup.geometry, mask, setup.rate, setup.speed).ok()
+        });
+        let Some(u) = solver.as_ref().and_then(|s| s.solve(&solution.lags)) else {
+            return Outcome::Unsolved;
+        };
+        let (azimuth_deg, elevation_deg) = angles_deg(&u);
+        let detection = Detection {
+            frame: index,
+            time_s: (index as f64 * setup.hop as f64 + n as f64 / 2.0) / setup.rate,
+            azimuth_deg,
+            elevation_deg,
+            direction: u,
+            score: solution.score,
+            mics: k,
+        };
+        lap(&mut clock, |t| &mut t.direction);
+        Outcome::Detected(detection, budget)
+    }
+}
+
+/// The sequential part of the method: the noise estimate, which depends on every
+/// previous frame in order, and the run's counters.
+pub struct Sequential {
+    noise: NoiseEstimator,
+    stats: FrameStats,
+    /// Frames folded in by `prime` and not yet weighed.
+    primed: usize,
+}
+
+impl Sequential {
+    pub fn new(setup: &Setup) -> Self {
+        Sequential {
+            noise: NoiseEstimator::new(
+                setup.bins(),
+                setup.hop as f64 / setup.rate,
+                setup.params.noise,
+            ),
+            stats: FrameStats {
+                dead_frames: vec![0; setup.geometry.mics.len()],
+                ..Default::default()
+            },
+            primed: 0,
+        }
+    }
+
+    /// Folds a frame (after stage 1) into the noise estimate only; primed frames must be
+    /// weighed next, in order, and are not folded in twice.
+    pub fn prime(&mut self, state: &FrameState, live: bool) {
+        if live {
+            self.noise.update(&state.power);
+        }
+        self.primed += 1;
+    }
+
+    /// Stage 2 (in frame order): `w_e(k)` from `X(k)` and the noise estimate of previous
+    /// frames (eq. 4-5), then the estimate is updated. Returns `false` for a silent frame.
+    pub fn weigh(&mut self, setup: &Setup, state: &mut FrameState, live: bool) -> bool {
+        self.stats.frames += 1;
+        let primed = self.primed > 0;
+        self.primed = self.primed.saturating_sub(1);
+        if !live {
+            self.stats.silent_frames += 1;
+            return false;
+        }
+        for m in 0..setup.geometry.mics.len() {
+            if !state.live.contains(&m) {
+                self.stats.dead_frames[m] += 1;
+            }
+        }
+        if !self.noise.started() {
+            self.noise.start(&state.power);
+        }
+        if setup.params.weighting {
+            enhanced_weights(
+                &state.power,
+                self.noise.noise(),
+                setup.params.alpha,
+                setup.params.gamma,
+                &mut state.weights,
+            );
+        }
+        if !primed {
+            self.noise.update(&state.power);
+        }
+        true
+    }
+
+    /// Counts a frame's outcome (in frame order) and returns its detection.
+    pub fn tally(&mut self, outcome: Outcome) -> Option<Detection> {
+        let budget = match outcome {
+            Outcome::Inconsistent(b) => {
+                self.stats.inconsistent_frames += 1;
+                b
+            }
+            Outcome::BelowThreshold(b) => {
+                self.stats.below_threshold_frames += 1;
+                b
+            }
+            Outcome::Detected(_, b) => {
+                self.stats.detections += 1;
+                b
+            }
+            Outcome::Silent | Outcome::Unsolved => false,
+        };
+        if budget {
+            self.stats.budget_frames += 1;
+        }
+        match outcome {
+            Outcome::Detected(d, _) => Some(d),
+            _ => None,
+        }
+    }
+
+    pub fn stats(&self) -> &FrameStats {
+        &self.stats
+    }
+}
+
+/// The whole method for one frame at a time, on one thread: stage 1, stage 2, stage 3.
+/// (`FileAnalysis` runs the same stages over blocks of frames on several threads.)
+pub struct Analyzer {
+    setup: Setup,
+    worker: Worker,
+    sequential: Sequential,
+    state: FrameState,
+    timing: bool,
+    times: StageTimes,
+}
+
+impl Analyzer {
+    pub fn new(geometry: &Geometry, sample_rate: u32, params: &Params) -> Result<Self> {
+        let setup = Setup::new(geometry, sample_rate, params)?;
+        Ok(Analyzer {
+            worker: Worker::new(&setup),
+            sequential: Sequential::new(&setup),
+            state: FrameState::new(&setup),
+            setup,
+            timing: false,
+            times: StageTimes::default(),
+        })
+    }
+
+    pub fn setup(&self) -> &Setup {
+        &self.setup
+    }
+
+    /// The shared setup and the sequential state, for running the stages over blocks of
+    /// frames on several threads.
+    pub fn parts(&mut self) -> (&Setup, &mut Sequential) {
+        (&self.setup, &mut self.sequential)
+    }
+
+    pub fn frame_size(&self) -> usize {
+        self.setup.n
+    }
+
+    pub fn hop(&self) -> usize {
+        self.setup.hop
+    }
+
     pub fn speed_of_sound(&self) -> f64 {
-        self.speed
+        self.setup.speed
     }
 
     /// Starts measuring the time spent in each stage (costs about 1 us a frame).
@@ -271,167 +546,41 @@ impl Analyzer {
     }
 
     pub fn stats(&self) -> &FrameStats {
-        &self.stats
+        self.sequential.stats()
     }
 
     /// The largest lag searched for each pair of the full array (samples).
     pub fn lag_ranges(&self) -> &[usize] {
-        &self.max_lag
+        &self.setup.max_lag
+    }
+
+    /// Folds a frame into the noise estimate only (no detection, no statistics). Files
+    /// prime the estimate with their first [`PRIMING_S`] seconds before analysing them,
+    /// so that their first frames are weighted against a formed noise estimate. The
+    /// primed frames must then be processed, in order, before any other: they are
+    /// not folded into the estimate a second time.
+    pub fn prime(&mut self, frame: &[f32]) {
+        let live = self.worker.spectra(&self.setup, frame, &mut self.state);
+        self.sequential.prime(&self.state, live);
     }
 
     /// Analyses frame `index`; `frame[m * N .. (m + 1) * N]` holds mic `m`'s samples.
-    /// Folds a frame into the noise estimate only (no detection, no statistics). Files
-    /// prime the estimate with their first [`PRIMING_S`] seconds before analysing them,
-    /// so that their first frames are weighted against a formed noise estimate.
-    /// The primed frames must then be processed, in order, before any other: they are
-    /// not folded into the estimate a second time.
-    pub fn prime(&mut self, frame: &[f32]) {
-        if self.spectra_and_power(frame) {
-            self.noise.update(&self.power);
-        }
-        self.primed += 1;
-    }
-
-    /// Finds the live microphones, their spectra and `X(k)`, the mean power spectrum over
-    /// them. Returns `false` when no microphone is live (digital silence).
-    fn spectra_and_power(&mut self, frame: &[f32]) -> bool {
-        let n = self.n;
-        // Live microphones: a channel stuck at one value carries no delay information.
-        self.live.clear();
-        for m in 0..self.geometry.mics.len() {
-            let s = &frame[m * n..(m + 1) * n];
-            let first = s[0];
-            if s.iter().any(|&v| v != first) {
-                self.live.push(m);
-            }
-        }
-        if self.live.is_empty() {
-            return false;
-        }
-        self.power.fill(0.0);
-        for &m in &self.live {
-            self.fft
-                .transform(&frame[m * n..(m + 1) * n], &mut self.spectra[m]);
-            for (p, x) in self.power.iter_mut().zip(&self.spectra[m]) {
-                *p += x.norm_sqr();
-            }
-        }
-        let inv = 1.0 / self.live.len() as f32;
-        self.power.iter_mut().for_each(|p| *p *= inv);
-        true
-    }
-
     pub fn process(&mut self, index: u64, frame: &[f32]) -> Option<Detection> {
-        let n = self.n;
-        let mics = self.geometry.mics.len();
-        self.stats.frames += 1;
-        let primed = self.primed > 0;
-        self.primed = self.primed.saturating_sub(1);
-        let mut clock = self.timing.then(Instant::now);
-        let live = self.spectra_and_power(frame);
-        lap!(self, clock, spectra);
-        if !live {
-            self.stats.silent_frames += 1;
-            return None;
+        let start = self.timing.then(Instant::now);
+        let live = self.worker.spectra(&self.setup, frame, &mut self.state);
+        let mid = self.timing.then(Instant::now);
+        let live = self.sequential.weigh(&self.setup, &mut self.state, live);
+        if let (Some(a), Some(b)) = (start, mid) {
+            self.times.spectra += b - a;
+            self.times.weighting += b.elapsed();
         }
-        for m in 0..mics {
-            if !self.live.contains(&m) {
-                self.stats.dead_frames[m] += 1;
-            }
-        }
-
-        // w_e(k) from X(k) and the noise estimate of previous frames (eq. 4-5).
-        if !self.noise.started() {
-            self.noise.start(&self.power);
-        }
-        if self.params.weighting {
-            enhanced_weights(
-                &self.power,
-                self.noise.noise(),
-                self.params.alpha,
-                self.params.gamma,
-                &mut self.weights,
-            );
-        }
-        if !primed {
-            self.noise.update(&self.power);
-        }
-        for &m in &self.live {
-            correlation::whiten(&self.spectra[m], &self.weights, &mut self.whitened[m]);
-        }
-        // Eq. (6) divided by N (see the `correlation` module on the scale).
-        let norm = n as f32;
-        lap!(self, clock, weighting);
-
-        // R_ij of every live pair (eq. 6) and its M highest peaks (eq. 7).
-        let k = self.live.len();
-        if k < 2 {
-            return None;
-        }
-        for a in 0..k {
-            for b in a + 1..k {
-                let (i, j) = (self.live[a], self.live[b]);
-                self.correlator.correlate(
-                    &self.whitened[i],
-                    &self.whitened[j],
-                    norm,
-                    &mut self.corr,
-                );
-                lap!(self, clock, correlation);
-                correlation::find_peaks(
-                    &self.corr,
-                    self.max_lag[pair_index(i, j, mics)],
-                    self.params.peaks,
-                    self.params.interpolation,
-                    &mut self.peaks[pair_index(a, b, k)],
-                );
-                lap!(self, clock, peaks);
-            }
-        }
-
-        // The consistent delay set with the greatest correlation (eq. 8).
-        self.searcher.search(k, &self.peaks);
-        lap!(self, clock, search);
-        let Some(solution) = self.searcher.solution() else {
-            if self.searcher.exhausted() {
-                self.stats.budget_frames += 1;
-            }
-            self.stats.inconsistent_frames += 1;
-            return None;
+        let outcome = if live {
+            let times = self.timing.then_some(&mut self.times);
+            self.worker.localize(&self.setup, &self.state, index, times)
+        } else {
+            Outcome::Silent
         };
-        if !solution.complete {
-            self.stats.budget_frames += 1;
-        }
-        let threshold = self
-            .params
-            .min_score
-            .unwrap_or(DEFAULT_MIN_SCORE_PER_PAIR * pair_count(k) as f64);
-        if solution.score < threshold {
-            self.stats.below_threshold_frames += 1;
-            return None;
-        }
-
-        // Direction (eq. 13) for this set of live microphones.
-        let mask = self.live.iter().fold(0u64, |acc, &m| acc | (1u64 << m));
-        let (geometry, rate, speed) = (&self.geometry, self.rate, self.speed);
-        let solver = self
-            .solvers
-            .entry(mask)
-            .or_insert_with(|| DirectionSolver::new(geometry, mask, rate, speed).ok())
-            .as_ref()?;
-        let u = solver.solve(&solution.lags)?;
-        let (azimuth_deg, elevation_deg) = angles_deg(&u);
-        self.stats.detections += 1;
-        lap!(self, clock, direction);
-        Some(Detection {
-            frame: index,
-            time_s: (index as f64 * self.hop as f64 + n as f64 / 2.0) / self.rate,
-            azimuth_deg,
-            elevation_deg,
-            direction: u,
-            score: solution.score,
-            mics: k,
-        })
+        self.sequential.tally(outcome)
     }
 }
 

@@ -2,7 +2,15 @@
 
 use crate::audio::{Framer, WavFormat, WavStream};
 use crate::geometry::Geometry;
-use crate::pipeline::{Analyzer, Detection, FrameStats, Params, PRIMING_S};
+use crate::pipeline::{
+    Analyzer, Detection, FrameState, FrameStats, Outcome, Params, Worker, PRIMING_S,
+};
+use rayon::prelude::*;
+use std::sync::Mutex;
+
+/// Frames analysed together on the thread pool (bounded memory: about 70 KB a frame for
+/// 8 microphones at N = 1024).
+pub const BLOCK: usize = 128;
 use anyhow::{bail, Result};
 
 /// A recording opened for analysis with one geometry and set of parameters.
@@ -96,38 +104,25 @@ impl FileAnalysis {
             .map(|f| if f < n { 0 } else { (f - n) / hop + 1 })
     }
 
-    /// Streams every frame through the analyzer. `sink` sees each frame's index and its
-    /// detection, if any; an error from `sink` (a closed pipe) stops the run. Returns the
-    /// summary of what was analysed and the error that stopped the file, if any.
+    /// Streams every frame through the method. `sink` sees each frame's index and its
+    /// detection, if any, in frame order; an error from `sink` (a closed pipe) stops the
+    /// run. Returns the summary of what was analysed and the error that stopped the file,
+    /// if any.
+    ///
+    /// Frames are analysed in blocks of [`BLOCK`] on the threads of the current rayon
+    /// pool: spectra in parallel, the noise estimate and weights in frame order (exactly
+    /// as one thread would), correlations, search and direction in parallel, then the
+    /// results in order. The output is the same for any number of threads. With stage
+    /// timing enabled, frames go one at a time through [`Analyzer::process`] instead.
     pub fn run(
         mut self,
         mut sink: impl FnMut(u64, Option<&Detection>) -> Result<()>,
     ) -> (FileSummary, Result<()>) {
-        let result = (|| -> Result<()> {
-            // Prime the noise estimate with the first frames, then analyse them too.
-            let hop_s = self.analyzer.hop() as f64 / self.stream.format.sample_rate as f64;
-            let priming = (PRIMING_S / hop_s).ceil() as usize;
-            let mut first: Vec<(u64, Vec<f32>)> = Vec::with_capacity(priming);
-            while first.len() < priming {
-                match self.framer.next_frame(&mut self.stream)? {
-                    Some((index, frame)) => first.push((index, frame.to_vec())),
-                    None => break,
-                }
-            }
-            for (_, frame) in &first {
-                self.analyzer.prime(frame);
-            }
-            for (index, frame) in &first {
-                let det = self.analyzer.process(*index, frame);
-                sink(*index, det.as_ref())?;
-            }
-            drop(first);
-            while let Some((index, frame)) = self.framer.next_frame(&mut self.stream)? {
-                let det = self.analyzer.process(index, frame);
-                sink(index, det.as_ref())?;
-            }
-            Ok(())
-        })();
+        let result = if self.analyzer.timing_enabled() {
+            self.run_frame_by_frame(&mut sink)
+        } else {
+            self.run_blocks(&mut sink)
+        };
         let summary = self.summary();
         let result = match result {
             Ok(()) if summary.stats.frames == 0 => Err(anyhow::anyhow!(too_short(
@@ -139,6 +134,120 @@ impl FileAnalysis {
             other => other,
         };
         (summary, result)
+    }
+
+    /// Frames primed at the start of a file.
+    fn priming_frames(&self) -> usize {
+        let hop_s = self.analyzer.hop() as f64 / self.stream.format.sample_rate as f64;
+        ((PRIMING_S / hop_s).ceil() as usize).min(BLOCK)
+    }
+
+    fn run_frame_by_frame(
+        &mut self,
+        sink: &mut dyn FnMut(u64, Option<&Detection>) -> Result<()>,
+    ) -> Result<()> {
+        // Prime the noise estimate with the first frames, then analyse them too.
+        let priming = self.priming_frames();
+        let mut first: Vec<(u64, Vec<f32>)> = Vec::with_capacity(priming);
+        while first.len() < priming {
+            match self.framer.next_frame(&mut self.stream)? {
+                Some((index, frame)) => first.push((index, frame.to_vec())),
+                None => break,
+            }
+        }
+        for (_, frame) in &first {
+            self.analyzer.prime(frame);
+        }
+        for (index, frame) in &first {
+            let det = self.analyzer.process(*index, frame);
+            sink(*index, det.as_ref())?;
+        }
+        drop(first);
+        while let Some((index, frame)) = self.framer.next_frame(&mut self.stream)? {
+            let det = self.analyzer.process(index, frame);
+            sink(index, det.as_ref())?;
+        }
+        Ok(())
+    }
+
+    fn run_blocks(
+        &mut self,
+        sink: &mut dyn FnMut(u64, Option<&Detection>) -> Result<()>,
+    ) -> Result<()> {
+        let priming = self.priming_frames();
+        let (setup, sequential) = self.analyzer.parts();
+        let workers: Vec<Mutex<Worker>> = (0..rayon::current_num_threads())
+            .map(|_| Mutex::new(Worker::new(setup)))
+            .collect();
+        let worker = || {
+            let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
+            workers[i].lock().expect("a worker panicked")
+        };
+        let width = setup.geometry_mics() * setup.frame_size();
+        let mut frames = vec![0.0f32; BLOCK * width];
+        let mut indices = vec![0u64; BLOCK];
+        let mut states: Vec<FrameState> = (0..BLOCK).map(|_| FrameState::new(setup)).collect();
+        let mut live = [false; BLOCK];
+        let mut outcomes = vec![Outcome::Silent; BLOCK];
+        let mut first_block = true;
+        loop {
+            // A read error (a truncated file) ends the run after the frames read before it.
+            let mut read_error = None;
+            let mut count = 0;
+            while count < BLOCK {
+                match self.framer.next_frame(&mut self.stream) {
+                    Ok(Some((index, frame))) => {
+                        frames[count * width..(count + 1) * width].copy_from_slice(frame);
+                        indices[count] = index;
+                        count += 1;
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        read_error = Some(e);
+                        break;
+                    }
+                }
+            }
+            if count == 0 {
+                return read_error.map_or(Ok(()), Err);
+            }
+            // Stage 1: spectra, in parallel.
+            states[..count]
+                .par_iter_mut()
+                .zip(live[..count].par_iter_mut())
+                .zip(frames[..count * width].par_chunks(width))
+                .for_each(|((state, live), frame)| *live = worker().spectra(setup, frame, state));
+            // Stage 2: the noise estimate and weights, in frame order.
+            if first_block {
+                for i in 0..priming.min(count) {
+                    sequential.prime(&states[i], live[i]);
+                }
+                first_block = false;
+            }
+            for i in 0..count {
+                live[i] = sequential.weigh(setup, &mut states[i], live[i]);
+            }
+            // Stage 3: correlations, peaks, search, direction, in parallel.
+            outcomes[..count]
+                .par_iter_mut()
+                .zip(states[..count].par_iter())
+                .zip(live[..count].par_iter())
+                .zip(indices[..count].par_iter())
+                .for_each(|(((outcome, state), &live), &index)| {
+                    *outcome = if live {
+                        worker().localize(setup, state, index, None)
+                    } else {
+                        Outcome::Silent
+                    };
+                });
+            for i in 0..count {
+                let det = sequential.tally(outcomes[i]);
+                sink(indices[i], det.as_ref())?;
+            }
+            if let Some(e) = read_error {
+                return Err(e);
+            }
+        }
     }
 
     fn summary(&self) -> FileSummary {

@@ -521,6 +521,50 @@ fn closing_the_pipe_early_is_not_a_panic() {
 }
 
 #[test]
+fn output_is_the_same_for_any_number_of_threads() {
+    // Several sources, a dead channel in part of the file, and more than one block of
+    // frames, in every format.
+    let dir = tempdir();
+    let dirs = [
+        (10.0, 5.0, Signal::WhiteNoise),
+        (-120.0, 30.0, Signal::Clicks { per_second: 10.0 }),
+        (80.0, -20.0, Signal::WhiteNoise),
+    ];
+    let sc = scene(prism(), 48000, &dirs, 1.0, 0.005, 12);
+    let mut chans = synth::render(&sc);
+    chans[2][20000..60000].iter_mut().for_each(|v| *v = 0.0);
+    let wav = dir.path().join("threads.wav");
+    synth::write_wav(&wav, &chans, 48000, Encoding::Int16).unwrap();
+    let geo = write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
+    for format in ["csv", "json", "ndjson"] {
+        let outputs: Vec<Vec<u8>> = ["1", "2", "3"]
+            .iter()
+            .map(|t| {
+                let o = run(&[
+                    "analyze",
+                    s(&wav),
+                    "--geometry",
+                    s(&geo),
+                    "--format",
+                    format,
+                    "--threads",
+                    t,
+                ]);
+                assert!(o.status.success(), "{}", stderr(&o));
+                o.stdout
+            })
+            .collect();
+        assert!(
+            outputs[0].len() > 1000,
+            "{format}: {} bytes",
+            outputs[0].len()
+        );
+        assert_eq!(outputs[0], outputs[1], "{format}: 1 vs 2 threads");
+        assert_eq!(outputs[0], outputs[2], "{format}: 1 vs 3 threads");
+    }
+}
+
+#[test]
 fn bad_geometry_file() {
     let (dir, wav, _) = setup();
     let bad = write(
