@@ -290,6 +290,8 @@ fn warn(quiet: bool, msg: &str) {
 enum Sink {
     Stdout(io::BufWriter<io::Stdout>),
     File(io::BufWriter<tempfile::NamedTempFile>),
+    /// A device or pipe given as `-o` (`/dev/null`, a FIFO): written directly.
+    Direct(io::BufWriter<std::fs::File>),
 }
 
 impl Write for Sink {
@@ -297,13 +299,47 @@ impl Write for Sink {
         match self {
             Sink::Stdout(w) => w.write(buf),
             Sink::File(w) => w.write(buf),
+            Sink::Direct(w) => w.write(buf),
         }
     }
     fn flush(&mut self) -> io::Result<()> {
         match self {
             Sink::Stdout(w) => w.flush(),
             Sink::File(w) => w.flush(),
+            Sink::Direct(w) => w.flush(),
         }
+    }
+}
+
+/// How an output path is written.
+enum OutputTarget {
+    /// A regular file or a new path: a temporary file beside it, renamed onto it when
+    /// complete (a failed run leaves the old file, or nothing).
+    Atomic(tempfile::NamedTempFile, PathBuf),
+    /// Something that is not a regular file (`/dev/null`, a named pipe, a terminal):
+    /// renaming over it would replace it, so it is written in place.
+    Direct(std::fs::File),
+}
+
+/// Opens `path` for output (symlinks are followed, so the link stays a link).
+fn open_output(path: &Path) -> Result<OutputTarget> {
+    let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+    let target = if is_link {
+        std::fs::canonicalize(path)
+            .with_context(|| format!("{}: cannot follow the link", path.display()))?
+    } else {
+        path.to_path_buf()
+    };
+    match std::fs::metadata(&target) {
+        Ok(m) if m.is_dir() => anyhow::bail!("{}: is a directory", path.display()),
+        Ok(m) if !m.is_file() => {
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(&target)
+                .with_context(|| format!("{}: cannot open for writing", path.display()))?;
+            Ok(OutputTarget::Direct(file))
+        }
+        _ => Ok(OutputTarget::Atomic(temp_beside(&target)?, target)),
     }
 }
 
@@ -317,18 +353,10 @@ fn analyze(args: &AnalyzeArgs) -> Result<bool> {
     let params = args.params();
     let sink = match &args.output {
         None => Sink::Stdout(io::BufWriter::with_capacity(1 << 16, io::stdout())),
-        Some(path) => {
-            let dir = match path.parent() {
-                Some(d) if !d.as_os_str().is_empty() => d,
-                _ => Path::new("."),
-            };
-            let tmp = tempfile::Builder::new()
-                .prefix(".ssl-")
-                .suffix(".tmp")
-                .tempfile_in(dir)
-                .with_context(|| format!("{}: cannot create the output file", path.display()))?;
-            Sink::File(io::BufWriter::with_capacity(1 << 16, tmp))
-        }
+        Some(path) => match open_output(path)? {
+            OutputTarget::Atomic(tmp, _) => Sink::File(io::BufWriter::with_capacity(1 << 16, tmp)),
+            OutputTarget::Direct(file) => Sink::Direct(io::BufWriter::with_capacity(1 << 16, file)),
+        },
     };
     let live = matches!(sink, Sink::Stdout(_));
     let mut writer = DetectionWriter::new(args.format, sink);
@@ -384,7 +412,13 @@ fn analyze(args: &AnalyzeArgs) -> Result<bool> {
     let sink = writer.finish(&files)?;
     if let (Sink::File(w), Some(path)) = (sink, &args.output) {
         let tmp = w.into_inner().map_err(|e| e.into_error())?;
-        tmp.persist(path)
+        // Onto the link's target when `path` is a symlink (open_output resolved it).
+        let target = if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+            std::fs::canonicalize(path)?
+        } else {
+            path.clone()
+        };
+        tmp.persist(&target)
             .map_err(|e| e.error)
             .with_context(|| format!("{}: cannot write the output file", path.display()))?;
     }
@@ -438,20 +472,30 @@ fn simulate(args: &SimulateArgs) -> Result<()> {
         SampleFormat::Int32 => Encoding::Int32,
         SampleFormat::Float32 => Encoding::Float32,
     };
-    let wav = temp_beside(&args.output)?;
+    // A WAV writer must seek back to finish its header: only regular files will do.
+    let OutputTarget::Atomic(wav, wav_path) = open_output(&args.output)? else {
+        anyhow::bail!(
+            "{}: the WAV output must be a regular file (not a device or pipe)",
+            args.output.display()
+        );
+    };
     crate::synth::write_wav(wav.path(), &sim.channels, sim.sample_rate, encoding)?;
-    let mut truth = temp_beside(&truth_path)?;
     let mut doc = sim.truth;
     doc["recording"] = serde_json::Value::from(args.output.display().to_string());
-    truth.write_all(serde_json::to_string_pretty(&doc)?.as_bytes())?;
-    truth.write_all(b"\n")?;
-    wav.persist(&args.output)
+    let text = serde_json::to_string_pretty(&doc)? + "\n";
+    let truth = open_output(&truth_path)?;
+    wav.persist(&wav_path)
         .map_err(|e| e.error)
         .with_context(|| format!("{}: cannot write", args.output.display()))?;
-    truth
-        .persist(&truth_path)
-        .map_err(|e| e.error)
-        .with_context(|| format!("{}: cannot write", truth_path.display()))?;
+    match truth {
+        OutputTarget::Atomic(mut tmp, target) => {
+            tmp.write_all(text.as_bytes())?;
+            tmp.persist(&target)
+                .map_err(|e| e.error)
+                .with_context(|| format!("{}: cannot write", truth_path.display()))?;
+        }
+        OutputTarget::Direct(mut file) => file.write_all(text.as_bytes())?,
+    }
     Ok(())
 }
 

@@ -404,6 +404,35 @@ fn output_file_is_written_atomically() {
     assert!(stderr(&out).contains("out.csv"), "{}", stderr(&out));
 }
 
+#[cfg(unix)]
+#[test]
+fn output_to_a_device_or_through_a_link_keeps_them() {
+    use std::os::unix::fs::FileTypeExt;
+    let (dir, wav, geo) = setup();
+    // -o /dev/null writes into the device; an atomic rename would replace it with a file.
+    let out = run(&["analyze", s(&wav), "--geometry", s(&geo), "-o", "/dev/null"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let meta = std::fs::metadata("/dev/null").unwrap();
+    assert!(
+        meta.file_type().is_char_device(),
+        "/dev/null is no longer a device"
+    );
+    // A symlinked output stays a link; its target gets the detections.
+    let real = dir.path().join("real.csv");
+    std::fs::write(&real, "old\n").unwrap();
+    let link = dir.path().join("link.csv");
+    std::os::unix::fs::symlink(&real, &link).unwrap();
+    let out = run(&["analyze", s(&wav), "--geometry", s(&geo), "-o", s(&link)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert!(std::fs::read_to_string(&real)
+        .unwrap()
+        .starts_with("time_s,"));
+}
+
 #[test]
 fn json_and_ndjson_carry_the_contract_fields_in_order() {
     let (_dir, wav, geo) = setup();
