@@ -289,7 +289,8 @@ fn warn(quiet: bool, msg: &str) {
 /// Where detections go: standard output, or a temporary file renamed into place at the end.
 enum Sink {
     Stdout(io::BufWriter<io::Stdout>),
-    File(io::BufWriter<tempfile::NamedTempFile>),
+    /// A temporary file and the path it is renamed onto when the run completes.
+    File(io::BufWriter<tempfile::NamedTempFile>, PathBuf),
     /// A device or pipe given as `-o` (`/dev/null`, a FIFO): written directly.
     Direct(io::BufWriter<std::fs::File>),
 }
@@ -298,14 +299,14 @@ impl Write for Sink {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         match self {
             Sink::Stdout(w) => w.write(buf),
-            Sink::File(w) => w.write(buf),
+            Sink::File(w, _) => w.write(buf),
             Sink::Direct(w) => w.write(buf),
         }
     }
     fn flush(&mut self) -> io::Result<()> {
         match self {
             Sink::Stdout(w) => w.flush(),
-            Sink::File(w) => w.flush(),
+            Sink::File(w, _) => w.flush(),
             Sink::Direct(w) => w.flush(),
         }
     }
@@ -354,7 +355,9 @@ fn analyze(args: &AnalyzeArgs) -> Result<bool> {
     let sink = match &args.output {
         None => Sink::Stdout(io::BufWriter::with_capacity(1 << 16, io::stdout())),
         Some(path) => match open_output(path)? {
-            OutputTarget::Atomic(tmp, _) => Sink::File(io::BufWriter::with_capacity(1 << 16, tmp)),
+            OutputTarget::Atomic(tmp, target) => {
+                Sink::File(io::BufWriter::with_capacity(1 << 16, tmp), target)
+            }
             OutputTarget::Direct(file) => Sink::Direct(io::BufWriter::with_capacity(1 << 16, file)),
         },
     };
@@ -410,14 +413,8 @@ fn analyze(args: &AnalyzeArgs) -> Result<bool> {
         files.push(output::file_json(path, Some(&summary), error.as_deref()));
     }
     let sink = writer.finish(&files)?;
-    if let (Sink::File(w), Some(path)) = (sink, &args.output) {
+    if let (Sink::File(w, target), Some(path)) = (sink, &args.output) {
         let tmp = w.into_inner().map_err(|e| e.into_error())?;
-        // Onto the link's target when `path` is a symlink (open_output resolved it).
-        let target = if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
-            std::fs::canonicalize(path)?
-        } else {
-            path.clone()
-        };
         tmp.persist(&target)
             .map_err(|e| e.error)
             .with_context(|| format!("{}: cannot write the output file", path.display()))?;

@@ -510,10 +510,6 @@ impl Analyzer {
         })
     }
 
-    pub fn setup(&self) -> &Setup {
-        &self.setup
-    }
-
     /// The shared setup and the sequential state, for running the stages over blocks of
     /// frames on several threads.
     pub fn parts(&mut self) -> (&Setup, &mut Sequential) {
@@ -526,10 +522,6 @@ impl Analyzer {
 
     pub fn hop(&self) -> usize {
         self.setup.hop
-    }
-
-    pub fn speed_of_sound(&self) -> f64 {
-        self.setup.speed
     }
 
     /// Starts measuring the time spent in each stage (costs about 1 us a frame).
@@ -547,11 +539,6 @@ impl Analyzer {
 
     pub fn stats(&self) -> &FrameStats {
         self.sequential.stats()
-    }
-
-    /// The largest lag searched for each pair of the full array (samples).
-    pub fn lag_ranges(&self) -> &[usize] {
-        &self.setup.max_lag
     }
 
     /// Folds a frame into the noise estimate only (no detection, no statistics). Files

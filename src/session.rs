@@ -85,10 +85,6 @@ impl FileAnalysis {
         &self.stream.format
     }
 
-    pub fn analyzer(&self) -> &Analyzer {
-        &self.analyzer
-    }
-
     /// Measures the time spent in each stage (reported in the summary).
     pub fn enable_stage_timing(&mut self) {
         self.analyzer.enable_stage_timing();
@@ -261,7 +257,7 @@ impl FileAnalysis {
         }
         for (m, &dead) in stats.dead_frames.iter().enumerate() {
             if dead > 0 {
-                let mic = &self.analyzer_geometry_channel(m);
+                let mic = self.framer.channel_of(m);
                 warnings.push(format!(
                     "{name}: mic {} (channel {mic}) is constant (dead or disconnected?) in {dead} of {} frames; it was left out of those frames' pairs",
                     m + 1,
@@ -286,10 +282,6 @@ impl FileAnalysis {
             stats,
             warnings,
         }
-    }
-
-    fn analyzer_geometry_channel(&self, mic: usize) -> usize {
-        self.framer.channel_of(mic)
     }
 }
 
