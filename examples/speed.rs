@@ -1,8 +1,9 @@
 //! Whole-run speed and memory of `ssl analyze` against the FFT floor, on an 8-channel
 //! 48 kHz recording with N = 1024 (issue 4's yardstick).
 //!
-//! `cargo run --release --example speed -- [SECONDS]` (default 600; 3600 for the
-//! one-hour memory check). It:
+//! `cargo run --release --example speed -- [SECONDS] [KEEP.wav]` (default 600; 3600 for
+//! the one-hour memory check; with KEEP.wav the recording is written there, or reused if
+//! that file already exists, to repeat a measurement without rewriting it). It:
 //! 1. writes a 16-bit recording of SECONDS to a temporary file, streaming a 10 s block
 //!    of sources and fan noise repeatedly (the recording never sits in memory);
 //! 2. runs the `ssl` binary on it (`target/release/ssl`, build it first) on one thread and
@@ -30,14 +31,25 @@ fn main() -> anyhow::Result<()> {
         .transpose()?
         .unwrap_or(600.0);
     let dir = tempfile::tempdir()?;
-    let wav = dir.path().join("speed.wav");
+    let keep = std::env::args().nth(2).map(std::path::PathBuf::from);
+    let wav = keep.clone().unwrap_or_else(|| dir.path().join("speed.wav"));
     let geo = dir.path().join("prism.toml");
     let mut toml = String::new();
     for p in PAPER_PRISM {
         toml += &format!("[[mic]]\nposition = [{}, {}, {}]\n", p[0], p[1], p[2]);
     }
     std::fs::write(&geo, toml)?;
-    write_recording(&wav, seconds)?;
+    if keep.is_none() || !wav.exists() {
+        write_recording(&wav, seconds)?;
+    } else {
+        let reader = hound::WavReader::open(&wav)?;
+        let spec = reader.spec();
+        anyhow::ensure!(
+            reader.duration() == (seconds * 48000.0) as u32 && spec.channels == 8,
+            "{} is not a {seconds} s recording of this benchmark: delete it or give another path",
+            wav.display()
+        );
+    }
     let frames = ((seconds * 48000.0 - 1024.0) / 512.0).floor() + 1.0;
 
     // The binary, end to end.

@@ -13,7 +13,8 @@
 //! score threshold reject the background (see `pipeline::DEFAULT_MIN_SCORE_PER_PAIR`).
 
 use realfft::num_complex::Complex32;
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use realfft::{RealFftPlanner, RealToComplex};
+use rustfft::{Fft, FftPlanner};
 use std::sync::Arc;
 
 /// The analysis window applied to each frame before its FFT.
@@ -98,37 +99,98 @@ pub fn whiten(x: &[Complex32], we: &[f32], out: &mut [Complex32]) {
     }
 }
 
-/// Cross-correlation by inverse real FFT of a cross-spectrum, planned once.
+/// An upper bound on every value of a pair's weighted PHAT correlation and on its
+/// refined peaks, from the weights alone. A whitened spectrum has `|Y_i(k)| <= w_e(k)`, so
+/// by eq. (6) `|R_ij(tau)| <= (1/N) sum_{k=0}^{N-1} w_e(k)^2 = E`; a parabola through a
+/// local maximum and its neighbours peaks at most `(|prev| + |next|) / 8 <= E / 4` above
+/// it. `weights` holds `w_e(k)` for `k = 0..=N/2`; a margin covers rounding.
+pub fn peak_ceiling(weights: &[f32], n: usize, interp: Interpolation) -> f64 {
+    let last = weights.len() - 1;
+    let inner: f64 = weights[1..last].iter().map(|&w| (w * w) as f64).sum();
+    let edges = (weights[0] * weights[0]) as f64 + (weights[last] * weights[last]) as f64;
+    let e = (edges + 2.0 * inner) / n as f64;
+    let overshoot = match interp {
+        Interpolation::None => 1.0,
+        Interpolation::Parabolic => 1.25,
+    };
+    e * overshoot * (1.0 + 1e-3)
+}
+
+/// The weighted PHAT correlations of eq. (6), two microphone pairs per inverse FFT.
+///
+/// A real signal's spectrum is Hermitian, so two real correlations fit in one complex
+/// inverse FFT: with `C_p(k)` and `C_q(k)` the cross-spectra of pairs p and q, the inverse
+/// FFT over all N bins of `Z(k) = C_p(k) + i C_q(k)` is `r_p(tau) + i r_q(tau)`. One
+/// complex FFT of N costs about half as much as two real inverse FFTs of N, because a
+/// real inverse FFT is a complex FFT of N/2 behind a pre-processing pass that costs as
+/// much as the FFT itself (measured in docs/speed.md). The plan and buffers are made once.
 pub struct Correlator {
-    plan: Arc<dyn ComplexToReal<f32>>,
-    spectrum: Vec<Complex32>,
+    n: usize,
+    plan: Arc<dyn Fft<f32>>,
+    buffer: Vec<Complex32>,
+    mirror: Vec<Complex32>,
     scratch: Vec<Complex32>,
 }
 
 impl Correlator {
     pub fn new(n: usize) -> Self {
-        let plan = RealFftPlanner::<f32>::new().plan_fft_inverse(n);
+        let plan = FftPlanner::<f32>::new().plan_fft_inverse(n);
         Correlator {
-            spectrum: plan.make_input_vec(),
-            scratch: plan.make_scratch_vec(),
+            n,
+            buffer: vec![Complex32::default(); n],
+            mirror: vec![Complex32::default(); n / 2],
+            scratch: vec![Complex32::default(); plan.get_inplace_scratch_len()],
             plan,
         }
     }
 
-    /// `out[tau] = (1/norm) sum_{k=0}^{N-1} Y_i(k) Y_j(k)* e^{i 2 pi k tau / N}` (eq. 6 with
-    /// whitened spectra), for `tau = 0..N`; negative lags are at `N - |tau|`.
-    pub fn correlate(&mut self, yi: &[Complex32], yj: &[Complex32], norm: f32, out: &mut [f32]) {
+    /// Correlates the pair of whitened spectra `first = (Y_i, Y_j)` and, if given, a
+    /// second pair: `r(tau) = (1/norm) sum_{k=0}^{N-1} Y_i(k) Y_j(k)* e^{i 2 pi k tau / N}`
+    /// (eq. 6 with whitened spectra; `k > N/2` by Hermitian symmetry). Read the results
+    /// with [`Correlator::lags`].
+    pub fn correlate(
+        &mut self,
+        first: (&[Complex32], &[Complex32]),
+        second: Option<(&[Complex32], &[Complex32])>,
+        norm: f32,
+    ) {
         let scale = if norm > 0.0 { 1.0 / norm } else { 0.0 };
-        for ((s, a), b) in self.spectrum.iter_mut().zip(yi).zip(yj) {
-            *s = a * b.conj() * scale;
-        }
+        let (a, b) = first;
+        let (c, d) = second.unwrap_or(first);
+        let h = self.n / 2;
+        let (low, high) = self.buffer.split_at_mut(h + 1);
         // The DC and Nyquist bins of a real signal's spectrum are real.
-        let last = self.spectrum.len() - 1;
-        self.spectrum[0].im = 0.0;
-        self.spectrum[last].im = 0.0;
+        for k in [0, h] {
+            let (p, q) = (a[k] * b[k].conj(), c[k] * d[k].conj());
+            low[k] = Complex32::new(p.re * scale, q.re * scale);
+        }
+        // Bin k holds C_p + i C_q, bin N - k holds conj(C_p) + i conj(C_q). The mirror
+        // half is written forward into `scratch` and reversed after, so that both loops
+        // vectorise.
+        let mirror = &mut self.mirror[..h - 1];
+        for k in 1..h {
+            let (a, b, c, d) = (a[k], b[k], c[k], d[k]);
+            let (pr, pi) = (a.re * b.re + a.im * b.im, a.im * b.re - a.re * b.im);
+            let (qr, qi) = (c.re * d.re + c.im * d.im, c.im * d.re - c.re * d.im);
+            low[k] = Complex32::new((pr - qi) * scale, (pi + qr) * scale);
+            mirror[k - 1] = Complex32::new((pr + qi) * scale, (qr - pi) * scale);
+        }
+        for (hi, m) in high.iter_mut().zip(mirror.iter().rev()) {
+            *hi = *m;
+        }
         self.plan
-            .process_with_scratch(&mut self.spectrum, out, &mut self.scratch)
-            .expect("buffer sizes are fixed and edge bins are real");
+            .process_with_scratch(&mut self.buffer, &mut self.scratch);
+    }
+
+    /// Copies `r(tau)` for `tau = -half..=half` of the first pair (or the second) of the
+    /// last [`Correlator::correlate`] into `out` (cleared first; `half < N/2`).
+    pub fn lags(&self, second: bool, half: usize, out: &mut Vec<f32>) {
+        let n = self.n;
+        assert!(half < n / 2, "lag window {half} too wide for N = {n}");
+        let pick = |z: &Complex32| if second { z.im } else { z.re };
+        out.clear();
+        out.extend(self.buffer[n - half..].iter().map(pick));
+        out.extend(self.buffer[..=half].iter().map(pick));
     }
 }
 
@@ -140,63 +202,34 @@ pub struct Peak {
     pub value: f32,
 }
 
-/// The `m` highest local maxima of the circular correlation `r` with `|lag| <= max_lag`
-/// (ranked by their sample value), each refined per `interp`, then ordered by refined
-/// value, highest first (ties: smaller lag first). `out` is cleared and refilled; it does
-/// not allocate once its capacity reaches `m`. Only the `m` kept peaks are refined.
-pub fn find_peaks(r: &[f32], max_lag: usize, m: usize, interp: Interpolation, out: &mut Vec<Peak>) {
+/// The largest M that [`find_peaks`] accepts.
+pub const MAX_PEAKS: usize = 64;
+
+/// The `m` highest local maxima of a correlation (eq. 7), ranked by their sample value,
+/// each refined per `interp`, then ordered by refined value, highest first (ties: smaller
+/// lag first). `window` holds `r(tau)` for `tau = -h..=h` (odd length `2h + 1`, from
+/// [`Correlator::lags`]); peaks are looked for at `|tau| < h`, the outer two samples
+/// being their neighbours. A plateau counts once, at its first sample. `out` is cleared
+/// and refilled; it does not allocate once its capacity reaches `m` (`1..=`[`MAX_PEAKS`]).
+pub fn find_peaks(window: &[f32], m: usize, interp: Interpolation, out: &mut Vec<Peak>) {
+    assert!(m <= MAX_PEAKS, "at most {MAX_PEAKS} peaks per pair");
     out.clear();
-    let n = r.len();
-    let max_lag = max_lag.min(n / 2 - 1) as isize;
-    // Negative lags sit at the end of the buffer (a branch is far cheaper than a modulo).
-    let at = |lag: isize| {
-        r[if lag < 0 {
-            (n as isize + lag) as usize
-        } else {
-            lag as usize
-        }]
-    };
-    // A plateau counts once, at its first sample. Candidates are marked 32 lags at a time
-    // without branches (the compiler vectorises the comparisons); only samples above the
-    // lowest peak kept so far (`floor`, once `m` are kept) are marked, and those go to
-    // `insert_top`, which has the final word, so the result does not depend on blocking.
-    let mut floor = f32::NEG_INFINITY;
-    let mut scan = |samples: &[f32], first_lag: isize| {
-        // samples[i + 1] is the sample at lag first_lag + i; its neighbours are i and i + 2.
-        let count = samples.len() - 2;
-        let mut start = 0;
-        while start < count {
-            let len = (count - start).min(32);
-            let mut mask = 0u32;
-            for (b, w) in samples[start..start + len + 2].windows(3).enumerate() {
-                let hit = (w[1] > floor) & (w[1] > w[0]) & (w[1] >= w[2]);
-                mask |= (hit as u32) << b;
-            }
-            while mask != 0 {
-                let b = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let i = start + b;
-                let peak = Peak {
-                    lag: (first_lag + i as isize) as f32,
-                    value: samples[i + 1],
-                };
-                insert_top(out, peak, m);
-                if out.len() == m {
-                    floor = out[m - 1].value;
-                }
-            }
-            start += len;
-        }
-    };
-    // Lags -max_lag..=-2 and 1..=max_lag as contiguous runs; -1 and 0 across the wrap.
-    let l = max_lag as usize;
-    scan(&r[n - l - 1..n], -max_lag);
-    scan(&[r[n - 2], r[n - 1], r[0], r[1]], -1);
-    scan(&r[0..l + 2], 1);
+    if m == 0 || window.len() < 3 {
+        return;
+    }
+    // The best m are the first m of the best 8, 16, 32 or 64 (same order, same ties).
+    let h = window.len() / 2;
+    match m {
+        1..=8 => Top::<8>::select(window).write(m, h, out),
+        9..=16 => Top::<16>::select(window).write(m, h, out),
+        17..=32 => Top::<32>::select(window).write(m, h, out),
+        _ => Top::<64>::select(window).write(m, h, out),
+    }
     if interp == Interpolation::Parabolic {
+        let h = h as isize;
         for p in out.iter_mut() {
-            let lag = p.lag as isize;
-            let (prev, here, next) = (at(lag - 1), p.value, at(lag + 1));
+            let i = (p.lag as isize + h) as usize;
+            let (prev, here, next) = (window[i - 1], p.value, window[i + 1]);
             let denom = prev - 2.0 * here + next;
             let delta = if denom < 0.0 {
                 (0.5 * (prev - next) / denom).clamp(-0.5, 0.5)
@@ -204,7 +237,7 @@ pub fn find_peaks(r: &[f32], max_lag: usize, m: usize, interp: Interpolation, ou
                 0.0
             };
             *p = Peak {
-                lag: lag as f32 + delta,
+                lag: p.lag + delta,
                 value: here - 0.25 * (prev - next) * delta,
             };
         }
@@ -220,24 +253,86 @@ pub fn find_peaks(r: &[f32], max_lag: usize, m: usize, interp: Interpolation, ou
     }
 }
 
-/// Inserts `p` into `list` (sorted by value, highest first) keeping at most `m` entries.
-#[inline]
-fn insert_top(list: &mut Vec<Peak>, p: Peak, m: usize) {
-    if m == 0 {
-        return;
-    }
-    if list.len() == m {
-        if list[m - 1].value >= p.value {
-            return;
+/// The `K` highest local maxima of a window seen so far: values, highest first (ties in
+/// scan order, i.e. smaller lag first), and their indices; empty places hold -inf.
+struct Top<const K: usize> {
+    values: [f32; K],
+    index: [u32; K],
+}
+
+impl<const K: usize> Top<K> {
+    fn select(window: &[f32]) -> Self {
+        let mut top = Top {
+            values: [f32::NEG_INFINITY; K],
+            index: [0; K],
+        };
+        // A floor before the scan: the local maxima at indices of each residue mod K
+        // (one SIMD lane each) have their highest; those K are distinct local maxima, so
+        // no sample below the lowest of them is among the best K. It spares most of the
+        // insertions a scan from -inf makes while the list fills.
+        let mut lanes = [f32::NEG_INFINITY; K];
+        for chunk in window.windows(K + 2).step_by(K) {
+            for (lane, w) in lanes.iter_mut().zip(chunk.windows(3)) {
+                let hit = (w[1] > w[0]) & (w[1] >= w[2]);
+                *lane = lane.max(if hit { w[1] } else { f32::NEG_INFINITY });
+            }
         }
-        list.pop();
+        let prefloor = lanes.iter().fold(f32::INFINITY, |a, &b| a.min(b));
+        // Candidates are marked 32 samples at a time without branches (the compiler
+        // vectorises the comparisons); only samples that may enter the list are marked,
+        // and `insert` has the final word, so blocking does not change the result.
+        let interior = window.len() - 2;
+        let mut start = 0;
+        while start < interior {
+            let len = (interior - start).min(32);
+            let floor = top.values[K - 1];
+            let mut mask = 0u32;
+            for (b, w) in window[start..start + len + 2].windows(3).enumerate() {
+                let hit = (w[1] > floor) & (w[1] >= prefloor) & (w[1] > w[0]) & (w[1] >= w[2]);
+                mask |= (hit as u32) << b;
+            }
+            while mask != 0 {
+                let i = start + mask.trailing_zeros() as usize + 1;
+                mask &= mask - 1;
+                top.insert(window[i], i as u32);
+            }
+            start += len;
+        }
+        top
     }
-    // Equal values keep their scan order (increasing lag).
-    let pos = list
-        .iter()
-        .position(|q| q.value < p.value)
-        .unwrap_or(list.len());
-    list.insert(pos, p);
+
+    /// Inserts a candidate that comes after every one inserted so far (in lag order), if
+    /// it beats the last. No data-dependent branches: the place is a count and the shift
+    /// a fixed sequence of selects, which the compiler unrolls for the constant `K`.
+    #[inline]
+    fn insert(&mut self, value: f32, index: u32) {
+        let pos: usize = self.values.iter().map(|&q| (q >= value) as usize).sum();
+        let (values, indices) = (self.values, self.index);
+        for j in 0..K {
+            let (v, i) = match j.cmp(&pos) {
+                std::cmp::Ordering::Less => (values[j], indices[j]),
+                std::cmp::Ordering::Equal => (value, index),
+                std::cmp::Ordering::Greater => (values[j - 1], indices[j - 1]),
+            };
+            self.values[j] = v;
+            self.index[j] = i;
+        }
+    }
+
+    /// Writes the first `m` kept peaks to `out`, with lags counted from index `centre`.
+    fn write(&self, m: usize, centre: usize, out: &mut Vec<Peak>) {
+        out.extend(
+            self.values
+                .iter()
+                .zip(&self.index)
+                .take(m)
+                .take_while(|(v, _)| **v > f32::NEG_INFINITY)
+                .map(|(&value, &i)| Peak {
+                    lag: i as f32 - centre as f32,
+                    value,
+                }),
+        );
+    }
 }
 
 #[cfg(test)]
@@ -256,27 +351,54 @@ mod tests {
             .collect()
     }
 
+    /// `r(tau)` for `tau = -(N/2 - 1)..=N/2 - 1` of the first or second pair.
+    fn all_lags(corr: &Correlator, second: bool, n: usize) -> Vec<(isize, f32)> {
+        let mut out = Vec::new();
+        corr.lags(second, n / 2 - 1, &mut out);
+        let h = (n / 2 - 1) as isize;
+        out.iter()
+            .enumerate()
+            .map(|(i, &v)| (i as isize - h, v))
+            .collect()
+    }
+
     /// Plain cross-correlation through the FFT path (no whitening, unit weights) equals
-    /// the circular form of eq. (1): R(tau) = sum_n x_i[n] x_j[(n - tau) mod N].
+    /// the circular form of eq. (1), R(tau) = sum_n x_i[n] x_j[(n - tau) mod N], for a
+    /// pair alone and for two pairs sharing one inverse FFT.
     #[test]
     fn fft_correlation_matches_time_domain_definition() {
         let n = 64;
-        let xi = noise(n, 1);
-        let xj = noise(n, 2);
+        let x: Vec<Vec<f32>> = (1..=4).map(|seed| noise(n, seed)).collect();
         let mut fwd = ForwardFft::new(n, Window::Rectangular);
-        let (mut si, mut sj) = (
-            vec![Complex32::default(); n / 2 + 1],
-            vec![Complex32::default(); n / 2 + 1],
-        );
-        fwd.transform(&xi, &mut si);
-        fwd.transform(&xj, &mut sj);
+        let s: Vec<Vec<Complex32>> = x
+            .iter()
+            .map(|x| {
+                let mut out = vec![Complex32::default(); n / 2 + 1];
+                fwd.transform(x, &mut out);
+                out
+            })
+            .collect();
+        let naive = |i: usize, j: usize, tau: isize| -> f32 {
+            (0..n)
+                .map(|t| x[i][t] * x[j][(t as isize - tau).rem_euclid(n as isize) as usize])
+                .sum()
+        };
         let mut corr = Correlator::new(n);
-        let mut out = vec![0.0; n];
-        // norm = N undoes realfft's unnormalised inverse.
-        corr.correlate(&si, &sj, n as f32, &mut out);
-        for (tau, got) in out.iter().enumerate() {
-            let naive: f32 = (0..n).map(|t| xi[t] * xj[(t + n - tau) % n]).sum();
-            assert!((got - naive).abs() < 1e-4, "tau {tau}: {got} vs {naive}");
+        // norm = N undoes the unnormalised inverse FFT.
+        corr.correlate((&s[0], &s[1]), Some((&s[2], &s[3])), n as f32);
+        for (second, (i, j)) in [(false, (0, 1)), (true, (2, 3))] {
+            for (tau, got) in all_lags(&corr, second, n) {
+                let want = naive(i, j, tau);
+                assert!(
+                    (got - want).abs() < 1e-4,
+                    "{i},{j} tau {tau}: {got} vs {want}"
+                );
+            }
+        }
+        corr.correlate((&s[1], &s[3]), None, n as f32);
+        for (tau, got) in all_lags(&corr, false, n) {
+            let want = naive(1, 3, tau);
+            assert!((got - want).abs() < 1e-4, "tau {tau}: {got} vs {want}");
         }
     }
 
@@ -299,8 +421,9 @@ mod tests {
         let (mut yi, mut yj) = (si.clone(), sj.clone());
         whiten(&si, &we, &mut yi);
         whiten(&sj, &we, &mut yj);
-        let mut out = vec![0.0; n];
-        Correlator::new(n).correlate(&yi, &yj, n as f32, &mut out);
+        let mut corr = Correlator::new(n);
+        // The pair is the second of two (the first is the pair in reverse order).
+        corr.correlate((&yj, &yi), Some((&yi, &yj)), n as f32);
 
         // Direct: naive DFT of the windowed frames, eq. (6) summed over all N bins.
         let win = Window::Hann.coefficients(n);
@@ -316,7 +439,7 @@ mod tests {
         };
         let w_full = |k: usize| we[if k <= n / 2 { k } else { n - k }] as f64;
         let norm = n as f64;
-        for (tau, got) in out.iter().enumerate() {
+        for (tau, got) in all_lags(&corr, true, n) {
             let mut acc = 0.0;
             for k in 0..n {
                 let (ar, ai) = dft(&xi, k);
@@ -324,35 +447,95 @@ mod tests {
                 let (mi, mj) = ((ar * ar + ai * ai).sqrt(), (br * br + bi * bi).sqrt());
                 // Xi Xj* / (|Xi||Xj|) e^{i 2 pi k tau / N}, real part
                 let (cr, ci) = (ar * br + ai * bi, ai * br - ar * bi);
-                let ph = std::f64::consts::TAU * (k * tau) as f64 / n as f64;
+                let ph = std::f64::consts::TAU * (k as f64 * tau as f64) / n as f64;
                 acc += w_full(k).powi(2) * (cr * ph.cos() - ci * ph.sin()) / (mi * mj);
             }
             let direct = acc / norm;
             assert!(
-                (*got as f64 - direct).abs() < 1e-4,
+                (got as f64 - direct).abs() < 1e-4,
                 "tau {tau}: {got} vs {direct}"
             );
         }
     }
 
+    /// No value of a weighted PHAT correlation, and no refined peak, exceeds the
+    /// ceiling that the weights alone set (random spectra with zero bins, random weights).
+    #[test]
+    fn peak_ceiling_bounds_every_value_and_refined_peak() {
+        let n = 64;
+        let mut fwd = ForwardFft::new(n, Window::Hann);
+        let mut corr = Correlator::new(n);
+        let (mut window, mut peaks) = (Vec::new(), Vec::new());
+        let mut tightest: f64 = 0.0;
+        for case in 0..400u64 {
+            let w = noise(n / 2 + 1, 1000 + case);
+            let we: Vec<f32> = w.iter().map(|v| (v + 0.5) * 3.0).collect();
+            let spectra: Vec<Vec<Complex32>> = (0..2)
+                .map(|c| {
+                    // A pure tone in one channel makes most of its bins (near) zero.
+                    let x: Vec<f32> = if case % 7 == 0 && c == 0 {
+                        (0..n).map(|t| (t as f32 * 0.7).sin()).collect()
+                    } else {
+                        noise(n, 3 * case + c)
+                    };
+                    let mut s = vec![Complex32::default(); n / 2 + 1];
+                    fwd.transform(&x, &mut s);
+                    let mut y = s.clone();
+                    whiten(&s, &we, &mut y);
+                    y
+                })
+                .collect();
+            // The same signal in both channels makes the correlation reach the bound.
+            let b = if case % 2 == 0 { 0 } else { 1 };
+            corr.correlate((&spectra[0], &spectra[b]), None, n as f32);
+            corr.lags(false, n / 2 - 1, &mut window);
+            let plain = peak_ceiling(&we, n, Interpolation::None);
+            for v in &window {
+                assert!((v.abs() as f64) <= plain, "{v} > {plain}");
+                tightest = tightest.max(v.abs() as f64 / plain);
+            }
+            let refined = peak_ceiling(&we, n, Interpolation::Parabolic);
+            find_peaks(&window, 8, Interpolation::Parabolic, &mut peaks);
+            for p in &peaks {
+                assert!((p.value as f64) <= refined, "{p:?} > {refined}");
+            }
+        }
+        // The bound is reached (an autocorrelation at lag 0), so it is not loose.
+        assert!(tightest > 0.99, "{tightest}");
+    }
+
+    /// A window of lags -h..=h with the given (lag, value) samples, zero elsewhere.
+    fn window(h: isize, samples: &[(isize, f32)]) -> Vec<f32> {
+        let mut w = vec![0.0; (2 * h + 1) as usize];
+        for &(lag, v) in samples {
+            w[(lag + h) as usize] = v;
+        }
+        w
+    }
+
     #[test]
     fn peaks_are_the_highest_local_maxima_in_range_with_parabolic_refinement() {
-        let n = 64;
-        let mut r = vec![0.0f32; n];
-        // A parabola peaking at lag 5.3 (samples 4, 5, 6), a peak at -3, one out of range at 20.
-        for (lag, v) in [(4isize, 0.91f32), (5, 1.0), (6, 0.96)] {
-            r[lag as usize] = v;
-        }
-        r[(n as isize - 3) as usize] = 0.5;
-        r[20] = 2.0;
+        // A parabola peaking at lag 5.19 (samples 4, 5, 6), a peak at -3, and at lag 11
+        // the window's edge, which is a neighbour, not a candidate.
+        let r = window(
+            11,
+            &[
+                (4, 0.91),
+                (5, 1.0),
+                (6, 0.96),
+                (-3, 0.5),
+                (11, 2.0),
+                (-11, 2.0),
+            ],
+        );
         let mut peaks = Vec::with_capacity(4);
-        find_peaks(&r, 10, 4, Interpolation::Parabolic, &mut peaks);
+        find_peaks(&r, 4, Interpolation::Parabolic, &mut peaks);
         assert_eq!(peaks.len(), 2, "{peaks:?}");
         // delta = 0.5 (0.91 - 0.96) / (0.91 - 2 + 0.96) = 0.1923
         assert!((peaks[0].lag - 5.1923).abs() < 1e-3, "{peaks:?}");
         assert!(peaks[0].value >= 1.0);
         assert_eq!(peaks[1].lag, -3.0);
-        find_peaks(&r, 10, 1, Interpolation::None, &mut peaks);
+        find_peaks(&r, 1, Interpolation::None, &mut peaks);
         assert_eq!(
             peaks,
             vec![Peak {
@@ -363,13 +546,11 @@ mod tests {
     }
 
     #[test]
-    fn peaks_next_to_lag_zero_are_found() {
-        for lag in [-2isize, -1, 0, 1, 2] {
-            let n = 32;
-            let mut r = vec![0.0f32; n];
-            r[lag.rem_euclid(n as isize) as usize] = 1.0;
+    fn peaks_next_to_lag_zero_and_the_range_ends_are_found() {
+        for lag in [-5isize, -2, -1, 0, 1, 2, 5] {
+            let r = window(6, &[(lag, 1.0)]);
             let mut peaks = Vec::with_capacity(1);
-            find_peaks(&r, 5, 1, Interpolation::None, &mut peaks);
+            find_peaks(&r, 1, Interpolation::None, &mut peaks);
             assert_eq!(
                 peaks,
                 vec![Peak {
@@ -378,6 +559,64 @@ mod tests {
                 }],
                 "lag {lag}"
             );
+        }
+    }
+
+    /// The blocked, branch-free selection equals the definition: every local maximum
+    /// (first sample of a plateau), stably sorted by value, the first m kept, refined,
+    /// stably sorted again. Random windows of up to 300 lags (several 32-lag blocks) with
+    /// coarse values, so that ties and plateaus are common.
+    #[test]
+    fn peak_selection_equals_brute_force() {
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            seed >> 33
+        };
+        let mut got = Vec::new();
+        for case in 0..3000 {
+            let h = 1 + (next() % 150) as usize;
+            let levels = 2 + next() % 12;
+            let r: Vec<f32> = (0..2 * h + 1)
+                .map(|_| (next() % levels) as f32 / levels as f32 - 0.3)
+                .collect();
+            let m = [1, 2, 3, 5, 8, 9, 12, 16, 17, 30, 33, 64][(next() % 12) as usize];
+            for interp in [Interpolation::None, Interpolation::Parabolic] {
+                let mut want: Vec<(usize, Peak)> = (1..2 * h)
+                    .filter(|&i| r[i] > r[i - 1] && r[i] >= r[i + 1])
+                    .map(|i| {
+                        let p = Peak {
+                            lag: i as f32 - h as f32,
+                            value: r[i],
+                        };
+                        (i, p)
+                    })
+                    .collect();
+                want.sort_by(|a, b| b.1.value.total_cmp(&a.1.value));
+                want.truncate(m);
+                let mut want: Vec<Peak> = want
+                    .into_iter()
+                    .map(|(i, p)| {
+                        let (prev, here, next) = (r[i - 1], r[i], r[i + 1]);
+                        let denom = prev - 2.0 * here + next;
+                        match interp {
+                            Interpolation::Parabolic if denom < 0.0 => {
+                                let d = (0.5 * (prev - next) / denom).clamp(-0.5, 0.5);
+                                Peak {
+                                    lag: p.lag + d,
+                                    value: here - 0.25 * (prev - next) * d,
+                                }
+                            }
+                            _ => p,
+                        }
+                    })
+                    .collect();
+                want.sort_by(|a, b| b.value.total_cmp(&a.value));
+                find_peaks(&r, m, interp, &mut got);
+                assert_eq!(got, want, "case {case}, h {h}, m {m}, {interp:?}: {r:?}");
+            }
         }
     }
 

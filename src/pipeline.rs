@@ -5,7 +5,7 @@
 //! Everything is planned and allocated in [`Analyzer::new`]; processing a frame does not
 //! allocate (apart from a first-time direction solver for a new set of live microphones).
 
-use crate::correlation::{self, Correlator, ForwardFft, Interpolation, Peak, Window};
+use crate::correlation::{self, Correlator, ForwardFft, Interpolation, Peak, Window, MAX_PEAKS};
 use crate::direction::{angles_deg, pair_count, pair_index, DirectionSolver};
 use crate::geometry::Geometry;
 use crate::search::Searcher;
@@ -31,6 +31,11 @@ pub struct StageTimes {
     pub search: Duration,
     /// Direction (eq. 13) and the detection record.
     pub direction: Duration,
+    /// Pair correlations computed.
+    pub correlated_pairs: u64,
+    /// Pair correlations left out because the weights' ceiling proved that the frame
+    /// could not reach the detection threshold (see [`correlation::peak_ceiling`]).
+    pub skipped_pairs: u64,
 }
 
 /// The method's parameters (defaults are the paper's where it gives them).
@@ -156,8 +161,8 @@ impl Setup {
         if n < 16 || n % 2 != 0 {
             bail!("the frame size must be an even number of at least 16 samples, got {n}");
         }
-        if params.peaks == 0 {
-            bail!("--peaks must be at least 1");
+        if params.peaks == 0 || params.peaks > MAX_PEAKS {
+            bail!("--peaks must be between 1 and {MAX_PEAKS}");
         }
         if !(params.tolerance.is_finite() && params.tolerance >= 0.0) {
             bail!("--tolerance must be a non-negative number of samples");
@@ -250,11 +255,16 @@ pub enum Outcome {
 pub struct Worker {
     fft: ForwardFft,
     correlator: Correlator,
-    corr: Vec<f32>,
+    /// One pair's correlation at the lags it searches (and their two neighbours).
+    window: Vec<f32>,
+    /// The live pairs `(a, b)`, indices into the live microphones.
+    pairs: Vec<(usize, usize)>,
     whitened: Vec<Vec<Complex32>>,
     peaks: Vec<Vec<Peak>>,
     searcher: Searcher,
     solvers: HashMap<u64, Option<DirectionSolver>>,
+    /// Leave out correlations that cannot lead to a detection (always, but in a test).
+    prune: bool,
 }
 
 impl Worker {
@@ -263,13 +273,15 @@ impl Worker {
         Worker {
             fft: ForwardFft::new(setup.n, setup.params.window),
             correlator: Correlator::new(setup.n),
-            corr: vec![0.0; setup.n],
+            window: Vec::with_capacity(setup.n),
+            pairs: Vec::with_capacity(pair_count(mics)),
             whitened: vec![vec![Complex32::default(); setup.bins()]; mics],
             peaks: (0..pair_count(mics))
                 .map(|_| Vec::with_capacity(setup.params.peaks))
                 .collect(),
             searcher: Searcher::new(setup.params.tolerance, setup.params.max_nodes),
             solvers: HashMap::new(),
+            prune: true,
         }
     }
 
@@ -310,58 +322,80 @@ impl Worker {
         setup: &Setup,
         state: &FrameState,
         index: u64,
-        mut times: Option<&mut StageTimes>,
+        times: Option<&mut StageTimes>,
     ) -> Outcome {
-        let mut clock = times.is_some().then(Instant::now);
-        let mut lap = |clock: &mut Option<Instant>, pick: fn(&mut StageTimes) -> &mut Duration| {
-            if let (Some(t), Some(times)) = (clock.as_mut(), times.as_deref_mut()) {
-                let now = Instant::now();
-                *pick(times) += now - *t;
-                *t = now;
-            }
-        };
+        let mut clock = Clock::new(times);
         let (n, mics) = (setup.n, setup.geometry.mics.len());
-        for &m in &state.live {
-            correlation::whiten(&state.spectra[m], &state.weights, &mut self.whitened[m]);
-        }
-        lap(&mut clock, |t| &mut t.weighting);
         let k = state.live.len();
         if k < 2 {
             return Outcome::Unsolved;
         }
-        // Eq. (6) divided by N (see the `correlation` module on the scale).
-        let norm = n as f32;
-        for a in 0..k {
-            for b in a + 1..k {
-                let (i, j) = (state.live[a], state.live[b]);
-                self.correlator.correlate(
-                    &self.whitened[i],
-                    &self.whitened[j],
-                    norm,
-                    &mut self.corr,
-                );
-                lap(&mut clock, |t| &mut t.correlation);
-                correlation::find_peaks(
-                    &self.corr,
-                    setup.max_lag[pair_index(i, j, mics)],
-                    setup.params.peaks,
-                    setup.params.interpolation,
-                    &mut self.peaks[pair_index(a, b, k)],
-                );
-                lap(&mut clock, |t| &mut t.peaks);
-            }
-        }
-        // The consistent delay set with the greatest correlation (eq. 8).
-        self.searcher.search(k, &self.peaks);
-        lap(&mut clock, |t| &mut t.search);
-        let budget = self.searcher.exhausted();
-        let Some(solution) = self.searcher.solution() else {
-            return Outcome::Inconsistent(budget);
-        };
         let threshold = setup
             .params
             .min_score
             .unwrap_or(DEFAULT_MIN_SCORE_PER_PAIR * pair_count(k) as f64);
+        // A set's score is one peak value per pair, and no peak can exceed the ceiling
+        // the weights set: when even that cannot reach the threshold, the frame has no
+        // detection whatever the correlations are, and they are not computed. The same
+        // test is repeated as pairs are correlated, with their actual best peaks.
+        let ceiling = correlation::peak_ceiling(&state.weights, n, setup.params.interpolation);
+        let prune = self.prune;
+        let skip = |clock: &mut Clock, left: usize, best_possible: f64| {
+            let skip = prune && best_possible + left as f64 * ceiling < threshold;
+            clock.count(if skip { (0, left) } else { (left.min(2), 0) });
+            skip
+        };
+        if skip(&mut clock, pair_count(k), 0.0) {
+            return Outcome::BelowThreshold(false);
+        }
+        for &m in &state.live {
+            correlation::whiten(&state.spectra[m], &state.weights, &mut self.whitened[m]);
+        }
+        clock.lap(|t| &mut t.weighting);
+        // Eq. (6) divided by N (see the `correlation` module on the scale), two pairs per
+        // inverse FFT, in the order of `pair_index`.
+        let norm = n as f32;
+        self.pairs.clear();
+        for a in 0..k {
+            for b in a + 1..k {
+                self.pairs.push((a, b));
+            }
+        }
+        let whitened = &self.whitened;
+        let spectra =
+            |(a, b): (usize, usize)| (&whitened[state.live[a]][..], &whitened[state.live[b]][..]);
+        let mut best_possible = 0.0;
+        for (done, two) in self.pairs.chunks(2).enumerate() {
+            let left = self.pairs.len() - 2 * done;
+            if done > 0 && skip(&mut clock, left, best_possible) {
+                return Outcome::BelowThreshold(false);
+            }
+            self.correlator
+                .correlate(spectra(two[0]), two.get(1).map(|&p| spectra(p)), norm);
+            clock.lap(|t| &mut t.correlation);
+            for (second, &(a, b)) in two.iter().enumerate() {
+                let (i, j) = (state.live[a], state.live[b]);
+                let half = setup.max_lag[pair_index(i, j, mics)] + 1;
+                self.correlator.lags(second == 1, half, &mut self.window);
+                let peaks = &mut self.peaks[pair_index(a, b, k)];
+                correlation::find_peaks(
+                    &self.window,
+                    setup.params.peaks,
+                    setup.params.interpolation,
+                    peaks,
+                );
+                // A pair without peaks leaves no consistent set (the search says so).
+                best_possible += peaks.first().map_or(ceiling, |p| p.value as f64);
+            }
+            clock.lap(|t| &mut t.peaks);
+        }
+        // The consistent delay set with the greatest correlation (eq. 8).
+        self.searcher.search(k, &self.peaks);
+        clock.lap(|t| &mut t.search);
+        let budget = self.searcher.exhausted();
+        let Some(solution) = self.searcher.solution() else {
+            return Outcome::Inconsistent(budget);
+        };
         if solution.score < threshold {
             return Outcome::BelowThreshold(budget);
         }
@@ -383,8 +417,38 @@ impl Worker {
             score: solution.score,
             mics: k,
         };
-        lap(&mut clock, |t| &mut t.direction);
+        clock.lap(|t| &mut t.direction);
         Outcome::Detected(detection, budget)
+    }
+}
+
+/// Stage timing inside [`Worker::localize`] (a no-op without a `StageTimes`).
+struct Clock<'a> {
+    times: Option<&'a mut StageTimes>,
+    last: Option<Instant>,
+}
+
+impl<'a> Clock<'a> {
+    fn new(times: Option<&'a mut StageTimes>) -> Self {
+        let last = times.is_some().then(Instant::now);
+        Clock { times, last }
+    }
+
+    /// Adds the time since the last lap to the stage `pick` selects.
+    fn lap(&mut self, pick: fn(&mut StageTimes) -> &mut Duration) {
+        if let (Some(t), Some(times)) = (self.last.as_mut(), self.times.as_deref_mut()) {
+            let now = Instant::now();
+            *pick(times) += now - *t;
+            *t = now;
+        }
+    }
+
+    /// Counts pair correlations computed and skipped.
+    fn count(&mut self, (correlated, skipped): (usize, usize)) {
+        if let Some(times) = self.times.as_deref_mut() {
+            times.correlated_pairs += correlated as u64;
+            times.skipped_pairs += skipped as u64;
+        }
     }
 }
 
@@ -581,6 +645,89 @@ fn lag_range(max_delay: f64) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::direction::unit_from_angles;
+    use crate::geometry::PAPER_PRISM;
+    use crate::synth::{render, Place, Scene, Signal, Source};
+
+    /// Leaving out the correlations that the weights' ceiling rules out changes no
+    /// frame's detection: a scene whose sources sit below, near and above the threshold
+    /// (a fan throughout, speech-like and noise sources at -12 to +6 dB against it),
+    /// analysed with and without pruning, with and without sub-sample refinement.
+    #[test]
+    fn pruning_changes_no_detection() {
+        let source = |i: usize, signal, level| Source {
+            place: Place::Direction(unit_from_angles(-120.0 + 70.0 * i as f64, 10.0)),
+            signal,
+            start_s: 0.5 + 0.8 * i as f64,
+            end_s: 1.1 + 0.8 * i as f64,
+            level,
+        };
+        let mut sources = vec![
+            source(0, Signal::WhiteNoise, 0.005),
+            source(1, Signal::SpeechLike, 0.01),
+            source(2, Signal::WhiteNoise, 0.02),
+            source(3, Signal::SpeechLike, 0.04),
+        ];
+        sources.push(Source {
+            place: Place::Direction(unit_from_angles(80.0, 40.0)),
+            signal: Signal::PinkNoise,
+            start_s: 0.0,
+            end_s: 4.0,
+            level: 0.02,
+        });
+        let channels = render(&Scene {
+            sample_rate: 48000,
+            duration_s: 4.0,
+            mics: PAPER_PRISM.iter().map(|p| Vector3::from(*p)).collect(),
+            speed_of_sound: 343.0,
+            sources,
+            sensor_noise: 0.001,
+            seed: 3,
+        });
+        let g = Geometry::from_positions(&PAPER_PRISM).unwrap();
+        for interpolation in [Interpolation::Parabolic, Interpolation::None] {
+            let params = Params {
+                interpolation,
+                ..Params::default()
+            };
+            let mut pruned = Analyzer::new(&g, 48000, &params).unwrap();
+            let mut full = Analyzer::new(&g, 48000, &params).unwrap();
+            full.worker.prune = false;
+            pruned.enable_stage_timing();
+            full.enable_stage_timing();
+            let (n, hop) = (pruned.frame_size(), pruned.hop());
+            let mut frame = vec![0.0f32; 8 * n];
+            let mut detections = 0;
+            let mut index = 0;
+            while index * hop + n <= channels[0].len() {
+                for (m, ch) in channels.iter().enumerate() {
+                    frame[m * n..(m + 1) * n].copy_from_slice(&ch[index * hop..index * hop + n]);
+                }
+                let want = full.process(index as u64, &frame);
+                assert_eq!(pruned.process(index as u64, &frame), want, "frame {index}");
+                detections += want.is_some() as usize;
+                index += 1;
+            }
+            let (p, f) = (pruned.stage_times(), full.stage_times());
+            eprintln!(
+                "{interpolation:?}: {detections} of {index} frames, {} of {} pairs skipped",
+                p.skipped_pairs, f.correlated_pairs
+            );
+            assert_eq!(f.skipped_pairs, 0);
+            assert_eq!(p.correlated_pairs + p.skipped_pairs, f.correlated_pairs);
+            // Both outcomes occur, and pruning does real work.
+            assert!(
+                detections > 30 && detections < index - 30,
+                "{detections} of {index}"
+            );
+            assert!(
+                p.skipped_pairs * 5 > f.correlated_pairs,
+                "{} of {} skipped",
+                p.skipped_pairs,
+                f.correlated_pairs
+            );
+        }
+    }
 
     #[test]
     fn default_frame_size_scales_with_rate() {
