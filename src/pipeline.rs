@@ -301,10 +301,21 @@ impl Worker {
         if state.live.is_empty() {
             return false;
         }
+        // Two channels per complex FFT.
+        let channel = |m: usize| &frame[m * n..(m + 1) * n];
+        for two in state.live.chunks(2) {
+            match *two {
+                [a, b] => {
+                    let (low, high) = state.spectra.split_at_mut(b);
+                    self.fft
+                        .transform_two(channel(a), channel(b), &mut low[a], &mut high[0]);
+                }
+                [a] => self.fft.transform(channel(a), &mut state.spectra[a]),
+                _ => unreachable!("chunks of two"),
+            }
+        }
         state.power.fill(0.0);
         for &m in &state.live {
-            self.fft
-                .transform(&frame[m * n..(m + 1) * n], &mut state.spectra[m]);
             for (p, x) in state.power.iter_mut().zip(&state.spectra[m]) {
                 *p += x.norm_sqr();
             }
