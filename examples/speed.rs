@@ -9,7 +9,8 @@
 //! 2. runs the `ssl` binary on it (`target/release/ssl`, build it first) on one thread and
 //!    on all cores, and reports wall time, x real time and peak resident memory (VmHWM,
 //!    polled from /proc);
-//! 3. runs the same analysis in this process with stage timing, and measures the FFT
+//! 3. runs the same analysis in this process on one thread with stage timing (and again
+//!    with `--min-score 0`, where no correlation can be skipped), and measures the FFT
 //!    floor in the same run: only the 8 forward and 28 inverse real FFTs per frame,
 //!    with the same library and sizes, on the same data sizes;
 //! 4. prints the stages as microseconds per frame and as a ratio to the floor.
@@ -19,6 +20,7 @@ use realfft::num_complex::Complex32;
 use realfft::RealFftPlanner;
 use ssl::direction::unit_from_angles;
 use ssl::geometry::PAPER_PRISM;
+use ssl::pipeline::StageTimes;
 use ssl::synth::{self, Place, Scene, Signal, Source};
 use ssl::{FileAnalysis, Geometry, Params};
 use std::io::Write;
@@ -94,15 +96,29 @@ fn main() -> anyhow::Result<()> {
         runs.push((threads, t0.elapsed().as_secs_f64(), peak_kb));
     }
 
-    // The same analysis in-process with stage timing.
+    // The same analysis in-process with stage timing; and with --min-score 0, where no
+    // correlation can be skipped (every frame needs all 28).
     let g = Geometry::from_file(&geo)?;
-    let mut analysis = FileAnalysis::open(wav.to_str().unwrap(), &g, &Params::default())?;
-    analysis.enable_stage_timing();
-    let t1 = Instant::now();
-    let (summary, result) = analysis.run(|_, _| Ok(()));
-    result?;
-    let in_process = t1.elapsed().as_secs_f64();
-    let st = summary.stage_times.clone().unwrap_or_default();
+    // (This process runs nothing else on rayon's global pool: make it one thread.)
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global()?;
+    let timed_run = |params: &Params| -> anyhow::Result<(f64, StageTimes)> {
+        let mut analysis = FileAnalysis::open(wav.to_str().unwrap(), &g, params)?;
+        analysis.enable_stage_timing();
+        let t = Instant::now();
+        let (summary, result) = analysis.run(|_, _| Ok(()));
+        result?;
+        Ok((
+            t.elapsed().as_secs_f64(),
+            summary.stage_times.unwrap_or_default(),
+        ))
+    };
+    let (in_process, st) = timed_run(&Params::default())?;
+    let (all_pairs, _) = timed_run(&Params {
+        min_score: Some(0.0),
+        ..Params::default()
+    })?;
 
     // The FFT floor: 8 forward + 28 inverse real FFTs of 1024 per frame (issue 4's
     // definition), and the transforms as ssl does them when it skips none: 4 forward and
@@ -182,10 +198,16 @@ fn main() -> anyhow::Result<()> {
     );
     let pairs = st.correlated_pairs + st.skipped_pairs;
     println!(
-        "pair correlations computed: {:.1} per frame of {:.1} ({:.0}% proven unnecessary by the weights' ceiling)\n",
+        "pair correlations computed: {:.1} per frame of {:.1} ({:.0}% proven unnecessary by the weights' ceiling)",
         st.correlated_pairs as f64 / frames,
         pairs as f64 / frames,
         100.0 * st.skipped_pairs as f64 / pairs.max(1) as f64
+    );
+    let all_us = all_pairs / frames * 1e6;
+    println!(
+        "with --min-score 0 (all 28 correlations in every frame): {all_us:.1} us per frame = {:.2}x the FFT floor ({:.2}x the transforms as ssl does them)\n",
+        all_us / floor_us,
+        all_us / (packed_per_frame * 1e6)
     );
     println!("| stage | us per frame | x floor |");
     println!("|---|---|---|");

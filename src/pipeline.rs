@@ -38,6 +38,20 @@ pub struct StageTimes {
     pub skipped_pairs: u64,
 }
 
+impl StageTimes {
+    /// Adds another record's times and counts to this one.
+    pub fn add(&mut self, other: &StageTimes) {
+        self.spectra += other.spectra;
+        self.weighting += other.weighting;
+        self.correlation += other.correlation;
+        self.peaks += other.peaks;
+        self.search += other.search;
+        self.direction += other.direction;
+        self.correlated_pairs += other.correlated_pairs;
+        self.skipped_pairs += other.skipped_pairs;
+    }
+}
+
 /// The method's parameters (defaults are the paper's where it gives them).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Params {
@@ -217,12 +231,13 @@ impl Setup {
     }
 }
 
-/// One frame between the stages: its live microphones, spectra, `X(k)` and `w_e(k)`.
+/// One frame between the stages: its live microphones, spectra, `X(k)`, and the noise
+/// estimate `X_n(k)` of the frames before it.
 pub struct FrameState {
     live: Vec<usize>,
     spectra: Vec<Vec<Complex32>>,
     power: Vec<f32>,
-    weights: Vec<f32>,
+    noise: Vec<f32>,
 }
 
 impl FrameState {
@@ -232,7 +247,7 @@ impl FrameState {
             live: Vec::with_capacity(mics),
             spectra: vec![vec![Complex32::default(); setup.bins()]; mics],
             power: vec![0.0; setup.bins()],
-            weights: vec![1.0; setup.bins()],
+            noise: vec![0.0; setup.bins()],
         }
     }
 }
@@ -255,6 +270,8 @@ pub enum Outcome {
 pub struct Worker {
     fft: ForwardFft,
     correlator: Correlator,
+    /// `w_e(k)` of the frame (all 1 without weighting).
+    weights: Vec<f32>,
     /// One pair's correlation at the lags it searches (and their two neighbours).
     window: Vec<f32>,
     /// The live pairs `(a, b)`, indices into the live microphones.
@@ -273,6 +290,7 @@ impl Worker {
         Worker {
             fft: ForwardFft::new(setup.n, setup.params.window),
             correlator: Correlator::new(setup.n),
+            weights: vec![1.0; setup.bins()],
             window: Vec::with_capacity(setup.n),
             pairs: Vec::with_capacity(pair_count(mics)),
             whitened: vec![vec![Complex32::default(); setup.bins()]; mics],
@@ -325,9 +343,9 @@ impl Worker {
         true
     }
 
-    /// Stage 3 (independent per frame, given its weights): whitening, the correlation of
-    /// every live pair (eq. 6), its M peaks (eq. 7), the search (eq. 8), the direction
-    /// (eq. 13).
+    /// Stage 3 (independent per frame, given the noise estimate of the frames before it):
+    /// the weights (eq. 4-5), whitening, the correlation of every live pair (eq. 6), its
+    /// M peaks (eq. 7), the search (eq. 8), the direction (eq. 13).
     pub fn localize(
         &mut self,
         setup: &Setup,
@@ -341,6 +359,15 @@ impl Worker {
         if k < 2 {
             return Outcome::Unsolved;
         }
+        if setup.params.weighting {
+            enhanced_weights(
+                &state.power,
+                &state.noise,
+                setup.params.alpha,
+                setup.params.gamma,
+                &mut self.weights,
+            );
+        }
         let threshold = setup
             .params
             .min_score
@@ -349,7 +376,7 @@ impl Worker {
         // the weights set: when even that cannot reach the threshold, the frame has no
         // detection whatever the correlations are, and they are not computed. The same
         // test is repeated as pairs are correlated, with their actual best peaks.
-        let ceiling = correlation::peak_ceiling(&state.weights, n, setup.params.interpolation);
+        let ceiling = correlation::peak_ceiling(&self.weights, n, setup.params.interpolation);
         let prune = self.prune;
         let skip = |clock: &mut Clock, left: usize, best_possible: f64| {
             let skip = prune && best_possible + left as f64 * ceiling < threshold;
@@ -360,7 +387,7 @@ impl Worker {
             return Outcome::BelowThreshold(false);
         }
         for &m in &state.live {
-            correlation::whiten(&state.spectra[m], &state.weights, &mut self.whitened[m]);
+            correlation::whiten(&state.spectra[m], &self.weights, &mut self.whitened[m]);
         }
         clock.lap(|t| &mut t.weighting);
         // Eq. (6) divided by N (see the `correlation` module on the scale), two pairs per
@@ -497,8 +524,9 @@ impl Sequential {
         self.primed += 1;
     }
 
-    /// Stage 2 (in frame order): `w_e(k)` from `X(k)` and the noise estimate of previous
-    /// frames (eq. 4-5), then the estimate is updated. Returns `false` for a silent frame.
+    /// Stage 2 (in frame order): the frame keeps the noise estimate of the frames before
+    /// it (for its weights, eq. 4-5, in stage 3), then the estimate is updated with its
+    /// `X(k)`. Returns `false` for a silent frame.
     pub fn weigh(&mut self, setup: &Setup, state: &mut FrameState, live: bool) -> bool {
         self.stats.frames += 1;
         let primed = self.primed > 0;
@@ -516,13 +544,7 @@ impl Sequential {
             self.noise.start(&state.power);
         }
         if setup.params.weighting {
-            enhanced_weights(
-                &state.power,
-                self.noise.noise(),
-                setup.params.alpha,
-                setup.params.gamma,
-                &mut state.weights,
-            );
+            state.noise.copy_from_slice(self.noise.noise());
         }
         if !primed {
             self.noise.update(&state.power);
@@ -585,10 +607,14 @@ impl Analyzer {
         })
     }
 
-    /// The shared setup and the sequential state, for running the stages over blocks of
-    /// frames on several threads.
-    pub fn parts(&mut self) -> (&Setup, &mut Sequential) {
-        (&self.setup, &mut self.sequential)
+    /// The shared setup, the sequential state and the stage times (when enabled), for
+    /// running the stages over blocks of frames on several threads.
+    pub fn parts(&mut self) -> (&Setup, &mut Sequential, Option<&mut StageTimes>) {
+        (
+            &self.setup,
+            &mut self.sequential,
+            self.timing.then_some(&mut self.times),
+        )
     }
 
     pub fn frame_size(&self) -> usize {

@@ -3,10 +3,11 @@
 use crate::audio::{Framer, WavFormat, WavStream};
 use crate::geometry::Geometry;
 use crate::pipeline::{
-    Analyzer, Detection, FrameState, FrameStats, Outcome, Params, Worker, PRIMING_S,
+    Analyzer, Detection, FrameState, FrameStats, Outcome, Params, StageTimes, Worker, PRIMING_S,
 };
 use rayon::prelude::*;
 use std::sync::Mutex;
+use std::time::Instant;
 
 /// Frames analysed together on the thread pool (bounded memory: about 70 KB a frame for
 /// 8 microphones at N = 1024).
@@ -108,17 +109,14 @@ impl FileAnalysis {
     /// Frames are analysed in blocks of [`BLOCK`] on the threads of the current rayon
     /// pool: spectra in parallel, the noise estimate and weights in frame order (exactly
     /// as one thread would), correlations, search and direction in parallel, then the
-    /// results in order. The output is the same for any number of threads. With stage
-    /// timing enabled, frames go one at a time through [`Analyzer::process`] instead.
+    /// results in order. The output is the same for any number of threads. Stage times,
+    /// when enabled, add up the threads' time in stage 3 and the wall time of stages 1
+    /// and 2 (run on one thread to compare stages).
     pub fn run(
         mut self,
         mut sink: impl FnMut(u64, Option<&Detection>) -> Result<()>,
     ) -> (FileSummary, Result<()>) {
-        let result = if self.analyzer.timing_enabled() {
-            self.run_frame_by_frame(&mut sink)
-        } else {
-            self.run_blocks(&mut sink)
-        };
+        let result = self.run_blocks(&mut sink);
         let summary = self.summary();
         let result = match result {
             Ok(()) if summary.stats.frames == 0 => Err(anyhow::anyhow!(too_short(
@@ -138,42 +136,15 @@ impl FileAnalysis {
         ((PRIMING_S / hop_s).ceil() as usize).min(BLOCK)
     }
 
-    fn run_frame_by_frame(
-        &mut self,
-        sink: &mut dyn FnMut(u64, Option<&Detection>) -> Result<()>,
-    ) -> Result<()> {
-        // Prime the noise estimate with the first frames, then analyse them too.
-        let priming = self.priming_frames();
-        let mut first: Vec<(u64, Vec<f32>)> = Vec::with_capacity(priming);
-        while first.len() < priming {
-            match self.framer.next_frame(&mut self.stream)? {
-                Some((index, frame)) => first.push((index, frame.to_vec())),
-                None => break,
-            }
-        }
-        for (_, frame) in &first {
-            self.analyzer.prime(frame);
-        }
-        for (index, frame) in &first {
-            let det = self.analyzer.process(*index, frame);
-            sink(*index, det.as_ref())?;
-        }
-        drop(first);
-        while let Some((index, frame)) = self.framer.next_frame(&mut self.stream)? {
-            let det = self.analyzer.process(index, frame);
-            sink(index, det.as_ref())?;
-        }
-        Ok(())
-    }
-
     fn run_blocks(
         &mut self,
         sink: &mut dyn FnMut(u64, Option<&Detection>) -> Result<()>,
     ) -> Result<()> {
         let priming = self.priming_frames();
-        let (setup, sequential) = self.analyzer.parts();
-        let workers: Vec<Mutex<Worker>> = (0..rayon::current_num_threads())
-            .map(|_| Mutex::new(Worker::new(setup)))
+        let (setup, sequential, mut times) = self.analyzer.parts();
+        let timing = times.is_some();
+        let workers: Vec<Mutex<(Worker, StageTimes)>> = (0..rayon::current_num_threads())
+            .map(|_| Mutex::new((Worker::new(setup), StageTimes::default())))
             .collect();
         let worker = || {
             let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
@@ -208,12 +179,16 @@ impl FileAnalysis {
                 return read_error.map_or(Ok(()), Err);
             }
             // Stage 1: spectra, in parallel.
+            let clock = Instant::now();
             states[..count]
                 .par_iter_mut()
                 .zip(live[..count].par_iter_mut())
                 .zip(frames[..count * width].par_chunks(width))
-                .for_each(|((state, live), frame)| *live = worker().spectra(setup, frame, state));
-            // Stage 2: the noise estimate and weights, in frame order.
+                .for_each(|((state, live), frame)| {
+                    *live = worker().0.spectra(setup, frame, state);
+                });
+            let stage1 = clock.elapsed();
+            // Stage 2: the noise estimate, in frame order.
             if first_block {
                 for i in 0..priming.min(count) {
                     sequential.prime(&states[i], live[i]);
@@ -223,6 +198,10 @@ impl FileAnalysis {
             for i in 0..count {
                 live[i] = sequential.weigh(setup, &mut states[i], live[i]);
             }
+            if let Some(times) = times.as_deref_mut() {
+                times.spectra += stage1;
+                times.weighting += clock.elapsed() - stage1;
+            }
             // Stage 3: correlations, peaks, search, direction, in parallel.
             outcomes[..count]
                 .par_iter_mut()
@@ -231,11 +210,18 @@ impl FileAnalysis {
                 .zip(indices[..count].par_iter())
                 .for_each(|(((outcome, state), &live), &index)| {
                     *outcome = if live {
-                        worker().localize(setup, state, index, None)
+                        let mut guard = worker();
+                        let (worker, stage_times) = &mut *guard;
+                        worker.localize(setup, state, index, timing.then_some(stage_times))
                     } else {
                         Outcome::Silent
                     };
                 });
+            if let Some(times) = times.as_deref_mut() {
+                for w in &workers {
+                    times.add(&std::mem::take(&mut w.lock().expect("a worker panicked").1));
+                }
+            }
             for i in 0..count {
                 let det = sequential.tally(outcomes[i]);
                 sink(indices[i], det.as_ref())?;
