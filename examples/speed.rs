@@ -15,6 +15,8 @@
 //!    with the same library and sizes, on the same data sizes;
 //! 4. prints the stages as microseconds per frame and as a ratio to the floor.
 
+mod support;
+
 use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
 use realfft::RealFftPlanner;
@@ -36,11 +38,7 @@ fn main() -> anyhow::Result<()> {
     let keep = std::env::args().nth(2).map(std::path::PathBuf::from);
     let wav = keep.clone().unwrap_or_else(|| dir.path().join("speed.wav"));
     let geo = dir.path().join("prism.toml");
-    let mut toml = String::new();
-    for p in PAPER_PRISM {
-        toml += &format!("[[mic]]\nposition = [{}, {}, {}]\n", p[0], p[1], p[2]);
-    }
-    std::fs::write(&geo, toml)?;
+    std::fs::write(&geo, support::geometry_toml(&PAPER_PRISM))?;
     if keep.is_none() || !wav.exists() {
         write_recording(&wav, seconds)?;
     } else {
@@ -55,16 +53,14 @@ fn main() -> anyhow::Result<()> {
     let frames = ((seconds * 48000.0 - 1024.0) / 512.0).floor() + 1.0;
 
     // The binary, end to end.
-    let exe = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/release/ssl");
-    if !exe.exists() {
-        anyhow::bail!("build the binary first: cargo build --release");
-    }
+    let exe = support::release_binary()?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut runs = Vec::new();
     for threads in [1, cores] {
-        let t0 = Instant::now();
-        let mut child = std::process::Command::new(&exe)
-            .args([
+        let threads_arg = threads.to_string();
+        let (wall, peak_mb) = support::run_measured(
+            &exe,
+            &[
                 "analyze",
                 wav.to_str().unwrap(),
                 "-g",
@@ -72,28 +68,10 @@ fn main() -> anyhow::Result<()> {
                 "-o",
                 "/dev/null",
                 "--threads",
-                &threads.to_string(),
-            ])
-            .spawn()?;
-        let mut peak_kb = 0u64;
-        let status = loop {
-            if let Ok(s) = std::fs::read_to_string(format!("/proc/{}/status", child.id())) {
-                if let Some(v) = s.lines().find(|l| l.starts_with("VmHWM:")) {
-                    peak_kb = peak_kb.max(
-                        v.split_whitespace()
-                            .nth(1)
-                            .and_then(|x| x.parse().ok())
-                            .unwrap_or(0),
-                    );
-                }
-            }
-            if let Some(status) = child.try_wait()? {
-                break status;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        };
-        anyhow::ensure!(status.success(), "ssl analyze failed");
-        runs.push((threads, t0.elapsed().as_secs_f64(), peak_kb));
+                &threads_arg,
+            ],
+        )?;
+        runs.push((threads, wall, peak_mb));
     }
 
     // The same analysis in-process with stage timing; and with --min-score 0, where no
@@ -175,11 +153,10 @@ fn main() -> anyhow::Result<()> {
     let us = |d: Duration| d.as_secs_f64() / frames * 1e6;
     let floor_us = floor_per_frame * 1e6;
     println!("recording: {seconds:.0} s, 8 channels, 48 kHz, 16-bit, {frames:.0} frames of 1024");
-    for (threads, wall, peak_kb) in &runs {
+    for (threads, wall, peak_mb) in &runs {
         println!(
-            "ssl analyze --threads {threads}: {wall:.2} s wall, {:.0}x real time, peak memory {:.1} MB",
+            "ssl analyze --threads {threads}: {wall:.2} s wall, {:.0}x real time, peak memory {peak_mb:.1} MB",
             seconds / wall,
-            *peak_kb as f64 / 1024.0
         );
     }
     let pipeline_us = in_process / frames * 1e6;

@@ -1,0 +1,206 @@
+//! How `ssl analyze` scales beyond 8 channels at 48 kHz (issue 4, item 3): 16 and 32
+//! microphones, 16 and 96 kHz, and many small files in one call.
+//!
+//! `cargo build --release && cargo run --release --example scaling -- [SECONDS]`
+//! (default 30). For each case it writes a free-field scene with `ssl simulate` (white
+//! noise events of 0.8 s every 1.5 s from changing directions at 3 m, -26 dBFS, sensor
+//! noise at -50 dBFS), analyses it with `--threads 1` and with all cores (wall time,
+//! x real time, peak memory), checks that both outputs are identical byte for byte,
+//! and scores the result with `ssl evaluate`. The 16- and 32-microphone arrays are
+//! Fibonacci lattices on a sphere of radius 0.25 m; the others are the paper's prism.
+
+mod support;
+
+use ssl::geometry::PAPER_PRISM;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// `k` points spread evenly over a sphere of radius `r` (a Fibonacci lattice).
+fn sphere(k: usize, r: f64) -> Vec<[f64; 3]> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..k)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / k as f64;
+            let rho = (1.0 - z * z).sqrt();
+            let phi = golden * i as f64;
+            [r * rho * phi.cos(), r * rho * phi.sin(), r * z]
+        })
+        .collect()
+}
+
+/// A free-field scene of white-noise events, each from its own direction.
+fn scene_toml(rate: u32, seconds: f64) -> String {
+    let mut s = format!(
+        "sample_rate = {rate}\nduration = {seconds}\nseed = 5\nformat = \"int16\"\n\
+         [array]\ngeometry = \"array.toml\"\nposition = [0.0, 0.0, 0.0]\n"
+    );
+    let mut t = 0.4;
+    let mut i = 0;
+    while t + 0.8 < seconds {
+        let azimuth = -170.0 + (i * 67 % 340) as f64;
+        let elevation = -40.0 + (i * 29 % 80) as f64;
+        write!(
+            s,
+            "[[source]]\nazimuth_deg = {azimuth}\nelevation_deg = {elevation}\ndistance = 3.0\n\
+             signal = \"white\"\nlevel_db = -26\nactive = [[{t:.2}, {:.2}]]\n",
+            t + 0.8
+        )
+        .unwrap();
+        t += 1.5;
+        i += 1;
+    }
+    s + "[noise]\nsensor_db = -50\n"
+}
+
+struct Case {
+    name: String,
+    mics: Vec<[f64; 3]>,
+    rate: u32,
+    seconds: f64,
+    /// Analyse this many copies of the recording in one call.
+    copies: usize,
+}
+
+fn main() -> anyhow::Result<()> {
+    let seconds: f64 = std::env::args()
+        .nth(1)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(30.0);
+    let exe = support::release_binary()?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let prism = PAPER_PRISM.to_vec();
+    let cases = [
+        Case {
+            name: "prism (8 mics, 28 pairs), 48 kHz".into(),
+            mics: prism.clone(),
+            rate: 48000,
+            seconds,
+            copies: 1,
+        },
+        Case {
+            name: "16 mics (120 pairs), 48 kHz".into(),
+            mics: sphere(16, 0.25),
+            rate: 48000,
+            seconds,
+            copies: 1,
+        },
+        Case {
+            name: "32 mics (496 pairs), 48 kHz".into(),
+            mics: sphere(32, 0.25),
+            rate: 48000,
+            seconds: seconds / 2.0,
+            copies: 1,
+        },
+        Case {
+            name: "prism, 96 kHz (N = 2048)".into(),
+            mics: prism.clone(),
+            rate: 96000,
+            seconds,
+            copies: 1,
+        },
+        Case {
+            name: "prism, 16 kHz (N = 256)".into(),
+            mics: prism.clone(),
+            rate: 16000,
+            seconds,
+            copies: 1,
+        },
+        Case {
+            name: "200 files of 2 s (prism, 48 kHz), one call".into(),
+            mics: prism,
+            rate: 48000,
+            seconds: 2.0,
+            copies: 200,
+        },
+    ];
+    println!(
+        "| recording | audio | --threads 1 | --threads {cores} | peak memory | mean error | events found |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for case in &cases {
+        let dir = tempfile::tempdir()?;
+        let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+        let array = path("array.toml");
+        std::fs::write(&array, support::geometry_toml(&case.mics))?;
+        std::fs::write(path("scene.toml"), scene_toml(case.rate, case.seconds))?;
+        let wav = path("rec.wav");
+        let truth = path("truth.json");
+        let simulate = [
+            "simulate",
+            &path("scene.toml"),
+            "-o",
+            &wav,
+            "--truth",
+            &truth,
+        ];
+        support::run_measured(&exe, &simulate)?;
+        let mut inputs = vec![wav.clone()];
+        for c in 1..case.copies {
+            let copy = path(&format!("rec{c}.wav"));
+            std::fs::hard_link(&wav, &copy)?;
+            inputs.push(copy);
+        }
+        let mut cells = Vec::new();
+        let mut peak = 0.0f64;
+        for threads in [1, cores] {
+            let out = path(&format!("out{threads}.csv"));
+            let threads_arg = threads.to_string();
+            let mut args = vec!["analyze", "-g", &array];
+            args.extend(inputs.iter().map(String::as_str));
+            args.extend(["-o", &out, "--threads", &threads_arg]);
+            let (wall, peak_mb) = support::run_measured(&exe, &args)?;
+            let audio = case.seconds * case.copies as f64;
+            cells.push(format!("{wall:.2} s ({:.0}x)", audio / wall));
+            peak = peak.max(peak_mb);
+        }
+        anyhow::ensure!(
+            std::fs::read(path("out1.csv"))? == std::fs::read(path(&format!("out{cores}.csv")))?,
+            "{}: the output depends on the number of threads",
+            case.name
+        );
+        let report = evaluate(&exe, Path::new(&truth), Path::new(&path("out1.csv")))?;
+        let mean = report["mean_error_deg"].as_f64().unwrap_or(f64::NAN);
+        let events = report["event_detection_rate"].as_f64().unwrap_or(f64::NAN);
+        println!(
+            "| {} | {} s | {} | {} | {peak:.1} MB | {mean:.2} deg | {:.0}% |",
+            case.name,
+            case.seconds * case.copies as f64,
+            cells[0],
+            cells[1],
+            100.0 * events
+        );
+    }
+    Ok(())
+}
+
+/// `ssl evaluate --json` of one result (for many identical files, the first one's rows
+/// are what the truth describes; the result holds them all, in file order).
+fn evaluate(exe: &Path, truth: &Path, result: &Path) -> anyhow::Result<serde_json::Value> {
+    let first = std::fs::read_to_string(result)?;
+    let file_column = 7;
+    let mut lines = first.lines();
+    let header = lines.next().unwrap_or_default().to_string();
+    let first_file = lines
+        .clone()
+        .next()
+        .and_then(|l| l.split(',').nth(file_column))
+        .unwrap_or_default()
+        .to_string();
+    let rows: Vec<&str> = lines
+        .filter(|l| l.split(',').nth(file_column) == Some(first_file.as_str()))
+        .collect();
+    let single = result.with_extension("first.csv");
+    std::fs::write(&single, format!("{header}\n{}\n", rows.join("\n")))?;
+    let out = std::process::Command::new(exe)
+        .args(["evaluate", "--json", "--truth"])
+        .arg(truth)
+        .arg(&single)
+        .output()?;
+    anyhow::ensure!(
+        out.status.success(),
+        "ssl evaluate failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Ok(serde_json::from_slice(&out.stdout)?)
+}
