@@ -12,6 +12,7 @@
 //! depend on the length of the recording.
 
 use anyhow::{bail, Result};
+use multiversion::multiversion;
 use std::fs::File;
 use std::io::{self, BufReader, Read};
 
@@ -232,6 +233,7 @@ impl WavStream {
 }
 
 /// Decodes little-endian samples of `width` bytes into `out` in [-1, 1).
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 fn decode(raw: &[u8], width: usize, float: bool, out: &mut [f32]) {
     match (width, float) {
         (4, true) => {
@@ -424,14 +426,20 @@ impl Framer {
         for (m, &c) in self.channels.iter().enumerate() {
             let row = &mut self.frame[m * n..(m + 1) * n];
             row.copy_within(n - keep.., 0);
-            for (d, s) in row[keep..].iter_mut().zip(buf.chunks_exact(ch)) {
-                *d = s[c];
-            }
+            deinterleave(buf, ch, c, &mut row[keep..]);
         }
         let index = if self.started { self.index + 1 } else { 0 };
         self.started = true;
         self.index = index;
         Ok(Some((index, &self.frame)))
+    }
+}
+
+/// `out[i] = interleaved[i * channels + channel]`.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn deinterleave(interleaved: &[f32], channels: usize, channel: usize, out: &mut [f32]) {
+    for (d, s) in out.iter_mut().zip(interleaved.chunks_exact(channels)) {
+        *d = s[channel];
     }
 }
 

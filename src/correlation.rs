@@ -12,6 +12,7 @@
 //! that stands out of the noise (`w_e > 1` in its bins) peaks higher. That is what lets a
 //! score threshold reject the background (see `pipeline::DEFAULT_MIN_SCORE_PER_PAIR`).
 
+use multiversion::multiversion;
 use realfft::num_complex::Complex32;
 use rustfft::{Fft, FftPlanner};
 use std::sync::Arc;
@@ -94,32 +95,44 @@ impl ForwardFft {
         out_a: &mut [Complex32],
         out_b: &mut [Complex32],
     ) {
-        let n = self.buffer.len();
-        let h = n / 2;
-        for (((z, &a), &b), &w) in self.buffer.iter_mut().zip(a).zip(b).zip(&self.window) {
-            *z = Complex32::new(a * w, b * w);
-        }
+        interleave(a, b, &self.window, &mut self.buffer);
         self.plan
             .process_with_scratch(&mut self.buffer, &mut self.scratch);
-        let z = &self.buffer;
-        for k in [0, h] {
-            // Z(N - k) = Z(k) at DC and Nyquist.
-            out_a[k] = Complex32::new(z[k].re, 0.0);
-            out_b[k] = Complex32::new(z[k].im, 0.0);
-        }
-        for (((x_a, x_b), zk), zr) in out_a[1..h]
-            .iter_mut()
-            .zip(&mut out_b[1..h])
-            .zip(&z[1..h])
-            .zip(z[h + 1..].iter().rev())
-        {
-            *x_a = Complex32::new(0.5 * (zk.re + zr.re), 0.5 * (zk.im - zr.im));
-            *x_b = Complex32::new(0.5 * (zk.im + zr.im), 0.5 * (zr.re - zk.re));
-        }
+        split(&self.buffer, out_a, out_b);
+    }
+}
+
+/// `z = (a + i b) w`, the two windowed frames as one complex signal.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn interleave(a: &[f32], b: &[f32], window: &[f32], z: &mut [Complex32]) {
+    for (((z, &a), &b), &w) in z.iter_mut().zip(a).zip(b).zip(window) {
+        *z = Complex32::new(a * w, b * w);
+    }
+}
+
+/// The two real spectra in the complex FFT `z` of `a + i b`: `X_a(k) = (Z(k) + Z(N-k)*) / 2`
+/// and `X_b(k) = (Z(k) - Z(N-k)*) / 2i`, for `k = 0..=N/2`.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn split(z: &[Complex32], out_a: &mut [Complex32], out_b: &mut [Complex32]) {
+    let h = z.len() / 2;
+    for k in [0, h] {
+        // Z(N - k) = Z(k) at DC and Nyquist.
+        out_a[k] = Complex32::new(z[k].re, 0.0);
+        out_b[k] = Complex32::new(z[k].im, 0.0);
+    }
+    for (((x_a, x_b), zk), zr) in out_a[1..h]
+        .iter_mut()
+        .zip(&mut out_b[1..h])
+        .zip(&z[1..h])
+        .zip(z[h + 1..].iter().rev())
+    {
+        *x_a = Complex32::new(0.5 * (zk.re + zr.re), 0.5 * (zk.im - zr.im));
+        *x_b = Complex32::new(0.5 * (zk.im + zr.im), 0.5 * (zr.re - zk.re));
     }
 }
 
 /// The whitened, weighted spectrum `Y(k) = w_e(k) X(k) / |X(k)|` (0 where `X(k) = 0`).
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 pub fn whiten(x: &[Complex32], we: &[f32], out: &mut [Complex32]) {
     for ((o, &v), &w) in out.iter_mut().zip(x).zip(we) {
         // |X| of an audio spectrum is far below f32's overflow, so no hypot is needed.
@@ -137,6 +150,7 @@ pub fn whiten(x: &[Complex32], we: &[f32], out: &mut [Complex32]) {
 /// by eq. (6) `|R_ij(tau)| <= (1/N) sum_{k=0}^{N-1} w_e(k)^2 = E`; a parabola through a
 /// local maximum and its neighbours peaks at most `(|prev| + |next|) / 8 <= E / 4` above
 /// it. `weights` holds `w_e(k)` for `k = 0..=N/2`; a margin covers rounding.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 pub fn peak_ceiling(weights: &[f32], n: usize, interp: Interpolation) -> f64 {
     let last = weights.len() - 1;
     let inner: f64 = weights[1..last].iter().map(|&w| (w * w) as f64).sum();
@@ -190,27 +204,7 @@ impl Correlator {
         let scale = if norm > 0.0 { 1.0 / norm } else { 0.0 };
         let (a, b) = first;
         let (c, d) = second.unwrap_or(first);
-        let h = self.n / 2;
-        let (low, high) = self.buffer.split_at_mut(h + 1);
-        // The DC and Nyquist bins of a real signal's spectrum are real.
-        for k in [0, h] {
-            let (p, q) = (a[k] * b[k].conj(), c[k] * d[k].conj());
-            low[k] = Complex32::new(p.re * scale, q.re * scale);
-        }
-        // Bin k holds C_p + i C_q, bin N - k holds conj(C_p) + i conj(C_q). The mirror
-        // half is written forward into `scratch` and reversed after, so that both loops
-        // vectorise.
-        let mirror = &mut self.mirror[..h - 1];
-        for k in 1..h {
-            let (a, b, c, d) = (a[k], b[k], c[k], d[k]);
-            let (pr, pi) = (a.re * b.re + a.im * b.im, a.im * b.re - a.re * b.im);
-            let (qr, qi) = (c.re * d.re + c.im * d.im, c.im * d.re - c.re * d.im);
-            low[k] = Complex32::new((pr - qi) * scale, (pi + qr) * scale);
-            mirror[k - 1] = Complex32::new((pr + qi) * scale, (qr - pi) * scale);
-        }
-        for (hi, m) in high.iter_mut().zip(mirror.iter().rev()) {
-            *hi = *m;
-        }
+        cross_spectra([a, b, c, d], scale, &mut self.buffer, &mut self.mirror);
         self.plan
             .process_with_scratch(&mut self.buffer, &mut self.scratch);
     }
@@ -220,10 +214,52 @@ impl Correlator {
     pub fn lags(&self, second: bool, half: usize, out: &mut Vec<f32>) {
         let n = self.n;
         assert!(half < n / 2, "lag window {half} too wide for N = {n}");
-        let pick = |z: &Complex32| if second { z.im } else { z.re };
         out.clear();
-        out.extend(self.buffer[n - half..].iter().map(pick));
-        out.extend(self.buffer[..=half].iter().map(pick));
+        out.resize(2 * half + 1, 0.0);
+        let (negative, positive) = out.split_at_mut(half);
+        pick_part(&self.buffer[n - half..], second, negative);
+        pick_part(&self.buffer[..=half], second, positive);
+    }
+}
+
+/// `out[i] = z[i].re` (or `.im` when `imaginary`).
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn pick_part(z: &[Complex32], imaginary: bool, out: &mut [f32]) {
+    if imaginary {
+        out.iter_mut().zip(z).for_each(|(o, z)| *o = z.im);
+    } else {
+        out.iter_mut().zip(z).for_each(|(o, z)| *o = z.re);
+    }
+}
+
+/// The packed spectrum of two pairs' cross-spectra: bin k holds `C_p + i C_q` and bin
+/// N - k holds `conj(C_p) + i conj(C_q)`, with `C_p = a b*`, `C_q = c d*` (times
+/// `scale`). The mirror half is written forward into `mirror` and reversed after, so
+/// that both loops vectorise.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn cross_spectra(
+    [a, b, c, d]: [&[Complex32]; 4],
+    scale: f32,
+    buffer: &mut [Complex32],
+    mirror: &mut [Complex32],
+) {
+    let h = buffer.len() / 2;
+    let (low, high) = buffer.split_at_mut(h + 1);
+    // The DC and Nyquist bins of a real signal's spectrum are real.
+    for k in [0, h] {
+        let (p, q) = (a[k] * b[k].conj(), c[k] * d[k].conj());
+        low[k] = Complex32::new(p.re * scale, q.re * scale);
+    }
+    let mirror = &mut mirror[..h - 1];
+    for k in 1..h {
+        let (a, b, c, d) = (a[k], b[k], c[k], d[k]);
+        let (pr, pi) = (a.re * b.re + a.im * b.im, a.im * b.re - a.re * b.im);
+        let (qr, qi) = (c.re * d.re + c.im * d.im, c.im * d.re - c.re * d.im);
+        low[k] = Complex32::new((pr - qi) * scale, (pi + qr) * scale);
+        mirror[k - 1] = Complex32::new((pr + qi) * scale, (qr - pi) * scale);
+    }
+    for (hi, m) in high.iter_mut().zip(mirror.iter().rev()) {
+        *hi = *m;
     }
 }
 
@@ -244,6 +280,7 @@ pub const MAX_PEAKS: usize = 64;
 /// [`Correlator::lags`]); peaks are looked for at `|tau| < h`, the outer two samples
 /// being their neighbours. A plateau counts once, at its first sample. `out` is cleared
 /// and refilled; it does not allocate once its capacity reaches `m` (`1..=`[`MAX_PEAKS`]).
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 pub fn find_peaks(window: &[f32], m: usize, interp: Interpolation, out: &mut Vec<Peak>) {
     assert!(m <= MAX_PEAKS, "at most {MAX_PEAKS} peaks per pair");
     out.clear();
@@ -294,6 +331,7 @@ struct Top<const K: usize> {
 }
 
 impl<const K: usize> Top<K> {
+    #[inline(always)]
     fn select(window: &[f32]) -> Self {
         let mut top = Top {
             values: [f32::NEG_INFINITY; K],
@@ -337,19 +375,33 @@ impl<const K: usize> Top<K> {
     /// Inserts a candidate that comes after every one inserted so far (in lag order), if
     /// it beats the last. No data-dependent branches: the place is a count and the shift
     /// a fixed sequence of selects, which the compiler unrolls for the constant `K`.
-    #[inline]
+    #[inline(always)]
     fn insert(&mut self, value: f32, index: u32) {
-        let pos: usize = self.values.iter().map(|&q| (q >= value) as usize).sum();
+        // The list is sorted, so `ahead` is true for a prefix: the entries that stay.
+        // The candidate goes to the first place not ahead, the rest move down one.
         let (values, indices) = (self.values, self.index);
-        for j in 0..K {
-            let (v, i) = match j.cmp(&pos) {
-                std::cmp::Ordering::Less => (values[j], indices[j]),
-                std::cmp::Ordering::Equal => (value, index),
-                std::cmp::Ordering::Greater => (values[j - 1], indices[j - 1]),
-            };
-            self.values[j] = v;
-            self.index[j] = i;
-        }
+        let ahead: [bool; K] = std::array::from_fn(|j| values[j] >= value);
+        let place = |j: usize| !ahead[j] && (j == 0 || ahead[j - 1]);
+        self.values = std::array::from_fn(|j| {
+            let moved = values[j.saturating_sub(1)];
+            if ahead[j] {
+                values[j]
+            } else if place(j) {
+                value
+            } else {
+                moved
+            }
+        });
+        self.index = std::array::from_fn(|j| {
+            let moved = indices[j.saturating_sub(1)];
+            if ahead[j] {
+                indices[j]
+            } else if place(j) {
+                index
+            } else {
+                moved
+            }
+        });
     }
 
     /// Writes the first `m` kept peaks to `out`, with lags counted from index `centre`.

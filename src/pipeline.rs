@@ -11,6 +11,7 @@ use crate::geometry::Geometry;
 use crate::search::Searcher;
 use crate::weighting::{enhanced_weights, NoiseEstimator, NoiseSettings};
 use anyhow::{bail, Result};
+use multiversion::multiversion;
 use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
@@ -334,9 +335,7 @@ impl Worker {
         }
         state.power.fill(0.0);
         for &m in &state.live {
-            for (p, x) in state.power.iter_mut().zip(&state.spectra[m]) {
-                *p += x.norm_sqr();
-            }
+            add_power(&state.spectra[m], &mut state.power);
         }
         let inv = 1.0 / state.live.len() as f32;
         state.power.iter_mut().for_each(|p| *p *= inv);
@@ -669,6 +668,14 @@ impl Analyzer {
             Outcome::Silent
         };
         self.sequential.tally(outcome)
+    }
+}
+
+/// `power(k) += |x(k)|^2`.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn add_power(x: &[Complex32], power: &mut [f32]) {
+    for (p, x) in power.iter_mut().zip(x) {
+        *p += x.norm_sqr();
     }
 }
 

@@ -10,6 +10,8 @@
 //! into the noise once it has been on without a pause for longer than the minimum
 //! window ([`MIN_WINDOW_S`]).
 
+use multiversion::multiversion;
+
 /// Time constant of the smoothing of `X` before minimum tracking (seconds).
 pub const SMOOTH_TAU_S: f64 = 0.04;
 /// The minimum window is tracked as this many sub-windows (so it slides in steps of
@@ -129,53 +131,60 @@ impl NoiseEstimator {
 
     /// Folds the current frame's `X(k)` into the estimate (after it has been used for the
     /// current frame's weights: the estimate is of *previous* frames).
-    #[allow(clippy::needless_range_loop)] // several arrays indexed by bin, and neighbours
     pub fn update(&mut self, x: &[f32]) {
         if !self.started {
             self.start(x);
             return;
         }
-        let n = x.len();
-        smooth_frequency(x, &mut self.scratch);
-        let (a_s, a_p, a_d) = (self.a_s, self.a_p, self.a_d);
-        // Signal presence is judged from the smoothed power of the frames *before* this
-        // one: gating the average of X on a statistic that contains X itself would bias
-        // the estimate low (updates would favour the frames where X happens to be low).
-        for k in 0..n {
-            let mut minimum = self.sub_min[k];
-            for s in 0..SUBWINDOWS {
-                minimum = minimum.min(self.ring[s * n + k]);
-            }
-            let present = if self.smooth[k] > self.delta * minimum {
-                1.0
-            } else {
-                0.0
-            };
-            let p = a_p * self.presence[k] + (1.0 - a_p) * present;
-            self.presence[k] = p;
-            // A plain mean of the frames without signal until it spans the time constant,
-            // then the recursive average; frozen in proportion to signal presence.
-            let base = a_d.min(1.0 - 1.0 / (self.count[k] + 1.0));
-            let a = base + (1.0 - base) * p;
-            self.noise[k] = a * self.noise[k] + (1.0 - a) * x[k];
-            self.count[k] += 1.0 - p;
+        update_started(self, x);
+    }
+}
+
+/// [`NoiseEstimator::update`] after the first frame.
+#[allow(clippy::needless_range_loop)] // several arrays indexed by bin, and neighbours
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn update_started(est: &mut NoiseEstimator, x: &[f32]) {
+    let n = x.len();
+    smooth_frequency(x, &mut est.scratch);
+    let (a_s, a_p, a_d) = (est.a_s, est.a_p, est.a_d);
+    // Signal presence is judged from the smoothed power of the frames *before* this
+    // one: gating the average of X on a statistic that contains X itself would bias
+    // the estimate low (updates would favour the frames where X happens to be low).
+    for k in 0..n {
+        let mut minimum = est.sub_min[k];
+        for s in 0..SUBWINDOWS {
+            minimum = minimum.min(est.ring[s * n + k]);
         }
-        for k in 0..n {
-            self.smooth[k] = a_s * self.smooth[k] + (1.0 - a_s) * self.scratch[k];
-            self.sub_min[k] = self.sub_min[k].min(self.smooth[k]);
-        }
-        self.frame_in_sub += 1;
-        if self.frame_in_sub == self.frames_per_sub {
-            let row = &mut self.ring[self.ring_pos * n..(self.ring_pos + 1) * n];
-            row.copy_from_slice(&self.sub_min);
-            self.sub_min.copy_from_slice(&self.smooth);
-            self.ring_pos = (self.ring_pos + 1) % SUBWINDOWS;
-            self.frame_in_sub = 0;
-        }
+        let present = if est.smooth[k] > est.delta * minimum {
+            1.0
+        } else {
+            0.0
+        };
+        let p = a_p * est.presence[k] + (1.0 - a_p) * present;
+        est.presence[k] = p;
+        // A plain mean of the frames without signal until it spans the time constant,
+        // then the recursive average; frozen in proportion to signal presence.
+        let base = a_d.min(1.0 - 1.0 / (est.count[k] + 1.0));
+        let a = base + (1.0 - base) * p;
+        est.noise[k] = a * est.noise[k] + (1.0 - a) * x[k];
+        est.count[k] += 1.0 - p;
+    }
+    for k in 0..n {
+        est.smooth[k] = a_s * est.smooth[k] + (1.0 - a_s) * est.scratch[k];
+        est.sub_min[k] = est.sub_min[k].min(est.smooth[k]);
+    }
+    est.frame_in_sub += 1;
+    if est.frame_in_sub == est.frames_per_sub {
+        let row = &mut est.ring[est.ring_pos * n..(est.ring_pos + 1) * n];
+        row.copy_from_slice(&est.sub_min);
+        est.sub_min.copy_from_slice(&est.smooth);
+        est.ring_pos = (est.ring_pos + 1) % SUBWINDOWS;
+        est.frame_in_sub = 0;
     }
 }
 
 /// Smooths a spectrum over frequency with weights (1/4, 1/2, 1/4).
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 fn smooth_frequency(x: &[f32], out: &mut [f32]) {
     let n = x.len();
     for k in 0..n {
@@ -188,6 +197,7 @@ fn smooth_frequency(x: &[f32], out: &mut [f32]) {
 /// The enhanced weights `w_e(k)` of eq. (5) from `X(k)` and `X_n(k)`:
 /// `w = max(0.1, (X - alpha X_n) / X)` (eq. 4), times `(X / X_n)^gamma` where `X > X_n`.
 /// A bin with no power gets the floor 0.1; `X / X_n` is capped at [`MAX_SNR_RATIO`].
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 pub fn enhanced_weights(x: &[f32], xn: &[f32], alpha: f32, gamma: f32, out: &mut [f32]) {
     for ((o, &x), &xn) in out.iter_mut().zip(x).zip(xn) {
         let w = if x > 0.0 {
