@@ -3,7 +3,8 @@
 use crate::audio::{Framer, WavFormat, WavStream};
 use crate::geometry::Geometry;
 use crate::pipeline::{
-    Analyzer, Detection, FrameState, FrameStats, Outcome, Params, StageTimes, Worker, PRIMING_S,
+    Analyzer, Detection, FrameState, FrameStats, Outcome, Params, Sequential, Setup, StageTimes,
+    Worker, PRIMING_S,
 };
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -140,95 +141,55 @@ impl FileAnalysis {
         &mut self,
         sink: &mut dyn FnMut(u64, Option<&Detection>) -> Result<()>,
     ) -> Result<()> {
-        let priming = self.priming_frames();
+        let mut priming = self.priming_frames();
         let (setup, sequential, mut times) = self.analyzer.parts();
-        let timing = times.is_some();
         let workers: Vec<Mutex<(Worker, StageTimes)>> = (0..rayon::current_num_threads())
             .map(|_| Mutex::new((Worker::new(setup), StageTimes::default())))
             .collect();
-        let worker = || {
-            let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
-            workers[i].lock().expect("a worker panicked")
-        };
         let width = setup.geometry_mics() * setup.frame_size();
-        let mut frames = vec![0.0f32; BLOCK * width];
-        let mut indices = vec![0u64; BLOCK];
+        let mut current = Block::new(width);
+        let mut next = Block::new(width);
         let mut states: Vec<FrameState> = (0..BLOCK).map(|_| FrameState::new(setup)).collect();
-        let mut live = [false; BLOCK];
         let mut outcomes = vec![Outcome::Silent; BLOCK];
-        let mut first_block = true;
+        let (framer, stream) = (&mut self.framer, &mut self.stream);
+        current.fill(framer, stream);
+        // With more than one thread, the next block is read and decoded on this thread
+        // while the pool analyses the current one.
+        let read_ahead = rayon::current_num_threads() > 1;
         loop {
+            if current.count == 0 {
+                return current.error.take().map_or(Ok(()), Err);
+            }
+            let mut analyse = || {
+                analyse_block(
+                    setup,
+                    &workers,
+                    sequential,
+                    times.as_deref_mut(),
+                    std::mem::take(&mut priming),
+                    &current,
+                    &mut states,
+                    &mut outcomes,
+                )
+            };
+            if read_ahead {
+                rayon::in_place_scope(|scope| {
+                    scope.spawn(|_| analyse());
+                    next.fill(framer, stream);
+                });
+            } else {
+                analyse();
+                next.fill(framer, stream);
+            }
+            for (&outcome, &index) in outcomes.iter().zip(&current.indices[..current.count]) {
+                let det = sequential.tally(outcome);
+                sink(index, det.as_ref())?;
+            }
             // A read error (a truncated file) ends the run after the frames read before it.
-            let mut read_error = None;
-            let mut count = 0;
-            while count < BLOCK {
-                match self.framer.next_frame(&mut self.stream) {
-                    Ok(Some((index, frame))) => {
-                        frames[count * width..(count + 1) * width].copy_from_slice(frame);
-                        indices[count] = index;
-                        count += 1;
-                    }
-                    Ok(None) => break,
-                    Err(e) => {
-                        read_error = Some(e);
-                        break;
-                    }
-                }
-            }
-            if count == 0 {
-                return read_error.map_or(Ok(()), Err);
-            }
-            // Stage 1: spectra, in parallel.
-            let clock = Instant::now();
-            states[..count]
-                .par_iter_mut()
-                .zip(live[..count].par_iter_mut())
-                .zip(frames[..count * width].par_chunks(width))
-                .for_each(|((state, live), frame)| {
-                    *live = worker().0.spectra(setup, frame, state);
-                });
-            let stage1 = clock.elapsed();
-            // Stage 2: the noise estimate, in frame order.
-            if first_block {
-                for i in 0..priming.min(count) {
-                    sequential.prime(&states[i], live[i]);
-                }
-                first_block = false;
-            }
-            for i in 0..count {
-                live[i] = sequential.weigh(setup, &mut states[i], live[i]);
-            }
-            if let Some(times) = times.as_deref_mut() {
-                times.spectra += stage1;
-                times.weighting += clock.elapsed() - stage1;
-            }
-            // Stage 3: correlations, peaks, search, direction, in parallel.
-            outcomes[..count]
-                .par_iter_mut()
-                .zip(states[..count].par_iter())
-                .zip(live[..count].par_iter())
-                .zip(indices[..count].par_iter())
-                .for_each(|(((outcome, state), &live), &index)| {
-                    *outcome = if live {
-                        let mut guard = worker();
-                        let (worker, stage_times) = &mut *guard;
-                        worker.localize(setup, state, index, timing.then_some(stage_times))
-                    } else {
-                        Outcome::Silent
-                    };
-                });
-            if let Some(times) = times.as_deref_mut() {
-                for w in &workers {
-                    times.add(&std::mem::take(&mut w.lock().expect("a worker panicked").1));
-                }
-            }
-            for i in 0..count {
-                let det = sequential.tally(outcomes[i]);
-                sink(indices[i], det.as_ref())?;
-            }
-            if let Some(e) = read_error {
+            if let Some(e) = current.error.take() {
                 return Err(e);
             }
+            std::mem::swap(&mut current, &mut next);
         }
     }
 
@@ -267,6 +228,107 @@ impl FileAnalysis {
                 .then(|| self.analyzer.stage_times().clone()),
             stats,
             warnings,
+        }
+    }
+}
+
+/// Up to [`BLOCK`] frames read from a file, and the error that stopped the reading.
+struct Block {
+    frames: Vec<f32>,
+    indices: Vec<u64>,
+    count: usize,
+    error: Option<anyhow::Error>,
+}
+
+impl Block {
+    fn new(width: usize) -> Self {
+        Block {
+            frames: vec![0.0; BLOCK * width],
+            indices: vec![0; BLOCK],
+            count: 0,
+            error: None,
+        }
+    }
+
+    /// Reads the next frames (none once the file has ended or failed).
+    fn fill(&mut self, framer: &mut Framer, stream: &mut WavStream) {
+        let width = self.frames.len() / BLOCK;
+        self.count = 0;
+        while self.count < BLOCK && self.error.is_none() {
+            match framer.next_frame(stream) {
+                Ok(Some((index, frame))) => {
+                    let at = self.count * width;
+                    self.frames[at..at + width].copy_from_slice(frame);
+                    self.indices[self.count] = index;
+                    self.count += 1;
+                }
+                Ok(None) => break,
+                Err(e) => self.error = Some(e),
+            }
+        }
+    }
+}
+
+/// The method over one block: spectra in parallel, the noise estimate in frame order
+/// (after priming it with the first `priming` frames), then correlations, peaks, search
+/// and direction in parallel, into `outcomes`.
+#[allow(clippy::too_many_arguments)]
+fn analyse_block(
+    setup: &Setup,
+    workers: &[Mutex<(Worker, StageTimes)>],
+    sequential: &mut Sequential,
+    mut times: Option<&mut StageTimes>,
+    priming: usize,
+    block: &Block,
+    states: &mut [FrameState],
+    outcomes: &mut [Outcome],
+) {
+    let worker = || {
+        let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
+        workers[i].lock().expect("a worker panicked")
+    };
+    let (count, width) = (block.count, block.frames.len() / BLOCK);
+    let mut live = [false; BLOCK];
+    // Stage 1: spectra, in parallel.
+    let clock = Instant::now();
+    states[..count]
+        .par_iter_mut()
+        .zip(live[..count].par_iter_mut())
+        .zip(block.frames[..count * width].par_chunks(width))
+        .for_each(|((state, live), frame)| {
+            *live = worker().0.spectra(setup, frame, state);
+        });
+    let stage1 = clock.elapsed();
+    // Stage 2: the noise estimate, in frame order.
+    for i in 0..priming.min(count) {
+        sequential.prime(&states[i], live[i]);
+    }
+    for i in 0..count {
+        live[i] = sequential.weigh(setup, &mut states[i], live[i]);
+    }
+    if let Some(times) = times.as_deref_mut() {
+        times.spectra += stage1;
+        times.weighting += clock.elapsed() - stage1;
+    }
+    // Stage 3: correlations, peaks, search, direction, in parallel.
+    let timing = times.is_some();
+    outcomes[..count]
+        .par_iter_mut()
+        .zip(states[..count].par_iter())
+        .zip(live[..count].par_iter())
+        .zip(block.indices[..count].par_iter())
+        .for_each(|(((outcome, state), &live), &index)| {
+            *outcome = if live {
+                let mut guard = worker();
+                let (worker, stage_times) = &mut *guard;
+                worker.localize(setup, state, index, timing.then_some(stage_times))
+            } else {
+                Outcome::Silent
+            };
+        });
+    if let Some(times) = times {
+        for w in workers {
+            times.add(&std::mem::take(&mut w.lock().expect("a worker panicked").1));
         }
     }
 }
