@@ -364,18 +364,61 @@ pub fn io_reason(e: &io::Error) -> String {
     }
 }
 
-/// Cuts a stream into frames of `n` samples per microphone with a hop of `n / 2`,
-/// picking the geometry's channels. One planar buffer (`mics x n`) is reused.
+/// Consecutive frames of `n` samples per microphone with a hop of `n / 2`, up to
+/// `capacity` of them in one mic-major buffer: mic `m`'s samples of frame `i` are
+/// `data[m * stride + i * hop..][..n]`, so overlapping frames share their samples.
+pub struct FrameBlock {
+    n: usize,
+    hop: usize,
+    stride: usize,
+    data: Vec<f32>,
+    /// Index of the block's first frame in the file.
+    pub first: u64,
+    /// Frames in the block.
+    pub count: usize,
+    /// The read error that ended the block early (the frames before it are complete).
+    pub error: Option<anyhow::Error>,
+}
+
+impl FrameBlock {
+    pub fn new(n: usize, mics: usize, capacity: usize) -> Self {
+        let hop = n / 2;
+        let stride = (capacity - 1) * hop + n;
+        FrameBlock {
+            n,
+            hop,
+            stride,
+            data: vec![0.0; mics * stride],
+            first: 0,
+            count: 0,
+            error: None,
+        }
+    }
+
+    /// Frame `i` of the block: its samples from `data[0..]`, mic `m` at `m * stride`.
+    pub fn frame(&self, i: usize) -> (&[f32], usize) {
+        assert!(i < self.count, "frame {i} of a block of {}", self.count);
+        (&self.data[i * self.hop..], self.stride)
+    }
+}
+
+/// Cuts a stream into [`FrameBlock`]s, picking the geometry's channels; the last
+/// `n - hop` samples of each block start the next.
 pub struct Framer {
     n: usize,
     hop: usize,
     channels: Vec<usize>,
-    /// `mics x n`, mic-major.
-    frame: Vec<f32>,
+    stream_channels: usize,
+    /// Decoded interleaved samples, read a chunk at a time.
     interleaved: Vec<f32>,
+    /// Per mic, the samples the next block's first frame shares with the last one.
+    carry: Vec<f32>,
+    next_index: u64,
     started: bool,
-    index: u64,
 }
+
+/// Sample frames decoded per read.
+const CHUNK: usize = 4096;
 
 impl Framer {
     /// `channels[m]` is the WAV channel of mic `m`; `stream_channels` the file's count.
@@ -384,11 +427,12 @@ impl Framer {
         Framer {
             n,
             hop: n / 2,
-            frame: vec![0.0; mics * n],
-            interleaved: vec![0.0; n * stream_channels],
+            interleaved: vec![0.0; CHUNK * stream_channels],
+            carry: vec![0.0; mics * (n - n / 2)],
             channels,
+            stream_channels,
+            next_index: 0,
             started: false,
-            index: 0,
         }
     }
 
@@ -401,37 +445,57 @@ impl Framer {
         self.channels[m]
     }
 
-    /// Reads the next frame. Returns its index (frame `i` starts at sample `i * hop`) and
-    /// the samples (`frame[m * n .. (m + 1) * n]` for mic `m`), or `None` at the end.
-    pub fn next_frame(&mut self, stream: &mut WavStream) -> Result<Option<(u64, &[f32])>> {
-        let n = self.n;
-        let (fresh, keep) = if self.started {
-            (self.hop, n - self.hop)
-        } else {
-            (n, 0)
-        };
-        let ch = stream.format.channels;
-        let buf = &mut self.interleaved[..fresh * ch];
-        let mut got = 0;
-        while got < fresh {
-            let k = stream.read(&mut buf[got * ch..])?;
-            if k == 0 {
-                break;
+    /// Fills `block` with the frames that follow the last block filled (frame `i` of
+    /// the file starts at sample `i * hop`): as many as fit, fewer at the end of the
+    /// stream (none after it). A read error keeps the complete frames before it and is
+    /// left in `block.error`.
+    pub fn fill(&mut self, stream: &mut WavStream, block: &mut FrameBlock) {
+        assert!(block.n == self.n, "a block for another frame size");
+        let (n, keep, stride, ch) = (
+            self.n,
+            self.n - self.hop,
+            block.stride,
+            self.stream_channels,
+        );
+        block.first = self.next_index;
+        block.count = 0;
+        block.error = None;
+        let mut filled = 0;
+        if self.started {
+            for (m, carry) in self.carry.chunks_exact(keep).enumerate() {
+                block.data[m * stride..m * stride + keep].copy_from_slice(carry);
             }
-            got += k;
+            filled = keep;
         }
-        if got < fresh {
-            return Ok(None);
+        while filled < stride {
+            let want = (stride - filled).min(CHUNK);
+            let got = match stream.read(&mut self.interleaved[..want * ch]) {
+                Ok(0) => break,
+                Ok(got) => got,
+                Err(e) => {
+                    block.error = Some(e);
+                    break;
+                }
+            };
+            for (m, &c) in self.channels.iter().enumerate() {
+                let row = &mut block.data[m * stride + filled..m * stride + filled + got];
+                deinterleave(&self.interleaved[..got * ch], ch, c, row);
+            }
+            filled += got;
         }
-        for (m, &c) in self.channels.iter().enumerate() {
-            let row = &mut self.frame[m * n..(m + 1) * n];
-            row.copy_within(n - keep.., 0);
-            deinterleave(buf, ch, c, &mut row[keep..]);
+        if filled < n {
+            return;
         }
-        let index = if self.started { self.index + 1 } else { 0 };
+        block.count = (filled - n) / self.hop + 1;
+        // The next frame starts `count` hops in; its first `keep` samples are here.
+        let start = block.count * self.hop;
+        if start + keep <= filled {
+            for (m, carry) in self.carry.chunks_exact_mut(keep).enumerate() {
+                carry.copy_from_slice(&block.data[m * stride + start..m * stride + start + keep]);
+            }
+        }
         self.started = true;
-        self.index = index;
-        Ok(Some((index, &self.frame)))
+        self.next_index += block.count as u64;
     }
 }
 
@@ -447,6 +511,49 @@ fn deinterleave(interleaved: &[f32], channels: usize, channel: usize, out: &mut 
 mod tests {
     use super::*;
     use crate::synth::{write_wav, Encoding};
+
+    /// Blocks of overlapping frames hold exactly the file's samples, frame after frame,
+    /// across block boundaries, picking and reordering channels, and stop at the last
+    /// complete frame (lengths that end mid-hop, exactly on a block, shorter than a frame).
+    #[test]
+    fn frame_blocks_hold_consecutive_overlapping_frames() {
+        let dir = tempfile::tempdir().unwrap();
+        let (n, hop) = (8, 4);
+        for len in [5usize, 8, 11, 12, 27, 28, 29, 40, 41] {
+            let ch: Vec<Vec<f32>> = (0..3)
+                .map(|c| (0..len).map(|t| (c * 1000 + t) as f32 / 4096.0).collect())
+                .collect();
+            let path = dir.path().join(format!("ramp{len}.wav"));
+            write_wav(&path, &ch, 8000, Encoding::Float32).unwrap();
+            let mut stream = WavStream::open(path.to_str().unwrap()).unwrap();
+            let mut framer = Framer::new(n, vec![2, 0], 3);
+            let mut block = FrameBlock::new(n, 2, 3);
+            let mut seen = 0u64;
+            loop {
+                framer.fill(&mut stream, &mut block);
+                assert!(block.error.is_none());
+                if block.count == 0 {
+                    break;
+                }
+                assert_eq!(block.first, seen);
+                for i in 0..block.count {
+                    let (data, stride) = block.frame(i);
+                    let start = (block.first as usize + i) * hop;
+                    for (m, c) in [(0, 2), (1, 0)] {
+                        assert_eq!(
+                            &data[m * stride..m * stride + n],
+                            &ch[c][start..start + n],
+                            "len {len}, frame {}",
+                            block.first as usize + i
+                        );
+                    }
+                }
+                seen += block.count as u64;
+            }
+            let want = if len < n { 0 } else { (len - n) / hop + 1 };
+            assert_eq!(seen, want as u64, "len {len}");
+        }
+    }
 
     /// Our block decoder against hound's per-sample reader, for every encoding hound
     /// writes, over the full range including the extremes.

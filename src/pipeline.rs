@@ -305,13 +305,20 @@ impl Worker {
     }
 
     /// Stage 1 (independent per frame): live microphones, spectra and `X(k)`, the mean
-    /// power spectrum over the live microphones. Returns `false` when none is live.
-    pub fn spectra(&mut self, setup: &Setup, frame: &[f32], state: &mut FrameState) -> bool {
+    /// power spectrum over the live microphones. Mic `m`'s samples are
+    /// `frame[m * stride..][..N]`. Returns `false` when none is live.
+    pub fn spectra(
+        &mut self,
+        setup: &Setup,
+        (frame, stride): (&[f32], usize),
+        state: &mut FrameState,
+    ) -> bool {
         let n = setup.n;
+        let channel = |m: usize| &frame[m * stride..m * stride + n];
         // Live microphones: a channel stuck at one value carries no delay information.
         state.live.clear();
         for m in 0..setup.geometry.mics.len() {
-            let s = &frame[m * n..(m + 1) * n];
+            let s = channel(m);
             let first = s[0];
             if s.iter().any(|&v| v != first) {
                 state.live.push(m);
@@ -321,7 +328,6 @@ impl Worker {
             return false;
         }
         // Two channels per complex FFT.
-        let channel = |m: usize| &frame[m * n..(m + 1) * n];
         for two in state.live.chunks(2) {
             match *two {
                 [a, b] => {
@@ -647,14 +653,20 @@ impl Analyzer {
     /// primed frames must then be processed, in order, before any other: they are
     /// not folded into the estimate a second time.
     pub fn prime(&mut self, frame: &[f32]) {
-        let live = self.worker.spectra(&self.setup, frame, &mut self.state);
+        let n = self.setup.n;
+        let live = self
+            .worker
+            .spectra(&self.setup, (frame, n), &mut self.state);
         self.sequential.prime(&self.state, live);
     }
 
     /// Analyses frame `index`; `frame[m * N .. (m + 1) * N]` holds mic `m`'s samples.
     pub fn process(&mut self, index: u64, frame: &[f32]) -> Option<Detection> {
         let start = self.timing.then(Instant::now);
-        let live = self.worker.spectra(&self.setup, frame, &mut self.state);
+        let n = self.setup.n;
+        let live = self
+            .worker
+            .spectra(&self.setup, (frame, n), &mut self.state);
         let mid = self.timing.then(Instant::now);
         let live = self.sequential.weigh(&self.setup, &mut self.state, live);
         if let (Some(a), Some(b)) = (start, mid) {

@@ -1,6 +1,6 @@
 //! One recording through the pipeline: open, check against the geometry, stream frames.
 
-use crate::audio::{Framer, WavFormat, WavStream};
+use crate::audio::{FrameBlock, Framer, WavFormat, WavStream};
 use crate::geometry::Geometry;
 use crate::pipeline::{
     Analyzer, Detection, FrameState, FrameStats, Outcome, Params, Sequential, Setup, StageTimes,
@@ -10,8 +10,9 @@ use rayon::prelude::*;
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// Frames analysed together on the thread pool (bounded memory: about 70 KB a frame for
-/// 8 microphones at N = 1024).
+/// Frames analysed together on the thread pool. Memory is bounded by two blocks of audio
+/// (16 KB a frame for 8 microphones at N = 1024, as frames share their samples) and one of
+/// spectra (33 KB a frame).
 pub const BLOCK: usize = 128;
 use anyhow::{bail, Result};
 
@@ -146,13 +147,13 @@ impl FileAnalysis {
         let workers: Vec<Mutex<(Worker, StageTimes)>> = (0..rayon::current_num_threads())
             .map(|_| Mutex::new((Worker::new(setup), StageTimes::default())))
             .collect();
-        let width = setup.geometry_mics() * setup.frame_size();
-        let mut current = Block::new(width);
-        let mut next = Block::new(width);
+        let (n, mics) = (setup.frame_size(), setup.geometry_mics());
+        let mut current = FrameBlock::new(n, mics, BLOCK);
+        let mut next = FrameBlock::new(n, mics, BLOCK);
         let mut states: Vec<FrameState> = (0..BLOCK).map(|_| FrameState::new(setup)).collect();
         let mut outcomes = vec![Outcome::Silent; BLOCK];
         let (framer, stream) = (&mut self.framer, &mut self.stream);
-        current.fill(framer, stream);
+        framer.fill(stream, &mut current);
         // With more than one thread, the next block is read and decoded on this thread
         // while the pool analyses the current one.
         let read_ahead = rayon::current_num_threads() > 1;
@@ -175,13 +176,13 @@ impl FileAnalysis {
             if read_ahead {
                 rayon::in_place_scope(|scope| {
                     scope.spawn(|_| analyse());
-                    next.fill(framer, stream);
+                    framer.fill(stream, &mut next);
                 });
             } else {
                 analyse();
-                next.fill(framer, stream);
+                framer.fill(stream, &mut next);
             }
-            for (&outcome, &index) in outcomes.iter().zip(&current.indices[..current.count]) {
+            for (&outcome, index) in outcomes[..current.count].iter().zip(current.first..) {
                 let det = sequential.tally(outcome);
                 sink(index, det.as_ref())?;
             }
@@ -232,43 +233,6 @@ impl FileAnalysis {
     }
 }
 
-/// Up to [`BLOCK`] frames read from a file, and the error that stopped the reading.
-struct Block {
-    frames: Vec<f32>,
-    indices: Vec<u64>,
-    count: usize,
-    error: Option<anyhow::Error>,
-}
-
-impl Block {
-    fn new(width: usize) -> Self {
-        Block {
-            frames: vec![0.0; BLOCK * width],
-            indices: vec![0; BLOCK],
-            count: 0,
-            error: None,
-        }
-    }
-
-    /// Reads the next frames (none once the file has ended or failed).
-    fn fill(&mut self, framer: &mut Framer, stream: &mut WavStream) {
-        let width = self.frames.len() / BLOCK;
-        self.count = 0;
-        while self.count < BLOCK && self.error.is_none() {
-            match framer.next_frame(stream) {
-                Ok(Some((index, frame))) => {
-                    let at = self.count * width;
-                    self.frames[at..at + width].copy_from_slice(frame);
-                    self.indices[self.count] = index;
-                    self.count += 1;
-                }
-                Ok(None) => break,
-                Err(e) => self.error = Some(e),
-            }
-        }
-    }
-}
-
 /// The method over one block: spectra in parallel, the noise estimate in frame order
 /// (after priming it with the first `priming` frames), then correlations, peaks, search
 /// and direction in parallel, into `outcomes`.
@@ -279,7 +243,7 @@ fn analyse_block(
     sequential: &mut Sequential,
     mut times: Option<&mut StageTimes>,
     priming: usize,
-    block: &Block,
+    block: &FrameBlock,
     states: &mut [FrameState],
     outcomes: &mut [Outcome],
 ) {
@@ -287,16 +251,16 @@ fn analyse_block(
         let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
         workers[i].lock().expect("a worker panicked")
     };
-    let (count, width) = (block.count, block.frames.len() / BLOCK);
+    let count = block.count;
     let mut live = [false; BLOCK];
     // Stage 1: spectra, in parallel.
     let clock = Instant::now();
     states[..count]
         .par_iter_mut()
         .zip(live[..count].par_iter_mut())
-        .zip(block.frames[..count * width].par_chunks(width))
-        .for_each(|((state, live), frame)| {
-            *live = worker().0.spectra(setup, frame, state);
+        .enumerate()
+        .for_each(|(i, (state, live))| {
+            *live = worker().0.spectra(setup, block.frame(i), state);
         });
     let stage1 = clock.elapsed();
     // Stage 2: the noise estimate, in frame order.
@@ -316,8 +280,9 @@ fn analyse_block(
         .par_iter_mut()
         .zip(states[..count].par_iter())
         .zip(live[..count].par_iter())
-        .zip(block.indices[..count].par_iter())
-        .for_each(|(((outcome, state), &live), &index)| {
+        .enumerate()
+        .for_each(|(i, ((outcome, state), &live))| {
+            let index = block.first + i as u64;
             *outcome = if live {
                 let mut guard = worker();
                 let (worker, stage_times) = &mut *guard;
