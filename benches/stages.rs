@@ -186,12 +186,15 @@ fn stages(c: &mut Criterion) {
     };
     let mut analyzer = Analyzer::new(&g, 48000, &every_pair).unwrap();
     let mut index = 0;
-    c.bench_function("whole frame, 8 mics, every correlation (Analyzer::process)", |b| {
-        b.iter(|| {
-            index += 1;
-            black_box(analyzer.process(index, black_box(&frame8)))
-        })
-    });
+    c.bench_function(
+        "whole frame, 8 mics, every correlation (Analyzer::process)",
+        |b| {
+            b.iter(|| {
+                index += 1;
+                black_box(analyzer.process(index, black_box(&frame8)))
+            })
+        },
+    );
 }
 
 criterion_group!(benches, stages);

@@ -22,6 +22,7 @@ use realfft::num_complex::Complex32;
 use realfft::RealFftPlanner;
 use ssl::direction::unit_from_angles;
 use ssl::geometry::PAPER_PRISM;
+use ssl::output::{DetectionWriter, Format};
 use ssl::pipeline::StageTimes;
 use ssl::synth::{self, Place, Scene, Signal, Source};
 use ssl::{FileAnalysis, Geometry, Params};
@@ -81,19 +82,31 @@ fn main() -> anyhow::Result<()> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build_global()?;
-    let timed_run = |params: &Params| -> anyhow::Result<(f64, StageTimes)> {
+    // Detections are written as CSV (to a sink that discards the bytes), timed apart.
+    let timed_run = |params: &Params| -> anyhow::Result<(f64, StageTimes, Duration)> {
         let mut analysis = FileAnalysis::open(wav.to_str().unwrap(), &g, params)?;
         analysis.enable_stage_timing();
+        let mut csv = DetectionWriter::new(Format::Csv, std::io::sink());
+        csv.begin(&serde_json::Value::Null)?;
+        let mut output = Duration::ZERO;
         let t = Instant::now();
-        let (summary, result) = analysis.run(|_, _| Ok(()));
+        let (summary, result) = analysis.run(|_, detection| {
+            if let Some(d) = detection {
+                let t = Instant::now();
+                csv.detection("speed.wav", d)?;
+                output += t.elapsed();
+            }
+            Ok(())
+        });
         result?;
         Ok((
             t.elapsed().as_secs_f64(),
             summary.stage_times.unwrap_or_default(),
+            output,
         ))
     };
-    let (in_process, st) = timed_run(&Params::default())?;
-    let (all_pairs, _) = timed_run(&Params {
+    let (in_process, st, output) = timed_run(&Params::default())?;
+    let (all_pairs, _, _) = timed_run(&Params {
         min_score: Some(0.0),
         ..Params::default()
     })?;
@@ -188,7 +201,8 @@ fn main() -> anyhow::Result<()> {
     );
     println!("| stage | us per frame | x floor |");
     println!("|---|---|---|");
-    let timed = st.spectra + st.weighting + st.correlation + st.peaks + st.search + st.direction;
+    let timed =
+        st.spectra + st.weighting + st.correlation + st.peaks + st.search + st.direction + output;
     let read = Duration::from_secs_f64((in_process - timed.as_secs_f64()).max(0.0));
     for (name, d) in [
         ("read, convert, frame (the rest)", read),
@@ -198,6 +212,7 @@ fn main() -> anyhow::Result<()> {
         ("peaks", st.peaks),
         ("search", st.search),
         ("direction", st.direction),
+        ("output (CSV)", output),
     ] {
         println!("| {name} | {:.1} | {:.2} |", us(d), us(d) / floor_us);
     }
