@@ -76,6 +76,7 @@ pub struct AnalyzeArgs {
     pub files: Vec<String>,
 
     /// Array geometry (TOML: [[mic]] tables with position = [x, y, z] in metres)
+    #[allow(rustdoc::broken_intra_doc_links)] // the text is the help, not a link
     #[arg(short, long, value_name = "TOML")]
     pub geometry: PathBuf,
 

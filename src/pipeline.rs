@@ -150,9 +150,12 @@ pub struct FrameStats {
     pub dead_frames: Vec<u64>,
     /// Frames whose search stopped at the node budget.
     pub budget_frames: u64,
-    /// Frames with no consistent delay set.
+    /// Frames with no consistent delay set (among the frames that could reach the
+    /// threshold).
     pub inconsistent_frames: u64,
-    /// Frames whose best set scored below the threshold.
+    /// Frames whose best set scored below the threshold, or that the weights' ceiling
+    /// showed could not reach it before every pair was correlated (those are not
+    /// searched, so whether they held a consistent set is not known).
     pub below_threshold_frames: u64,
 }
 
@@ -262,7 +265,8 @@ pub enum Outcome {
     Unsolved,
     /// No consistent set of delays (`true`: the search hit its node budget).
     Inconsistent(bool),
-    /// The best set scored under the threshold.
+    /// The best set scored under the threshold, or no set could reach it (the frame was
+    /// decided by the weights' ceiling, see [`correlation::peak_ceiling`]).
     BelowThreshold(bool),
     Detected(Detection, bool),
 }

@@ -8,7 +8,7 @@
 //! probability that a bin holds signal, and that probability comes from comparing a
 //! smoothed `X` with its minimum over the last few seconds. A source is only absorbed
 //! into the noise once it has been on without a pause for longer than the minimum
-//! window ([`MIN_WINDOW_S`]).
+//! window ([`NoiseSettings::min_window_s`]).
 
 use multiversion::multiversion;
 
