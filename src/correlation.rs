@@ -379,29 +379,25 @@ impl<const K: usize> Top<K> {
     fn insert(&mut self, value: f32, index: u32) {
         // The list is sorted, so `ahead` is true for a prefix: the entries that stay.
         // The candidate goes to the first place not ahead, the rest move down one.
+        // Selects are bit masks, so that the compiler keeps the list in vector registers.
         let (values, indices) = (self.values, self.index);
-        let ahead: [bool; K] = std::array::from_fn(|j| values[j] >= value);
-        let place = |j: usize| !ahead[j] && (j == 0 || ahead[j - 1]);
+        let ahead: [u32; K] =
+            std::array::from_fn(|j| 0u32.wrapping_sub((values[j] >= value) as u32));
+        let place: [u32; K] =
+            std::array::from_fn(|j| !ahead[j] & if j == 0 { u32::MAX } else { ahead[j - 1] });
+        let blend = |stay: u32, put: u32, moved: u32, j: usize| {
+            (stay & ahead[j]) | (put & place[j]) | (moved & !(ahead[j] | place[j]))
+        };
         self.values = std::array::from_fn(|j| {
-            let moved = values[j.saturating_sub(1)];
-            if ahead[j] {
-                values[j]
-            } else if place(j) {
-                value
-            } else {
-                moved
-            }
+            f32::from_bits(blend(
+                values[j].to_bits(),
+                value.to_bits(),
+                values[j.saturating_sub(1)].to_bits(),
+                j,
+            ))
         });
-        self.index = std::array::from_fn(|j| {
-            let moved = indices[j.saturating_sub(1)];
-            if ahead[j] {
-                indices[j]
-            } else if place(j) {
-                index
-            } else {
-                moved
-            }
-        });
+        self.index =
+            std::array::from_fn(|j| blend(indices[j], index, indices[j.saturating_sub(1)], j));
     }
 
     /// Writes the first `m` kept peaks to `out`, with lags counted from index `centre`.
