@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
 use ssl::correlation::{find_peaks, whiten, Correlator, ForwardFft, Interpolation, Peak, Window};
 use ssl::direction::{pair_count, pair_index, unit_from_angles};
-use ssl::geometry::PAPER_PRISM;
+use ssl::geometry::{sphere_lattice, PAPER_PRISM};
 use ssl::search::Searcher;
 use ssl::synth::{self, Place, Scene, Signal, Source};
 use ssl::{Analyzer, Geometry, Params};
@@ -22,15 +22,7 @@ fn array(mics: usize) -> Vec<[f64; 3]> {
     if mics == 8 {
         return PAPER_PRISM.to_vec();
     }
-    // A Fibonacci sphere of radius 0.25 m.
-    (0..mics)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / mics as f64;
-            let r = (1.0 - z * z).sqrt();
-            let phi = i as f64 * 2.399_963_229_728_653;
-            [0.25 * r * phi.cos(), 0.25 * r * phi.sin(), 0.25 * z]
-        })
-        .collect()
+    sphere_lattice(mics, 0.25)
 }
 
 /// One frame (mic-major) of a scene: with a source, or sensor noise alone.

@@ -11,22 +11,9 @@
 
 mod support;
 
-use ssl::geometry::PAPER_PRISM;
+use ssl::geometry::{sphere_lattice, PAPER_PRISM};
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// `k` points spread evenly over a sphere of radius `r` (a Fibonacci lattice).
-fn sphere(k: usize, r: f64) -> Vec<[f64; 3]> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..k)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / k as f64;
-            let rho = (1.0 - z * z).sqrt();
-            let phi = golden * i as f64;
-            [r * rho * phi.cos(), r * rho * phi.sin(), r * z]
-        })
-        .collect()
-}
 
 /// A free-field scene of white-noise events, each from its own direction.
 fn scene_toml(rate: u32, seconds: f64) -> String {
@@ -62,13 +49,9 @@ struct Case {
 }
 
 fn main() -> anyhow::Result<()> {
-    let seconds: f64 = std::env::args()
-        .nth(1)
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(30.0);
+    let seconds = support::seconds_arg(30.0)?;
     let exe = support::release_binary()?;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cores = support::cores();
     let prism = PAPER_PRISM.to_vec();
     let cases = [
         Case {
@@ -80,14 +63,14 @@ fn main() -> anyhow::Result<()> {
         },
         Case {
             name: "16 mics (120 pairs), 48 kHz".into(),
-            mics: sphere(16, 0.25),
+            mics: sphere_lattice(16, 0.25),
             rate: 48000,
             seconds,
             copies: 1,
         },
         Case {
             name: "32 mics (496 pairs), 48 kHz".into(),
-            mics: sphere(32, 0.25),
+            mics: sphere_lattice(32, 0.25),
             rate: 48000,
             seconds: seconds / 2.0,
             copies: 1,

@@ -30,11 +30,7 @@ use std::io::Write;
 use std::time::{Duration, Instant};
 
 fn main() -> anyhow::Result<()> {
-    let seconds: f64 = std::env::args()
-        .nth(1)
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(600.0);
+    let seconds = support::seconds_arg(600.0)?;
     let dir = tempfile::tempdir()?;
     let keep = std::env::args().nth(2).map(std::path::PathBuf::from);
     let wav = keep.clone().unwrap_or_else(|| dir.path().join("speed.wav"));
@@ -55,7 +51,7 @@ fn main() -> anyhow::Result<()> {
 
     // The binary, end to end.
     let exe = support::release_binary()?;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cores = support::cores();
     let mut runs = Vec::new();
     for threads in [1, cores] {
         let threads_arg = threads.to_string();

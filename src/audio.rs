@@ -436,10 +436,6 @@ impl Framer {
         }
     }
 
-    pub fn hop(&self) -> usize {
-        self.hop
-    }
-
     /// The WAV channel of mic `m`.
     pub fn channel_of(&self, m: usize) -> usize {
         self.channels[m]

@@ -1,6 +1,6 @@
 //! The command line: `ssl analyze` and `ssl geometry`. `main.rs` only calls [`main`].
 
-use crate::correlation::{Interpolation, Window};
+use crate::correlation::{Interpolation, Window, MAX_PEAKS};
 use crate::direction::pair_index;
 use crate::geometry::Geometry;
 use crate::output::{self, DetectionWriter, Format};
@@ -105,7 +105,7 @@ pub struct AnalyzeArgs {
     pub no_weighting: bool,
 
     /// Peaks M kept in each pair's cross-correlation
-    #[arg(short = 'm', long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=64))]
+    #[arg(short = 'm', long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=MAX_PEAKS as i64))]
     pub peaks: u16,
 
     /// Consistency tolerance in samples: how far a pair's peak may be from the delay the reference pairs imply

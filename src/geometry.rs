@@ -27,6 +27,20 @@ pub const PAPER_PRISM: [[f64; 3]; 8] = [
     [-0.25, 0.20, -0.18],
 ];
 
+/// `k` points spread evenly over a sphere of radius `r` centred on the origin (a
+/// Fibonacci lattice): test and benchmark arrays of any size.
+pub fn sphere_lattice(k: usize, r: f64) -> Vec<[f64; 3]> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..k)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / k as f64;
+            let rho = (1.0 - z * z).sqrt();
+            let phi = golden * i as f64;
+            [r * rho * phi.cos(), r * rho * phi.sin(), r * z]
+        })
+        .collect()
+}
+
 /// Default speed of sound in m/s (dry air at about 20 degrees C), as in the contract.
 pub const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
 /// The most microphones an array may have (subsets of live microphones are bit masks).
@@ -396,6 +410,27 @@ fn round3(v: &Vector3<f64>) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sphere_lattice_points_lie_on_the_sphere_and_are_spread() {
+        for k in [4usize, 16, 32] {
+            let p = sphere_lattice(k, 0.25);
+            assert_eq!(p.len(), k);
+            let mut closest = f64::INFINITY;
+            for (i, a) in p.iter().enumerate() {
+                let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                assert!((norm - 0.25).abs() < 1e-12, "{a:?}");
+                for b in &p[i + 1..] {
+                    let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                        .sqrt();
+                    closest = closest.min(d);
+                }
+            }
+            // Evenly spread: no two points closer than half the spacing of k equal caps.
+            let spacing = 0.25 * (4.0 * std::f64::consts::PI / k as f64).sqrt();
+            assert!(closest > 0.5 * spacing, "k {k}: {closest} vs {spacing}");
+        }
+    }
 
     const PRISM: &str = r#"
 name = "prism"

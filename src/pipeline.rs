@@ -101,7 +101,7 @@ impl Default for Params {
 }
 
 /// How much of the start of a file primes the noise estimate before it is analysed
-/// (seconds; see [`Analyzer::prime`]).
+/// (seconds; see [`Sequential::prime`] and `FileAnalysis::run`).
 pub const PRIMING_S: f64 = 0.25;
 
 /// Default consistency tolerance in samples (see the README for how it was chosen).
@@ -649,19 +649,6 @@ impl Analyzer {
 
     pub fn stats(&self) -> &FrameStats {
         self.sequential.stats()
-    }
-
-    /// Folds a frame into the noise estimate only (no detection, no statistics). Files
-    /// prime the estimate with their first [`PRIMING_S`] seconds before analysing them,
-    /// so that their first frames are weighted against a formed noise estimate. The
-    /// primed frames must then be processed, in order, before any other: they are
-    /// not folded into the estimate a second time.
-    pub fn prime(&mut self, frame: &[f32]) {
-        let n = self.setup.n;
-        let live = self
-            .worker
-            .spectra(&self.setup, (frame, n), &mut self.state);
-        self.sequential.prime(&self.state, live);
     }
 
     /// Analyses frame `index`; `frame[m * N .. (m + 1) * N]` holds mic `m`'s samples.

@@ -4,6 +4,20 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+/// The first argument, a length of audio in seconds, or `default`.
+pub fn seconds_arg(default: f64) -> anyhow::Result<f64> {
+    Ok(std::env::args()
+        .nth(1)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(default))
+}
+
+/// The cores the benchmarks run "all cores" on.
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 /// `target/release/ssl`, which the benchmarks time (build it first).
 pub fn release_binary() -> anyhow::Result<PathBuf> {
     let exe = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/release/ssl");
