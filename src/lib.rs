@@ -2,55 +2,80 @@
 //! and Létourneau, "Robust Sound Source Localization Using a Microphone Array on a Mobile
 //! Robot" (IROS 2003).
 //!
-//! The pipeline reads like the paper, one module per stage:
+//! The crate is laid out by concern; inside [`method`], one module per stage of the
+//! paper, with its equation numbers:
 //!
-//! | stage | module | paper |
-//! |---|---|---|
-//! | array geometry | [`geometry`] | Sec. III, `p_i` |
-//! | audio frames | [`audio`] | Sec. II: frames of N samples, 50% overlap |
-//! | spectral weighting | [`weighting`] | eq. (4), (5) |
-//! | cross-correlation and peaks | [`correlation`] | eq. (6), (7) |
-//! | consistency search | [`search`] | eq. (8) |
-//! | direction | [`direction`] | eq. (9)-(13) |
-//! | output | [`output`] | |
+//! ```text
+//! src/
+//!   lib.rs          this page
+//!   main.rs         the `ssl` binary: calls cli::main
+//!   geometry.rs     the array: geometry file, shape, side (Sec. III, p_i)
+//!   method/         the paper's method
+//!     params.rs       parameters, defaults, validation against array and rate
+//!     frames.rs       frames of N samples, 50% overlap (Sec. II)
+//!     spectrum.rs     windowed spectra X_i(k), mean power X(k) (eq. 2)
+//!     weighting.rs    noise estimate X_n(k), weights w_e(k) (eq. 4, 5)
+//!     correlation.rs  weighted PHAT cross-correlation (eq. 6)
+//!     peaks.rs        the M highest peaks per pair (eq. 7)
+//!     pairs.rs        microphone pairs, numbered once
+//!     search.rs       the consistent delay set with the greatest correlation (eq. 8)
+//!     direction.rs    far-field least-squares direction (eq. 9-13)
+//!     outcome.rs      detections, counters, stage times
+//!     worker.rs       one frame through the stages
+//!     analyzer.rs     a recording's frames in blocks, on several threads, with priming
+//!   stream/         samples in, detections out, memory flat
+//!     wav.rs          WAV files and readers (pipes), decoded a block at a time
+//!     source.rs       the SampleSource trait, channels in memory, the framer
+//!     analysis.rs     one recording through the analyzer: the one entry point
+//!   record/         records and output formats (docs/interface.md)
+//!     detection.rs    a detection row
+//!     metadata.rs     the JSON document's metadata and per-file entries
+//!     truth.rs        a simulation's truth
+//!     csv.rs json.rs  one exporter per format behind one trait
+//!     read.rs         reading results and truth files back
+//!   evaluate/       scoring results against a truth (`ssl evaluate`)
+//!   sim/            the simulator (feature `simulate`): scene, room, signals, noise
+//!   cli/            the command line (binary only): one file per subcommand
+//! ```
 //!
-//! [`pipeline::Analyzer`] runs one frame through the stages; [`session::FileAnalysis`]
-//! streams one file through it. The `ssl` binary is a thin layer over [`cli`].
+//! Features: `cli` (default) builds the `ssl` binary and enables `simulate`, the
+//! simulator. With `default-features = false` the crate is the method, the streaming,
+//! the records and the evaluation, without clap, indicatif, rand or hound.
+//!
+//! Every entry point goes through [`Analysis`], which drives the one analyzer of the
+//! method; a file, WAV bytes from a reader and channels in memory give the same
+//! detections on any number of threads.
 //!
 //! ```
-//! use ssl::{FileAnalysis, Geometry, Params};
+//! use ssl::{Analysis, Geometry, Params};
+//! use std::ops::ControlFlow;
 //!
 //! let geometry = Geometry::from_file("testdata/prism.toml".as_ref())?;
-//! let analysis = FileAnalysis::open("testdata/example.wav", &geometry, &Params::default())?;
+//! let analysis = Analysis::open("testdata/example.wav", &geometry, &Params::default())?;
 //! let mut detections = Vec::new();
 //! let (summary, result) = analysis.run(|_frame, detection| {
 //!     detections.extend(detection.cloned());
-//!     Ok(())
+//!     ControlFlow::Continue(())
 //! });
 //! result?;
 //! // The example's first source is at azimuth 30, elevation 10 (testdata/example.truth.json).
 //! let first = &detections[0];
 //! assert!((first.azimuth_deg - 30.0).abs() < 1.0 && (first.elevation_deg - 10.0).abs() < 1.0);
 //! assert_eq!(summary.stats.detections as usize, detections.len());
-//! # Ok::<(), anyhow::Error>(())
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod audio;
-pub mod benchmark;
-pub mod cli;
-pub mod correlation;
-pub mod direction;
+#![warn(missing_docs)]
+
 pub mod evaluate;
 pub mod geometry;
-pub mod output;
-pub mod pipeline;
-pub mod room;
-pub mod scene;
-pub mod search;
-pub mod session;
-pub mod synth;
-pub mod weighting;
+pub mod method;
+pub mod record;
+#[cfg(feature = "simulate")]
+pub mod sim;
+pub mod stream;
 
-pub use geometry::Geometry;
-pub use pipeline::{Analyzer, Detection, Params};
-pub use session::FileAnalysis;
+pub use geometry::{Geometry, GeometryError};
+pub use method::{Detection, Params, ParamsError};
+pub use record::{DetectionRecord, Exporter, Format, OutputError, RunMetadata, Truth};
+pub use stream::{Analysis, AnalysisError, Summary};

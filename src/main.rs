@@ -1,5 +1,7 @@
-//! The `ssl` binary: everything lives in the library; see `ssl::cli`.
+//! The `ssl` binary: the command line over the `ssl` library.
+
+mod cli;
 
 fn main() {
-    std::process::exit(ssl::cli::main());
+    std::process::exit(cli::main());
 }

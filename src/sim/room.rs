@@ -13,7 +13,15 @@
 //! its fractional delay, spread over a Hann-windowed sinc ([`SINC_HALF_WIDTH`] samples
 //! each side) so that delays are exact to well under a sample for band-limited signals.
 
-use anyhow::{bail, Result};
+use super::SceneError;
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+macro_rules! bail {
+    ($($arg:tt)*) => {
+        return Err(SceneError::Invalid(format!($($arg)*)))
+    };
+}
 use nalgebra::Vector3;
 
 /// Half-width of the windowed-sinc fractional-delay kernel, in samples.

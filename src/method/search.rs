@@ -19,8 +19,8 @@
 //! (`max_nodes`) bounds the time per frame, and a frame that exhausts it is reported as
 //! not exhaustively searched.
 
-use crate::correlation::Peak;
-use crate::direction::pair_index;
+use super::pairs::pair_index;
+use super::peaks::Peak;
 
 /// The outcome of a search.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,13 +32,13 @@ pub struct Solution {
     /// For every pair (in [`pair_index`] order), the lag (samples) of its chosen or
     /// matched peak: the pair's own measured delay.
     pub lags: Vec<f64>,
-    /// `false` when the search stopped at the node budget (best set found so far).
-    pub complete: bool,
 }
 
 /// Reusable state for the search (no allocation per frame once warmed up).
 pub struct Searcher {
+    /// How far (samples) a pair's peak may lie from the delay the reference pairs imply.
     pub tolerance: f32,
+    /// Nodes visited at most per search.
     pub max_nodes: u64,
     k: usize,
     nodes: u64,
@@ -59,6 +59,7 @@ pub struct Searcher {
 const BOUND_SLACK: f64 = 1e-9;
 
 impl Searcher {
+    /// A searcher with this tolerance and node budget.
     pub fn new(tolerance: f32, max_nodes: u64) -> Self {
         Searcher {
             tolerance,
@@ -77,7 +78,6 @@ impl Searcher {
                 score: 0.0,
                 choice: Vec::new(),
                 lags: Vec::new(),
-                complete: true,
             },
         }
     }
@@ -134,7 +134,6 @@ impl Searcher {
         }
         let sol = &mut self.solution;
         sol.score = self.best_score;
-        sol.complete = !self.exhausted;
         sol.choice.clear();
         sol.choice.extend_from_slice(&self.best_choice[1..k]);
         sol.lags.clear();

@@ -18,22 +18,8 @@
 //! direction is reported in the plane of the axis and `side`.
 
 use crate::geometry::{Geometry, Shape};
-use anyhow::{bail, Result};
+use super::pairs::{pair_count, pair_index};
 use nalgebra::{DMatrix, Vector2, Vector3};
-
-/// Index of pair `(a, b)`, `a < b`, among `k` microphones, pairs ordered `(0,1), (0,2), ..,
-/// (0,k-1), (1,2), ..`.
-#[inline]
-pub fn pair_index(a: usize, b: usize, k: usize) -> usize {
-    debug_assert!(a < b && b < k);
-    a * (2 * k - a - 1) / 2 + (b - a - 1)
-}
-
-/// Number of pairs among `k` microphones.
-#[inline]
-pub fn pair_count(k: usize) -> usize {
-    k * (k - 1) / 2
-}
 
 enum Solver {
     /// Rows of the pseudo-inverse (3 x P) stored per pair: `u = sum_p col_p * b_p`.
@@ -56,18 +42,18 @@ pub struct DirectionSolver {
     solver: Solver,
     /// Converts a lag in samples to metres: `c / fs`.
     metres_per_sample: f64,
-    pairs: usize,
 }
 
 impl DirectionSolver {
-    /// `mask` selects the live microphones (bit `i` = mic `i` of `geometry`).
-    pub fn new(geometry: &Geometry, mask: u64, sample_rate: f64, speed: f64) -> Result<Self> {
+    /// `mask` selects the live microphones (bit `i` = mic `i` of `geometry`). `None`
+    /// when fewer than two are live or the system cannot be solved.
+    pub fn new(geometry: &Geometry, mask: u64, sample_rate: f64, speed: f64) -> Option<Self> {
         let live: Vec<usize> = (0..geometry.mics.len())
             .filter(|i| mask & (1u64 << i) != 0)
             .collect();
         let k = live.len();
         if k < 2 {
-            bail!("fewer than 2 live microphones");
+            return None;
         }
         let p = pair_count(k);
         let mut d = DMatrix::<f64>::zeros(p, 3);
@@ -80,10 +66,10 @@ impl DirectionSolver {
                 }
             }
         }
-        let shape = geometry.subset_shape(mask)?;
+        let shape = geometry.subset_shape(mask).ok()?;
         let solver = match shape {
             Shape::Volumetric => {
-                let pinv = d.pseudo_inverse(1e-12).map_err(anyhow::Error::msg)?;
+                let pinv = d.pseudo_inverse(1e-12).ok()?;
                 Solver::Volumetric {
                     cols: (0..p)
                         .map(|r| Vector3::new(pinv[(0, r)], pinv[(1, r)], pinv[(2, r)]))
@@ -105,7 +91,7 @@ impl DirectionSolver {
                     dp[(r, 0)] = row.dot(&e1);
                     dp[(r, 1)] = row.dot(&e2);
                 }
-                let pinv = dp.pseudo_inverse(1e-12).map_err(anyhow::Error::msg)?;
+                let pinv = dp.pseudo_inverse(1e-12).ok()?;
                 Solver::Planar {
                     cols: (0..p)
                         .map(|r| Vector2::new(pinv[(0, r)], pinv[(1, r)]))
@@ -129,22 +115,15 @@ impl DirectionSolver {
                 }
             }
         };
-        Ok(DirectionSolver {
+        Some(DirectionSolver {
             solver,
             metres_per_sample: speed / sample_rate,
-            pairs: p,
         })
-    }
-
-    /// Number of pair delays `solve` expects.
-    pub fn pairs(&self) -> usize {
-        self.pairs
     }
 
     /// The unit direction from pair lags in samples (`lags[pair_index(a, b, k)]` is the
     /// lag of the peak of `R_ab`). `None` when the system gives no direction (zero vector).
     pub fn solve(&self, lags: &[f64]) -> Option<Vector3<f64>> {
-        debug_assert_eq!(lags.len(), self.pairs);
         let s = self.metres_per_sample;
         let u = match &self.solver {
             Solver::Volumetric { cols } => {

@@ -1,0 +1,239 @@
+//! The command line's arguments (clap). `man/` is generated from these definitions.
+
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use clap::{Args, Parser, Subcommand};
+use ssl::method::{Interpolation, Params, Window, DEFAULT_TOLERANCE};
+use ssl::method::peaks::MAX_PEAKS;
+use ssl::Format;
+use std::path::PathBuf;
+
+/// Find where sounds come from in multichannel microphone-array recordings.
+#[derive(Debug, Parser)]
+#[command(
+    name = "ssl",
+    version,
+    about = "Find where sounds come from in multichannel microphone-array recordings",
+    long_about = "Find where sounds come from in multichannel microphone-array recordings.\n\n\
+        ssl implements the time-delay method of Valin, Michaud, Rouat and Letourneau (IROS 2003): \
+        weighted PHAT cross-correlation of every microphone pair, a consistency-checked search over \
+        the M highest peaks of each, and a far-field least-squares direction. It writes timestamped \
+        directions (azimuth, elevation, unit vector) as CSV, JSON or NDJSON.",
+    after_help = "Example: ssl analyze testdata/example.wav --geometry testdata/prism.toml"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    #[command(
+        about = "Localize sound sources in WAV recordings",
+        long_about = "Localize sound sources in WAV recordings.\n\n\
+        Writes one record per detected source per analysis frame (frames of N samples, hop N/2): \
+        time_s (frame centre), azimuth_deg, elevation_deg, x, y, z (unit vector from the array centre), \
+        score (summed weighted correlation of the chosen delays, at most 1 per microphone pair), then \
+        file, frame and mics. Frames with no consistent set of delays give no record. Files are analysed \
+        in argument order; a file that fails is reported on stderr and the others still run (exit status 1).\n\n\
+        Exit status: 0 success, 1 a file or the geometry could not be analysed, 2 a usage error."
+    )]
+    Analyze(AnalyzeArgs),
+    /// Show what ssl understood of an array geometry file
+    Geometry(GeometryArgs),
+    #[command(
+        about = "Simulate a recording with known truth from a scene file",
+        long_about = "Simulate a recording with known truth from a scene file.\n\n\
+        The scene (TOML) gives a shoebox room (dimensions, rt60 or absorption; omit it for free \
+        field), the array (geometry file, position, yaw), sources (position or azimuth/elevation/distance \
+        from the array; signal white, pink, clicks, tone, speech or a mono WAV file; active intervals; \
+        level) and noise (point fans, diffuse noise, sensor noise, target SNR). The image-source method \
+        with fractional-delay taps renders it. The truth JSON gives each source's direction in the \
+        array frame, distance and active intervals (as heard at the array centre). Same scene and seed, \
+        same bytes. See testdata/scene.toml."
+    )]
+    Simulate(SimulateArgs),
+    #[command(
+        about = "Score detections against a simulation's truth",
+        long_about = "Score detections against a simulation's truth.\n\n\
+        RESULT is the output of `ssl analyze` in any format. Per source and overall: mean and median \
+        angular error of detections in frames inside the source's active intervals, the share of those \
+        frames with a detection within 10 degrees, the share of source events (active intervals) \
+        detected, and false detections per minute outside the active intervals (each extended by a \
+        reverberation tail)."
+    )]
+    Evaluate(EvaluateArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct AnalyzeArgs {
+    /// WAV recordings (8/16/24/32-bit PCM or 32-bit float); `-` reads standard input
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<String>,
+
+    /// Array geometry (TOML: [[mic]] tables with position = [x, y, z] in metres)
+    #[arg(short, long, value_name = "TOML")]
+    pub geometry: PathBuf,
+
+    /// Output format
+    #[arg(short, long, default_value = "csv", value_parser = choice(&Format::ALL))]
+    pub format: Format,
+
+    /// Write to this file (atomically: complete or not at all) instead of standard output
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+
+    /// Frame size N in samples [default: about 21 ms: 1024 at 44.1/48 kHz, 256 at 16 kHz]
+    #[arg(short = 'n', long, value_name = "N")]
+    pub frame_size: Option<usize>,
+
+    /// Noise over-subtraction alpha of the spectral weighting (paper eq. 4)
+    #[arg(long, default_value_t = 0.4, value_parser = unit_interval)]
+    pub alpha: f32,
+
+    /// Exponent gamma that favours high-SNR bins (paper eq. 5)
+    #[arg(long, default_value_t = 0.3, value_parser = unit_interval)]
+    pub gamma: f32,
+
+    /// Plain PHAT: skip the spectral weighting (w_e = 1), for comparison
+    #[arg(long)]
+    pub no_weighting: bool,
+
+    /// Peaks M kept in each pair's cross-correlation
+    #[arg(short = 'm', long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=MAX_PEAKS as i64))]
+    pub peaks: u16,
+
+    /// Consistency tolerance in samples: how far a pair's peak may be from the delay the reference pairs imply
+    #[arg(short, long, default_value_t = DEFAULT_TOLERANCE, value_parser = non_negative)]
+    pub tolerance: f32,
+
+    /// Speed of sound in m/s [default: the geometry's, else 343]
+    #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
+    pub speed_of_sound: Option<f64>,
+
+    /// Drop detections whose score is below this [default: 0.5 per microphone pair, 14 for 8 mics]
+    #[arg(long, value_name = "SCORE", allow_negative_numbers = true, value_parser = parse_f64)]
+    pub min_score: Option<f64>,
+
+    /// Analysis window
+    #[arg(long, default_value = "hann", value_parser = choice(&Window::ALL))]
+    pub window: Window,
+
+    /// Sub-sample refinement of correlation peaks
+    #[arg(long, default_value = "parabolic", value_parser = choice(&Interpolation::ALL))]
+    pub interpolation: Interpolation,
+
+    /// Threads to analyse with (0: all cores); the output is the same for any number
+    #[arg(short = 'j', long, default_value_t = 0, value_name = "N")]
+    pub threads: usize,
+
+    /// No progress bar and no warnings (errors are still reported)
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct GeometryArgs {
+    /// Array geometry file (TOML)
+    #[arg(value_name = "TOML")]
+    pub geometry: PathBuf,
+
+    /// Sample rate for the lag table (Hz)
+    #[arg(short, long, default_value_t = 48000, value_parser = clap::value_parser!(u32).range(1000..=768000))]
+    pub rate: u32,
+
+    /// Speed of sound in m/s [default: the geometry's, else 343]
+    #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
+    pub speed_of_sound: Option<f64>,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Scene file (TOML)
+    #[arg(value_name = "SCENE")]
+    pub scene: PathBuf,
+
+    /// Output WAV file
+    #[arg(short, long, value_name = "WAV")]
+    pub output: PathBuf,
+
+    /// Truth JSON [default: the output's name with .truth.json]
+    #[arg(long, value_name = "JSON")]
+    pub truth: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct EvaluateArgs {
+    /// Truth JSON written by `ssl simulate`
+    #[arg(long, value_name = "JSON")]
+    pub truth: PathBuf,
+
+    /// Detections from `ssl analyze` (CSV, JSON or NDJSON)
+    #[arg(value_name = "RESULT")]
+    pub result: PathBuf,
+
+    /// Seconds after each active interval during which detections are not false [default: half the room's RT60, 0 in free field]
+    #[arg(long, value_name = "S", value_parser = non_negative)]
+    pub tail: Option<f32>,
+
+    /// Print the report as JSON
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_f64(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("`{s}` is not a finite number"));
+    }
+    Ok(v)
+}
+
+fn unit_interval(s: &str) -> std::result::Result<f32, String> {
+    let v = parse_f64(s)?;
+    if !(0.0..=1.0).contains(&v) {
+        return Err(format!("{v} is outside 0..=1"));
+    }
+    Ok(v as f32)
+}
+
+fn non_negative(s: &str) -> std::result::Result<f32, String> {
+    let v = parse_f64(s)?;
+    if v < 0.0 {
+        return Err(format!("{v} is negative"));
+    }
+    Ok(v as f32)
+}
+
+fn positive(s: &str) -> std::result::Result<f64, String> {
+    let v = parse_f64(s)?;
+    if v <= 0.0 {
+        return Err(format!("{v} is not positive"));
+    }
+    Ok(v)
+}
+
+impl AnalyzeArgs {
+    pub fn params(&self) -> Params {
+        Params {
+            frame_size: self.frame_size,
+            alpha: self.alpha,
+            gamma: self.gamma,
+            weighting: !self.no_weighting,
+            peaks: self.peaks as usize,
+            tolerance: self.tolerance,
+            speed_of_sound: self.speed_of_sound,
+            min_score: self.min_score,
+            window: self.window,
+            interpolation: self.interpolation,
+            ..Params::default()
+        }
+    }
+}
+
+/// A parser for one of the library's named choices (`T::ALL`: value, name, help).
+fn choice<T: Copy + Send + Sync + 'static>(
+    all: &'static [(T, &'static str, &'static str)],
+) -> impl TypedValueParser<Value = T> {
+    PossibleValuesParser::new(all.iter().map(|&(_, name, help)| PossibleValue::new(name).help(help)))
+        .map(move |s| all.iter().find(|c| c.1 == s).expect("a possible value").0)
+}

@@ -1,0 +1,94 @@
+//! The `ssl` command line: one file per subcommand, the arguments in [`args`], the output
+//! destination in [`sink`]. The library knows nothing of flags; the hints that name them
+//! are added here.
+
+mod analyze;
+pub mod args;
+mod evaluate;
+mod geometry;
+mod simulate;
+mod sink;
+
+use args::{Cli, Command};
+use clap::Parser;
+use ssl::method::ParamsError;
+use ssl::stream::{ErrorKind, Warning};
+use ssl::{AnalysisError, OutputError};
+
+/// Runs the command line and returns the process exit status: 0 success, 1 a data
+/// error (bad or failed input), 2 a usage error.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let code = e.exit_code();
+            let _ = e.print();
+            return code;
+        }
+    };
+    let result = match cli.command {
+        Command::Analyze(args) => rayon::ThreadPoolBuilder::new()
+            .num_threads(args.threads)
+            .build()
+            .map_err(anyhow::Error::from)
+            .and_then(|pool| pool.install(|| analyze::run(&args))),
+        Command::Geometry(args) => geometry::run(&args).map(|()| true),
+        Command::Simulate(args) => simulate::run(&args).map(|()| true),
+        Command::Evaluate(args) => evaluate::run(&args).map(|()| true),
+    };
+    match result {
+        Ok(true) => 0,
+        Ok(false) => 1,
+        Err(e) if is_broken_pipe(&e) => 0,
+        Err(e) => {
+            error(&one_line(&e));
+            1
+        }
+    }
+}
+
+/// An error chain as one line.
+fn one_line(e: &anyhow::Error) -> String {
+    format!("{e:#}").replace('\n', " ")
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            || c.downcast_ref::<OutputError>()
+                .is_some_and(OutputError::is_broken_pipe)
+    })
+}
+
+fn error(msg: &str) {
+    eprintln!("ssl: error: {msg}");
+}
+
+fn warn(quiet: bool, msg: &str) {
+    if !quiet {
+        eprintln!("ssl: warning: {msg}");
+    }
+}
+
+/// A recording's error as the command line reports it: the library's message, and what
+/// to change on the command line when a flag would fix it.
+fn with_hint(e: &AnalysisError) -> String {
+    let hint = match &e.kind {
+        ErrorKind::TooShort { .. } => "; use a smaller --frame-size".to_string(),
+        ErrorKind::Params(ParamsError::FrameTooShort { needed, .. }) => {
+            format!(": use --frame-size {needed} or more")
+        }
+        _ => String::new(),
+    };
+    format!("{e}{hint}")
+}
+
+/// A warning as the command line reports it.
+fn warning_with_hint(name: &str, w: &Warning) -> String {
+    let hint = match w {
+        Warning::SearchBudget { .. } => " (--tolerance, --peaks)",
+        _ => "",
+    };
+    format!("{name}: {w}{hint}")
+}

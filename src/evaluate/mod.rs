@@ -1,0 +1,379 @@
+//! Scoring detections against a simulation's truth (`ssl evaluate`).
+//!
+//! Frames are those of the analysis: frame `f` is centred at `(f + 1) * hop` seconds and
+//! spans one hop either side, the hop being read off the detections (`time_s / (frame +
+//! 1)`). For each source:
+//! - errors: the angle between each detection in a frame lying wholly inside one of the
+//!   source's active intervals and the source's direction (when several sources are
+//!   active, a detection counts for the nearest of them);
+//! - frame detection rate: the share of those frames with a detection within
+//!   [`HIT_DEG`] of the source;
+//! - event detection rate: the share of active intervals (events) with at least one
+//!   detection within [`HIT_DEG`] in a frame that overlaps the interval;
+//! - false detections: detections in frames that overlap no active interval (each
+//!   extended by a reverberation tail), per minute of such time.
+
+mod report;
+
+use crate::method::direction::{angle_between_deg, angles_deg};
+use crate::method::default_frame_size;
+use crate::record::{DetectionRecord, Truth};
+use nalgebra::Vector3;
+
+/// A detection within this many degrees of a source counts as detecting it.
+pub const HIT_DEG: f64 = 10.0;
+
+/// Results that cannot be scored against one truth.
+#[derive(Debug, thiserror::Error)]
+pub enum EvaluateError {
+    /// The result holds detections of several recordings.
+    #[error("results for {0} files; evaluate one recording at a time")]
+    SeveralFiles(usize),
+}
+
+/// A detection as scored: its time, direction and frame.
+#[derive(Debug, Clone, Copy)]
+struct Det {
+    time_s: f64,
+    direction: Vector3<f64>,
+    frame: Option<u64>,
+}
+
+/// The scores of one true source.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SourceReport {
+    /// The source's index in the scene.
+    pub index: usize,
+    /// Its signal.
+    pub signal: String,
+    /// Its azimuth (degrees).
+    pub azimuth_deg: f64,
+    /// Its elevation (degrees).
+    pub elevation_deg: f64,
+    /// Its distance (metres), when known.
+    pub distance_m: Option<f64>,
+    /// Detections counted for it (in frames wholly inside its intervals, nearest to it).
+    pub detections: usize,
+    /// Their mean angular error (degrees).
+    pub mean_error_deg: Option<f64>,
+    /// Their median angular error (degrees).
+    pub median_error_deg: Option<f64>,
+    /// Frames wholly inside its active intervals.
+    pub active_frames: usize,
+    /// Those frames with a detection within [`HIT_DEG`].
+    pub frames_detected: usize,
+    /// Its active intervals.
+    pub events: usize,
+    /// Intervals with a detection within [`HIT_DEG`].
+    pub events_detected: usize,
+}
+
+/// The scores of a result against a truth: per source and overall.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Report {
+    /// Per source.
+    pub sources: Vec<SourceReport>,
+    /// Detections counted for any source.
+    pub detections: usize,
+    /// Their mean angular error (degrees).
+    pub mean_error_deg: Option<f64>,
+    /// Their median angular error (degrees).
+    pub median_error_deg: Option<f64>,
+    /// Share of active frames detected, over all sources.
+    pub frame_detection_rate: Option<f64>,
+    /// Share of events detected, over all sources.
+    pub event_detection_rate: Option<f64>,
+    /// Detections in frames that overlap no active interval (with its tail).
+    pub false_detections: usize,
+    /// Seconds of such frames.
+    pub background_s: f64,
+    /// False detections per minute of background.
+    pub false_per_minute: Option<f64>,
+    /// The analysis hop (seconds).
+    pub hop_s: f64,
+    /// The tail added to each interval (seconds).
+    pub tail_s: f64,
+}
+
+/// Scores `dets` against `truth`. `tail_s` extends each active interval when counting
+/// false detections (reverberation keeps a source audible after it stops).
+pub fn evaluate(
+    truth: &Truth,
+    records: &[DetectionRecord],
+    tail_s: f64,
+) -> Result<Report, EvaluateError> {
+    let files: std::collections::BTreeSet<&str> = records
+        .iter()
+        .map(|r| r.file.as_str())
+        .filter(|f| !f.is_empty())
+        .collect();
+    if files.len() > 1 {
+        return Err(EvaluateError::SeveralFiles(files.len()));
+    }
+    let dets: Vec<Det> = records
+        .iter()
+        .map(|r| Det {
+            time_s: r.time_s,
+            direction: Vector3::new(r.x, r.y, r.z).normalize(),
+            frame: r.frame,
+        })
+        .collect();
+    let sources: Vec<Source> = truth
+        .sources
+        .iter()
+        .map(|s| Source {
+            direction: s.direction(),
+            intervals: s.active.iter().map(|&[a, b]| (a, b)).collect(),
+        })
+        .collect();
+    Ok(score(truth, &sources, &dets, tail_s))
+}
+
+/// A true source as scored: its direction and active intervals.
+struct Source {
+    direction: Vector3<f64>,
+    intervals: Vec<(f64, f64)>,
+}
+
+fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report {
+    let hop = dets
+        .iter()
+        .find_map(|d| d.frame.map(|f| d.time_s / (f as f64 + 1.0)))
+        .unwrap_or_else(|| {
+            default_frame_size(truth.sample_rate) as f64
+                / 2.0
+                / truth.sample_rate as f64
+        });
+    let frames = if truth.duration_s >= 2.0 * hop {
+        ((truth.duration_s - 2.0 * hop) / hop + 1e-9).floor() as u64 + 1
+    } else {
+        0
+    };
+    let centre = |f: u64| (f as f64 + 1.0) * hop;
+    let inside = |t: f64, (a, b): (f64, f64)| t - hop >= a - 1e-9 && t + hop <= b + 1e-9;
+    let overlaps = |t: f64, (a, b): (f64, f64), tail: f64| t + hop > a && t - hop < b + tail;
+    let frame_of = |d: &Det| {
+        d.frame
+            .unwrap_or_else(|| ((d.time_s / hop).round() as u64).saturating_sub(1))
+    };
+
+    let mut reports = Vec::new();
+    let mut all_errors = Vec::new();
+    let (mut active_total, mut detected_total, mut events_total, mut events_hit) = (0, 0, 0, 0);
+    for (si, (s, t)) in sources.iter().zip(&truth.sources).enumerate() {
+        // Detections counted for this source: in a frame wholly inside one of its
+        // intervals, and nearer to it than to any other source active then.
+        let mine: Vec<(&Det, f64)> = dets
+            .iter()
+            .filter(|d| s.intervals.iter().any(|&iv| inside(d.time_s, iv)))
+            .filter(|d| {
+                let own = angle_between_deg(&d.direction, &s.direction);
+                sources.iter().enumerate().all(|(oi, o)| {
+                    oi == si
+                        || !o.intervals.iter().any(|&iv| inside(d.time_s, iv))
+                        || angle_between_deg(&d.direction, &o.direction) > own
+                })
+            })
+            .map(|d| (d, angle_between_deg(&d.direction, &s.direction)))
+            .collect();
+        let mut errors: Vec<f64> = mine.iter().map(|(_, e)| *e).collect();
+        all_errors.extend_from_slice(&errors);
+        let active: Vec<u64> = (0..frames)
+            .filter(|&f| s.intervals.iter().any(|&iv| inside(centre(f), iv)))
+            .collect();
+        let hit_frames: std::collections::BTreeSet<u64> = mine
+            .iter()
+            .filter(|(_, e)| *e < HIT_DEG)
+            .map(|(d, _)| frame_of(d))
+            .collect();
+        let frames_detected = active.iter().filter(|f| hit_frames.contains(f)).count();
+        let events_detected = s
+            .intervals
+            .iter()
+            .filter(|&&iv| {
+                dets.iter().any(|d| {
+                    overlaps(d.time_s, iv, 0.0)
+                        && angle_between_deg(&d.direction, &s.direction) < HIT_DEG
+                })
+            })
+            .count();
+        active_total += active.len();
+        detected_total += frames_detected;
+        events_total += s.intervals.len();
+        events_hit += events_detected;
+        let (az, el) = angles_deg(&s.direction);
+        reports.push(SourceReport {
+            index: t.index,
+            signal: t.signal.clone(),
+            azimuth_deg: az,
+            elevation_deg: el,
+            distance_m: t.distance_m,
+            detections: errors.len(),
+            mean_error_deg: mean(&errors),
+            median_error_deg: median(&mut errors),
+            active_frames: active.len(),
+            frames_detected,
+            events: s.intervals.len(),
+            events_detected,
+        });
+    }
+    let busy = |t: f64| {
+        sources
+            .iter()
+            .any(|s| s.intervals.iter().any(|&iv| overlaps(t, iv, tail_s)))
+    };
+    let background_frames = (0..frames).filter(|&f| !busy(centre(f))).count();
+    let false_detections = dets.iter().filter(|d| !busy(d.time_s)).count();
+    let background_s = background_frames as f64 * hop;
+    Report {
+        sources: reports,
+        detections: all_errors.len(),
+        mean_error_deg: mean(&all_errors),
+        median_error_deg: median(&mut all_errors),
+        frame_detection_rate: (active_total > 0)
+            .then(|| detected_total as f64 / active_total as f64),
+        event_detection_rate: (events_total > 0).then(|| events_hit as f64 / events_total as f64),
+        false_detections,
+        background_s,
+        false_per_minute: (background_s > 0.0)
+            .then(|| false_detections as f64 / (background_s / 60.0)),
+        hop_s: hop,
+        tail_s,
+    }
+}
+
+fn mean(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::{parse_detections, TruthSource};
+
+    fn source(index: usize, direction: Vector3<f64>, active: Vec<[f64; 2]>) -> TruthSource {
+        let (azimuth_deg, elevation_deg) = angles_deg(&direction);
+        TruthSource {
+            index,
+            signal: "a".into(),
+            level_db: -26.0,
+            position_room: [0.0; 3],
+            x: direction.x,
+            y: direction.y,
+            z: direction.z,
+            azimuth_deg,
+            elevation_deg,
+            distance_m: Some(2.0),
+            active,
+        }
+    }
+
+    fn truth() -> Truth {
+        Truth {
+            tool: Default::default(),
+            sample_rate: 48000,
+            duration_s: 10.0,
+            seed: 0,
+            speed_of_sound: 343.0,
+            room: None,
+            array: Default::default(),
+            sources: vec![
+                source(0, Vector3::x(), vec![[1.0, 2.0], [5.0, 6.0]]),
+                source(1, Vector3::y(), vec![[3.0, 4.0]]),
+            ],
+            noise: None,
+            recording: None,
+        }
+    }
+
+    /// A detection in frame `f` (hop 0.01 s) toward `u`.
+    fn record(f: u64, u: Vector3<f64>) -> DetectionRecord {
+        DetectionRecord {
+            time_s: (f + 1) as f64 * 0.01,
+            x: u.x,
+            y: u.y,
+            z: u.z,
+            frame: Some(f),
+            ..Default::default()
+        }
+    }
+
+    /// `deg` degrees from +x toward +z.
+    fn tilt(deg: f64) -> Vector3<f64> {
+        let r = deg.to_radians();
+        Vector3::new(r.cos(), 0.0, r.sin())
+    }
+
+    #[test]
+    fn scores_hand_made_detections() {
+        // Source 0, interval 1..2 s: frames wholly inside have centres 1.01..1.99, i.e.
+        // f = 100..=198 (99 frames); likewise 5..6 s: f = 500..=598. Total 198 frames.
+        let mut dets = vec![
+            record(100, tilt(1.0)),
+            record(101, tilt(3.0)),
+            record(150, tilt(20.0)),
+            record(500, tilt(2.0)),
+        ];
+        // A detection between the intervals (7.5 s, far from any tail): false.
+        dets.push(record(749, tilt(0.0)));
+        // Source 1 (+y), interval 3..4 s, detected exactly in one frame.
+        dets.push(record(349, Vector3::y()));
+        let r = evaluate(&truth(), &dets, 0.1).unwrap();
+        assert!((r.hop_s - 0.01).abs() < 1e-12);
+        let s0 = &r.sources[0];
+        assert_eq!(s0.detections, 4);
+        assert!(
+            (s0.mean_error_deg.unwrap() - 6.5).abs() < 1e-9,
+            "{:?}",
+            s0.mean_error_deg
+        );
+        assert!((s0.median_error_deg.unwrap() - 2.5).abs() < 1e-9);
+        assert_eq!(s0.active_frames, 198);
+        assert_eq!(s0.frames_detected, 3, "the 20 deg detection is not a hit");
+        assert_eq!((s0.events, s0.events_detected), (2, 2));
+        let s1 = &r.sources[1];
+        assert_eq!(
+            (s1.detections, s1.frames_detected, s1.events_detected),
+            (1, 1, 1)
+        );
+        assert_eq!(r.false_detections, 1);
+        // Background: frames overlapping no interval + 0.1 s tail.
+        assert!(
+            r.background_s > 6.0 && r.background_s < 7.0,
+            "{}",
+            r.background_s
+        );
+        assert!((r.false_per_minute.unwrap() - 60.0 / r.background_s).abs() < 1e-9);
+        assert_eq!(r.event_detection_rate, Some(1.0));
+    }
+
+    #[test]
+    fn reads_every_output_format_and_refuses_several_files() {
+        let csv = "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics\n0.5,0,0,1,0,0,3,a.wav,49,8\n";
+        let nd = "{\"time_s\":0.5,\"azimuth_deg\":0,\"elevation_deg\":0,\"x\":1,\"y\":0,\"z\":0,\"score\":3,\"file\":\"a.wav\",\"frame\":49,\"mics\":8}\n";
+        let doc = "{\"tool\":{},\"detections\":[\n{\"time_s\":0.5,\"azimuth_deg\":0,\"elevation_deg\":0,\"x\":1,\"y\":0,\"z\":0,\"score\":3,\"file\":\"a.wav\",\"frame\":49,\"mics\":8}\n],\"files\":[]}";
+        for text in [csv, nd, doc] {
+            let d = parse_detections(text).unwrap();
+            assert_eq!(d.len(), 1);
+            assert_eq!(d[0].frame, Some(49));
+            assert_eq!((d[0].x, d[0].file.as_str(), d[0].mics), (1.0, "a.wav", Some(8)));
+        }
+        let two = parse_detections(&format!("{csv}0.6,0,0,1,0,0,3,b.wav,50,8\n")).unwrap();
+        let err = evaluate(&truth(), &two, 0.0).unwrap_err();
+        assert!(err.to_string().contains("2 files"), "{err}");
+        assert!(parse_detections("time_s,x\n0.5,oops\n").is_err());
+    }
+}

@@ -1,0 +1,221 @@
+//! The whole method over a recording's frames: the one way through the stages for every
+//! entry point ([`Analysis`](crate::stream::Analysis) drives it for files, readers and
+//! channels in memory, on one thread or several).
+//!
+//! Frames are analysed in blocks of [`BLOCK`] on the threads of the current rayon pool:
+//! spectra in parallel; the noise estimate `X_n(k)`, which depends on every previous frame,
+//! in frame order, exactly as one thread would; then weights, correlations, peaks, search
+//! and direction in parallel; then the outcomes in frame order. The output is the same for
+//! any number of threads.
+//!
+//! Priming: the first [`PRIMING_S`] of a recording are folded into the noise estimate
+//! before any frame is weighed. Otherwise the first frames are weighed against an
+//! estimate that has not formed yet, and a fan that is on from the start is reported
+//! there (README, "Choices and evidence").
+
+use super::frames::{FrameBlock, BLOCK};
+use super::outcome::{Detection, FrameStats, Outcome, StageTimes};
+use super::params::{Params, ParamsError, Setup, PRIMING_S};
+use super::weighting::NoiseEstimator;
+use super::worker::{FrameState, Worker};
+use crate::geometry::Geometry;
+use rayon::prelude::*;
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// The method's state over one recording: the checked setup, one [`Worker`] per thread,
+/// the noise estimate and the counters.
+pub(crate) struct Analyzer {
+    setup: Setup,
+    workers: Vec<Mutex<(Worker, StageTimes)>>,
+    sequential: Sequential,
+    states: Vec<FrameState>,
+    live: Vec<bool>,
+    outcomes: Vec<Outcome>,
+    detections: Vec<Option<Detection>>,
+    times: Option<StageTimes>,
+}
+
+impl Analyzer {
+    /// Checks `params` against the array and the sample rate, and plans every stage.
+    pub fn new(geometry: &Geometry, sample_rate: u32, params: &Params) -> Result<Self, ParamsError> {
+        let setup = Setup::new(geometry, sample_rate, params)?;
+        let hop_s = setup.hop as f64 / setup.rate;
+        Ok(Analyzer {
+            workers: (0..rayon::current_num_threads())
+                .map(|_| Mutex::new((Worker::new(&setup), StageTimes::default())))
+                .collect(),
+            sequential: Sequential {
+                noise: NoiseEstimator::new(setup.bins(), hop_s, setup.params.noise),
+                stats: FrameStats {
+                    dead_frames: vec![0; setup.mics()],
+                    ..Default::default()
+                },
+                priming: ((PRIMING_S / hop_s).ceil() as usize).min(BLOCK),
+            },
+            states: (0..BLOCK).map(|_| FrameState::new(&setup)).collect(),
+            live: vec![false; BLOCK],
+            outcomes: vec![Outcome::Silent; BLOCK],
+            detections: vec![None; BLOCK],
+            times: None,
+            setup,
+        })
+    }
+
+    /// Frame size N.
+    pub fn frame_size(&self) -> usize {
+        self.setup.n
+    }
+
+    /// Hop between frames, N / 2.
+    pub fn hop(&self) -> usize {
+        self.setup.hop
+    }
+
+    /// An empty block of frames for this analysis.
+    pub fn block(&self) -> FrameBlock {
+        FrameBlock::new(self.setup.n, self.setup.mics(), BLOCK)
+    }
+
+    /// Measures the time spent in each stage from now on (about 1 us a frame).
+    pub fn enable_stage_timing(&mut self) {
+        self.times.get_or_insert_with(StageTimes::default);
+    }
+
+    /// The time spent in each stage, when stage timing is on. Stages after the noise
+    /// estimate add up the threads' time; the first two are wall time.
+    pub fn stage_times(&self) -> Option<&StageTimes> {
+        self.times.as_ref()
+    }
+
+    /// The counters so far.
+    pub fn stats(&self) -> &FrameStats {
+        &self.sequential.stats
+    }
+
+    /// Leaves every correlation in, even those the weights' ceiling rules out.
+    #[cfg(test)]
+    pub fn disable_pruning(&mut self) {
+        for w in &mut self.workers {
+            w.get_mut().expect("a worker panicked").0.prune = false;
+        }
+    }
+
+    /// Analyses the frames of `block` and returns their detections in frame order (frame
+    /// `block.first + i` at `i`). `meanwhile` runs on the calling thread while the pool
+    /// works, when there is more than one thread (the caller reads the next block).
+    pub fn analyse(
+        &mut self,
+        block: &FrameBlock,
+        meanwhile: impl FnOnce(),
+    ) -> &[Option<Detection>] {
+        let count = block.count;
+        if rayon::current_num_threads() > 1 {
+            rayon::in_place_scope(|scope| {
+                scope.spawn(|_| self.analyse_block(block));
+                meanwhile();
+            });
+        } else {
+            self.analyse_block(block);
+            meanwhile();
+        }
+        for (detection, &outcome) in self.detections.iter_mut().zip(&self.outcomes[..count]) {
+            *detection = self.sequential.stats.tally(outcome);
+        }
+        &self.detections[..count]
+    }
+
+    fn analyse_block(&mut self, block: &FrameBlock) {
+        let count = block.count;
+        let (setup, workers) = (&self.setup, &self.workers);
+        let worker = || {
+            let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
+            workers[i].lock().expect("a worker panicked")
+        };
+        // Spectra, in parallel.
+        let clock = Instant::now();
+        self.states[..count]
+            .par_iter_mut()
+            .zip(self.live[..count].par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (state, live))| {
+                *live = worker().0.spectra(setup, block.frame(i), state);
+            });
+        let spectra = clock.elapsed();
+        // The noise estimate, in frame order.
+        self.sequential.estimate_noise(
+            setup.params.weighting,
+            &mut self.states[..count],
+            &self.live[..count],
+        );
+        if let Some(times) = self.times.as_mut() {
+            times.spectra += spectra;
+            times.weighting += clock.elapsed() - spectra;
+        }
+        // Weights, correlations, peaks, search, direction, in parallel.
+        let timing = self.times.is_some();
+        self.outcomes[..count]
+            .par_iter_mut()
+            .zip(self.states[..count].par_iter())
+            .zip(self.live[..count].par_iter())
+            .enumerate()
+            .for_each(|(i, ((outcome, state), &live))| {
+                let index = block.first + i as u64;
+                *outcome = if live {
+                    let mut guard = worker();
+                    let (worker, stage_times) = &mut *guard;
+                    worker.localize(setup, state, index, timing.then_some(stage_times))
+                } else {
+                    Outcome::Silent
+                };
+            });
+        if let Some(times) = self.times.as_mut() {
+            for w in workers {
+                times.add(&std::mem::take(&mut w.lock().expect("a worker panicked").1));
+            }
+        }
+    }
+
+}
+
+/// What depends on every earlier frame: the noise estimate and the counters.
+struct Sequential {
+    noise: NoiseEstimator,
+    stats: FrameStats,
+    /// Frames of the next block to fold into the noise estimate before it is weighed.
+    priming: usize,
+}
+
+impl Sequential {
+    /// Gives each frame of a block the noise estimate of the frames before it (for its
+    /// weights, eq. 4-5; only with `weighting`), then updates the estimate with its
+    /// `X(k)`; primed frames are folded in first and not again. Counts silent frames and
+    /// dead microphones.
+    fn estimate_noise(&mut self, weighting: bool, states: &mut [FrameState], live: &[bool]) {
+        let primed = std::mem::take(&mut self.priming).min(states.len());
+        for (state, _) in states[..primed].iter().zip(live).filter(|(_, &l)| l) {
+            self.noise.update(&state.power);
+        }
+        for (i, (state, &live)) in states.iter_mut().zip(live).enumerate() {
+            self.stats.frames += 1;
+            if !live {
+                self.stats.silent_frames += 1;
+                continue;
+            }
+            for (m, dead) in self.stats.dead_frames.iter_mut().enumerate() {
+                if !state.live.contains(&m) {
+                    *dead += 1;
+                }
+            }
+            if !self.noise.started() {
+                self.noise.start(&state.power);
+            }
+            if weighting {
+                state.noise.copy_from_slice(self.noise.noise());
+            }
+            if i >= primed {
+                self.noise.update(&state.power);
+            }
+        }
+    }
+}

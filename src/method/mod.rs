@@ -1,0 +1,41 @@
+//! The method of Valin, Michaud, Rouat and Létourneau (IROS 2003), one file per stage in
+//! the paper's order:
+//!
+//! | stage | module | paper |
+//! |---|---|---|
+//! | frames of N samples, 50% overlap | [`frames`] | Sec. II |
+//! | windowed spectra `X_i(k)`, mean power `X(k)` | [`spectrum`] | eq. (2) |
+//! | noise estimate `X_n(k)` and weights `w_e(k)` | [`weighting`] | eq. (4), (5) |
+//! | weighted PHAT cross-correlation of every pair | [`correlation`] | eq. (6) |
+//! | the M highest peaks of each pair | [`peaks`] | eq. (7) |
+//! | microphone pairs, numbered once | [`pairs`] | |
+//! | the consistent set of delays with the greatest correlation | [`search`] | eq. (8) |
+//! | far-field least-squares direction | [`direction`] | eq. (9)-(13) |
+//!
+//! [`Params`] holds the parameters; one frame goes through the stages in `worker.rs`, and
+//! the analyzer (`analyzer.rs`) runs a recording's frames through them in blocks on
+//! several threads, with the noise estimate in frame order. Every entry point of the
+//! library, and the command line, goes through that one analyzer (see
+//! [`Analysis`](crate::stream::Analysis)).
+
+pub(crate) mod analyzer;
+pub mod correlation;
+pub mod direction;
+pub mod frames;
+mod outcome;
+pub mod pairs;
+mod params;
+pub mod peaks;
+pub mod search;
+pub mod spectrum;
+pub mod weighting;
+mod worker;
+
+pub(crate) use analyzer::Analyzer;
+pub use outcome::{Detection, FrameStats, StageTimes};
+pub use params::{
+    default_frame_size, Params, ParamsError, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_TOLERANCE,
+    PRIMING_S,
+};
+pub use peaks::Interpolation;
+pub use spectrum::Window;

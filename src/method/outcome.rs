@@ -1,0 +1,157 @@
+//! What the method makes of a frame: a detection or the reason there is none, the run's
+//! counters, and the time spent in each stage.
+
+use nalgebra::Vector3;
+use std::time::{Duration, Instant};
+
+/// One detected source in one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Detection {
+    /// Frame index (frame `i` starts at sample `i * N / 2`).
+    pub frame: u64,
+    /// Centre of the frame, seconds from the start of the recording.
+    pub time_s: f64,
+    /// `atan2(y, x)` in degrees, in (-180, 180] (docs/interface.md, "Directions").
+    pub azimuth_deg: f64,
+    /// `asin(z)` in degrees.
+    pub elevation_deg: f64,
+    /// Unit vector from the array centre toward the source.
+    pub direction: Vector3<f64>,
+    /// Summed weighted correlation of the chosen delay set (at most 1 per pair).
+    pub score: f64,
+    /// Microphones that took part (dead channels are left out).
+    pub mics: usize,
+}
+
+/// How a frame ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Outcome {
+    /// Every channel constant.
+    Silent,
+    /// Fewer than two live microphones, or no direction from the delays.
+    Unsolved,
+    /// No consistent set of delays (`true`: the search hit its node budget).
+    Inconsistent(bool),
+    /// The best set scored under the threshold, or no set could reach it (the frame was
+    /// decided by the weights' ceiling, see [`peak_ceiling`](super::correlation::peak_ceiling)).
+    BelowThreshold(bool),
+    /// A detection (`true`: the search hit its node budget).
+    Detected(Detection, bool),
+}
+
+/// Counters a run reports at the end.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FrameStats {
+    /// Frames analysed.
+    pub frames: u64,
+    /// Frames with a detection.
+    pub detections: u64,
+    /// Frames where every channel was constant (digital silence).
+    pub silent_frames: u64,
+    /// Per mic: frames where it was constant while others carried signal.
+    pub dead_frames: Vec<u64>,
+    /// Frames whose search stopped at the node budget.
+    pub budget_frames: u64,
+    /// Frames with no consistent delay set (among the frames that could reach the
+    /// threshold).
+    pub inconsistent_frames: u64,
+    /// Frames whose best set scored below the threshold, or that the weights' ceiling
+    /// showed could not reach it before every pair was correlated (those are not
+    /// searched, so whether they held a consistent set is not known).
+    pub below_threshold_frames: u64,
+}
+
+impl FrameStats {
+    /// Counts a frame's outcome and returns its detection.
+    pub(crate) fn tally(&mut self, outcome: Outcome) -> Option<Detection> {
+        let budget = match outcome {
+            Outcome::Inconsistent(b) => {
+                self.inconsistent_frames += 1;
+                b
+            }
+            Outcome::BelowThreshold(b) => {
+                self.below_threshold_frames += 1;
+                b
+            }
+            Outcome::Detected(_, b) => {
+                self.detections += 1;
+                b
+            }
+            Outcome::Silent | Outcome::Unsolved => false,
+        };
+        if budget {
+            self.budget_frames += 1;
+        }
+        match outcome {
+            Outcome::Detected(d, _) => Some(d),
+            _ => None,
+        }
+    }
+}
+
+/// Time spent in each stage (measured only when stage timing is on).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StageTimes {
+    /// Live-channel check, forward FFTs, mean power spectrum.
+    pub spectra: Duration,
+    /// Weights (eq. 4-5), noise estimate update, whitening.
+    pub weighting: Duration,
+    /// Cross-spectra and inverse FFTs of every pair (eq. 6).
+    pub correlation: Duration,
+    /// The M highest peaks of every pair (eq. 7).
+    pub peaks: Duration,
+    /// The consistency search (eq. 8).
+    pub search: Duration,
+    /// Direction (eq. 13) and the detection record.
+    pub direction: Duration,
+    /// Pair correlations computed.
+    pub correlated_pairs: u64,
+    /// Pair correlations left out because the weights' ceiling proved that the frame
+    /// could not reach the detection threshold (see
+    /// [`peak_ceiling`](super::correlation::peak_ceiling)).
+    pub skipped_pairs: u64,
+}
+
+impl StageTimes {
+    /// Adds another record's times and counts to this one.
+    pub fn add(&mut self, other: &StageTimes) {
+        self.spectra += other.spectra;
+        self.weighting += other.weighting;
+        self.correlation += other.correlation;
+        self.peaks += other.peaks;
+        self.search += other.search;
+        self.direction += other.direction;
+        self.correlated_pairs += other.correlated_pairs;
+        self.skipped_pairs += other.skipped_pairs;
+    }
+}
+
+/// Stage timing inside one frame (a no-op without a [`StageTimes`]).
+pub(crate) struct Clock<'a> {
+    times: Option<&'a mut StageTimes>,
+    last: Option<Instant>,
+}
+
+impl<'a> Clock<'a> {
+    pub fn new(times: Option<&'a mut StageTimes>) -> Self {
+        let last = times.is_some().then(Instant::now);
+        Clock { times, last }
+    }
+
+    /// Adds the time since the last lap to the stage `pick` selects.
+    pub fn lap(&mut self, pick: fn(&mut StageTimes) -> &mut Duration) {
+        if let (Some(t), Some(times)) = (self.last.as_mut(), self.times.as_deref_mut()) {
+            let now = Instant::now();
+            *pick(times) += now - *t;
+            *t = now;
+        }
+    }
+
+    /// Counts pair correlations computed and skipped.
+    pub fn count(&mut self, (correlated, skipped): (usize, usize)) {
+        if let Some(times) = self.times.as_deref_mut() {
+            times.correlated_pairs += correlated as u64;
+            times.skipped_pairs += skipped as u64;
+        }
+    }
+}

@@ -1,0 +1,207 @@
+//! The method's parameters, their defaults, and their validation against an array and a
+//! sample rate.
+
+use super::pairs::{pair_count, pair_index};
+use super::peaks::{Interpolation, MAX_PEAKS};
+use super::spectrum::Window;
+use super::weighting::NoiseSettings;
+use crate::geometry::Geometry;
+
+/// The method's parameters (defaults are the paper's where it gives them).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Params {
+    /// Frame size N in samples (`None`: [`default_frame_size`] of the sample rate).
+    pub frame_size: Option<usize>,
+    /// `alpha` of eq. (4).
+    pub alpha: f32,
+    /// `gamma` of eq. (5).
+    pub gamma: f32,
+    /// Apply the spectral weighting (`false`: plain PHAT, `w_e = 1`, for comparison).
+    pub weighting: bool,
+    /// M, peaks kept per pair (1 to [`MAX_PEAKS`]).
+    pub peaks: usize,
+    /// Consistency tolerance of eq. (8), in samples.
+    pub tolerance: f32,
+    /// Overrides the geometry's speed of sound (m/s).
+    pub speed_of_sound: Option<f64>,
+    /// Detections with a lower score are dropped (`None`: [`DEFAULT_MIN_SCORE_PER_PAIR`]
+    /// times the number of microphone pairs in the frame).
+    pub min_score: Option<f64>,
+    /// The analysis window.
+    pub window: Window,
+    /// Sub-sample refinement of the correlation peaks.
+    pub interpolation: Interpolation,
+    /// Node budget of the consistency search per frame.
+    pub max_nodes: u64,
+    /// The noise estimator behind `X_n(k)`.
+    pub noise: NoiseSettings,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            frame_size: None,
+            alpha: 0.4,
+            gamma: 0.3,
+            weighting: true,
+            peaks: 8,
+            tolerance: DEFAULT_TOLERANCE,
+            speed_of_sound: None,
+            min_score: None,
+            window: Window::Hann,
+            interpolation: Interpolation::Parabolic,
+            max_nodes: 1_000_000,
+            noise: NoiseSettings::default(),
+        }
+    }
+}
+
+/// How much of the start of a recording primes the noise estimate before it is analysed
+/// (seconds, at most one block of frames; see [`Analyzer`](super::Analyzer)).
+pub const PRIMING_S: f64 = 0.25;
+
+/// Default consistency tolerance in samples (see the README for how it was chosen).
+pub const DEFAULT_TOLERANCE: f32 = 2.0;
+
+/// Default detection threshold per microphone pair. Stationary background alone gives
+/// weights near 0.6 and so correlation peaks near 0.36 or below per pair; a source that
+/// stands out of the background scores higher (see the README for the measurement).
+pub const DEFAULT_MIN_SCORE_PER_PAIR: f64 = 0.5;
+
+/// The default frame size: the power of two nearest (in ratio) to 1024 samples at
+/// 48 kHz, i.e. about 21 ms: 128 at 8 kHz, 256 at 16 kHz, 1024 at 44.1/48 kHz, 2048 at
+/// 96 kHz, 4096 at 192 kHz. Keeping the duration fixed keeps the method's time and
+/// frequency resolution (and the noise estimator's behaviour) the same at every rate.
+pub fn default_frame_size(sample_rate: u32) -> usize {
+    let ideal = 1024.0 * sample_rate as f64 / 48000.0;
+    let p = ideal.log2().round().clamp(6.0, 16.0);
+    1usize << (p as u32)
+}
+
+/// Parameters that cannot be used with this array at this sample rate.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamsError {
+    /// The frame size is odd or under 16 samples.
+    #[error("the frame size must be an even number of at least 16 samples, got {0}")]
+    FrameSize(usize),
+    /// The frame cannot hold the array's largest delay on both sides of lag 0.
+    #[error("the array's largest delay ({delay} samples at {sample_rate} Hz) does not fit in a frame of {frame_size} samples: a frame of {needed} samples or more is needed")]
+    FrameTooShort {
+        /// The largest lag searched, in samples.
+        delay: usize,
+        /// The recording's sample rate (Hz).
+        sample_rate: u32,
+        /// The frame size asked for.
+        frame_size: usize,
+        /// The smallest power of two that fits.
+        needed: usize,
+    },
+    /// M is 0 or more than [`MAX_PEAKS`].
+    #[error("the number of peaks per pair must be between 1 and {MAX_PEAKS}, got {0}")]
+    Peaks(usize),
+    /// The tolerance is negative or not a number.
+    #[error("the consistency tolerance must be a non-negative number of samples, got {0}")]
+    Tolerance(f32),
+    /// The speed of sound is not a positive number.
+    #[error("the speed of sound must be positive, got {0}")]
+    SpeedOfSound(f64),
+}
+
+/// What the method needs that does not change during a run: the parameters checked
+/// against the array and the sample rate, and what follows from them.
+#[derive(Debug, Clone)]
+pub(crate) struct Setup {
+    pub geometry: Geometry,
+    pub params: Params,
+    /// Frame size N.
+    pub n: usize,
+    /// Hop between frames, N / 2.
+    pub hop: usize,
+    /// Sample rate (Hz).
+    pub rate: f64,
+    /// Speed of sound (m/s).
+    pub speed: f64,
+    /// Lag search range per pair of the array (samples).
+    pub max_lag: Vec<usize>,
+}
+
+impl Setup {
+    pub fn new(geometry: &Geometry, sample_rate: u32, params: &Params) -> Result<Self, ParamsError> {
+        let n = params
+            .frame_size
+            .unwrap_or_else(|| default_frame_size(sample_rate));
+        if n < 16 || n % 2 != 0 {
+            return Err(ParamsError::FrameSize(n));
+        }
+        if params.peaks == 0 || params.peaks > MAX_PEAKS {
+            return Err(ParamsError::Peaks(params.peaks));
+        }
+        if !(params.tolerance.is_finite() && params.tolerance >= 0.0) {
+            return Err(ParamsError::Tolerance(params.tolerance));
+        }
+        let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(ParamsError::SpeedOfSound(speed));
+        }
+        let rate = sample_rate as f64;
+        let mics = geometry.mics.len();
+        let mut max_lag = vec![0; pair_count(mics)];
+        let mut widest = 0;
+        for a in 0..mics {
+            for b in a + 1..mics {
+                let lag = lag_range(geometry.max_lag_samples(a, b, rate, speed));
+                max_lag[pair_index(a, b, mics)] = lag;
+                widest = widest.max(lag);
+            }
+        }
+        if widest + 2 > n / 2 {
+            return Err(ParamsError::FrameTooShort {
+                delay: widest,
+                sample_rate,
+                frame_size: n,
+                needed: ((widest + 2) * 2).next_power_of_two(),
+            });
+        }
+        Ok(Setup {
+            geometry: geometry.clone(),
+            params: params.clone(),
+            n,
+            hop: n / 2,
+            rate,
+            speed,
+            max_lag,
+        })
+    }
+
+    /// Bins of a real spectrum, `N/2 + 1`.
+    pub fn bins(&self) -> usize {
+        self.n / 2 + 1
+    }
+
+    /// Number of microphones.
+    pub fn mics(&self) -> usize {
+        self.geometry.mics.len()
+    }
+}
+
+/// The lags searched for a pair whose largest physical delay is `max_delay` samples: 3%
+/// more (the speed of sound varies about that much between 0 and 40 C) and one sample
+/// for the peak's neighbours.
+fn lag_range(max_delay: f64) -> usize {
+    (max_delay * 1.03).ceil() as usize + 1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_frame_size_scales_with_rate() {
+        assert_eq!(default_frame_size(8000), 128);
+        assert_eq!(default_frame_size(16000), 256);
+        assert_eq!(default_frame_size(44100), 1024);
+        assert_eq!(default_frame_size(48000), 1024);
+        assert_eq!(default_frame_size(96000), 2048);
+        assert_eq!(default_frame_size(192000), 4096);
+    }
+}

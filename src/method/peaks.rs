@@ -1,0 +1,319 @@
+//! The M highest peaks of each pair's correlation (the paper's eq. 7 generalised to M
+//! candidates, Section II-C), with optional sub-sample refinement.
+
+use multiversion::multiversion;
+
+/// How a peak's lag is refined between samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Interpolation {
+    /// Integer lags only.
+    None,
+    /// A parabola through the peak and its two neighbours (the default).
+    Parabolic,
+}
+
+impl Interpolation {
+    /// Every refinement, with its name and a one-line description.
+    pub const ALL: [(Interpolation, &'static str, &'static str); 2] = [
+        (Interpolation::None, "none", "Integer lags only"),
+        (
+            Interpolation::Parabolic,
+            "parabolic",
+            "A parabola through the peak and its two neighbours (the default)",
+        ),
+    ];
+
+    /// The refinement's name.
+    pub fn name(self) -> &'static str {
+        Self::ALL.iter().find(|w| w.0 == self).expect("listed").1
+    }
+}
+
+impl std::str::FromStr for Interpolation {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .iter()
+            .find(|w| w.1 == s)
+            .map(|w| w.0)
+            .ok_or_else(|| format!("unknown interpolation `{s}` (none or parabolic)"))
+    }
+}
+
+/// One candidate delay of a pair: its lag in samples (sub-sample refined) and the value of
+/// the correlation there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Peak {
+    /// Lag in samples (refined between samples with parabolic interpolation).
+    pub lag: f32,
+    /// The correlation's value there.
+    pub value: f32,
+}
+
+/// The largest M that [`find_peaks`] accepts.
+pub const MAX_PEAKS: usize = 64;
+
+/// The `m` highest local maxima of a correlation (eq. 7), ranked by their sample value,
+/// each refined per `interp`, then ordered by refined value, highest first (ties: smaller
+/// lag first). `window` holds `r(tau)` for `tau = -h..=h` (odd length `2h + 1`, from
+/// [`Correlator::lags`](super::correlation::Correlator::lags)); peaks are looked for at `|tau| < h`, the outer two samples
+/// being their neighbours. A plateau counts once, at its first sample. `out` is cleared
+/// and refilled; it does not allocate once its capacity reaches `m` (`1..=`[`MAX_PEAKS`]).
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+pub fn find_peaks(window: &[f32], m: usize, interp: Interpolation, out: &mut Vec<Peak>) {
+    assert!(m <= MAX_PEAKS, "at most {MAX_PEAKS} peaks per pair");
+    out.clear();
+    if m == 0 || window.len() < 3 {
+        return;
+    }
+    // The best m are the first m of the best 8, 16, 32 or 64 (same order, same ties).
+    let h = window.len() / 2;
+    match m {
+        1..=8 => Top::<8>::select(window).write(m, h, out),
+        9..=16 => Top::<16>::select(window).write(m, h, out),
+        17..=32 => Top::<32>::select(window).write(m, h, out),
+        _ => Top::<64>::select(window).write(m, h, out),
+    }
+    if interp == Interpolation::Parabolic {
+        let h = h as isize;
+        for p in out.iter_mut() {
+            let i = (p.lag as isize + h) as usize;
+            let (prev, here, next) = (window[i - 1], p.value, window[i + 1]);
+            let denom = prev - 2.0 * here + next;
+            let delta = if denom < 0.0 {
+                (0.5 * (prev - next) / denom).clamp(-0.5, 0.5)
+            } else {
+                0.0
+            };
+            *p = Peak {
+                lag: p.lag + delta,
+                value: here - 0.25 * (prev - next) * delta,
+            };
+        }
+        // Refinement can reorder close peaks; the search expects highest first. (A stable
+        // insertion sort of at most M entries: no allocation.)
+        for i in 1..out.len() {
+            let mut j = i;
+            while j > 0 && out[j - 1].value < out[j].value {
+                out.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+    }
+}
+
+/// The `K` highest local maxima of a window seen so far: values, highest first (ties in
+/// scan order, i.e. smaller lag first), and their indices; empty places hold -inf.
+struct Top<const K: usize> {
+    values: [f32; K],
+    index: [u32; K],
+}
+
+impl<const K: usize> Top<K> {
+    #[inline(always)]
+    fn select(window: &[f32]) -> Self {
+        let mut top = Top {
+            values: [f32::NEG_INFINITY; K],
+            index: [0; K],
+        };
+        // A floor before the scan: the local maxima at indices of each residue mod K
+        // (one SIMD lane each) have their highest; those K are distinct local maxima, so
+        // no sample below the lowest of them is among the best K. It spares most of the
+        // insertions a scan from -inf makes while the list fills.
+        let mut lanes = [f32::NEG_INFINITY; K];
+        for chunk in window.windows(K + 2).step_by(K) {
+            for (lane, w) in lanes.iter_mut().zip(chunk.windows(3)) {
+                let hit = (w[1] > w[0]) & (w[1] >= w[2]);
+                *lane = lane.max(if hit { w[1] } else { f32::NEG_INFINITY });
+            }
+        }
+        let prefloor = lanes.iter().fold(f32::INFINITY, |a, &b| a.min(b));
+        // Candidates are marked 32 samples at a time without branches (the compiler
+        // vectorises the comparisons); only samples that may enter the list are marked,
+        // and `insert` has the final word, so blocking does not change the result.
+        let interior = window.len() - 2;
+        let mut start = 0;
+        while start < interior {
+            let len = (interior - start).min(32);
+            let floor = top.values[K - 1];
+            let mut mask = 0u32;
+            for (b, w) in window[start..start + len + 2].windows(3).enumerate() {
+                let hit = (w[1] > floor) & (w[1] >= prefloor) & (w[1] > w[0]) & (w[1] >= w[2]);
+                mask |= (hit as u32) << b;
+            }
+            while mask != 0 {
+                let i = start + mask.trailing_zeros() as usize + 1;
+                mask &= mask - 1;
+                top.insert(window[i], i as u32);
+            }
+            start += len;
+        }
+        top
+    }
+
+    /// Inserts a candidate that comes after every one inserted so far (in lag order), if
+    /// it beats the last. No data-dependent branches: the place is a count and the shift
+    /// a fixed sequence of selects, which the compiler unrolls for the constant `K`.
+    #[inline(always)]
+    fn insert(&mut self, value: f32, index: u32) {
+        // The list is sorted, so `ahead` is true for a prefix: the entries that stay.
+        // The candidate goes to the first place not ahead, the rest move down one.
+        // Selects are bit masks, so that the compiler keeps the list in vector registers.
+        let (values, indices) = (self.values, self.index);
+        let ahead: [u32; K] =
+            std::array::from_fn(|j| 0u32.wrapping_sub((values[j] >= value) as u32));
+        let place: [u32; K] =
+            std::array::from_fn(|j| !ahead[j] & if j == 0 { u32::MAX } else { ahead[j - 1] });
+        let blend = |stay: u32, put: u32, moved: u32, j: usize| {
+            (stay & ahead[j]) | (put & place[j]) | (moved & !(ahead[j] | place[j]))
+        };
+        self.values = std::array::from_fn(|j| {
+            f32::from_bits(blend(
+                values[j].to_bits(),
+                value.to_bits(),
+                values[j.saturating_sub(1)].to_bits(),
+                j,
+            ))
+        });
+        self.index =
+            std::array::from_fn(|j| blend(indices[j], index, indices[j.saturating_sub(1)], j));
+    }
+
+    /// Writes the first `m` kept peaks to `out`, with lags counted from index `centre`.
+    fn write(&self, m: usize, centre: usize, out: &mut Vec<Peak>) {
+        out.extend(
+            self.values
+                .iter()
+                .zip(&self.index)
+                .take(m)
+                .take_while(|(v, _)| **v > f32::NEG_INFINITY)
+                .map(|(&value, &i)| Peak {
+                    lag: i as f32 - centre as f32,
+                    value,
+                }),
+        );
+    }
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn window(h: isize, samples: &[(isize, f32)]) -> Vec<f32> {
+        let mut w = vec![0.0; (2 * h + 1) as usize];
+        for &(lag, v) in samples {
+            w[(lag + h) as usize] = v;
+        }
+        w
+    }
+
+    #[test]
+    fn peaks_are_the_highest_local_maxima_in_range_with_parabolic_refinement() {
+        // A parabola peaking at lag 5.19 (samples 4, 5, 6), a peak at -3, and at lag 11
+        // the window's edge, which is a neighbour, not a candidate.
+        let r = window(
+            11,
+            &[
+                (4, 0.91),
+                (5, 1.0),
+                (6, 0.96),
+                (-3, 0.5),
+                (11, 2.0),
+                (-11, 2.0),
+            ],
+        );
+        let mut peaks = Vec::with_capacity(4);
+        find_peaks(&r, 4, Interpolation::Parabolic, &mut peaks);
+        assert_eq!(peaks.len(), 2, "{peaks:?}");
+        // delta = 0.5 (0.91 - 0.96) / (0.91 - 2 + 0.96) = 0.1923
+        assert!((peaks[0].lag - 5.1923).abs() < 1e-3, "{peaks:?}");
+        assert!(peaks[0].value >= 1.0);
+        assert_eq!(peaks[1].lag, -3.0);
+        find_peaks(&r, 1, Interpolation::None, &mut peaks);
+        assert_eq!(
+            peaks,
+            vec![Peak {
+                lag: 5.0,
+                value: 1.0
+            }]
+        );
+    }
+
+    #[test]
+    fn peaks_next_to_lag_zero_and_the_range_ends_are_found() {
+        for lag in [-5isize, -2, -1, 0, 1, 2, 5] {
+            let r = window(6, &[(lag, 1.0)]);
+            let mut peaks = Vec::with_capacity(1);
+            find_peaks(&r, 1, Interpolation::None, &mut peaks);
+            assert_eq!(
+                peaks,
+                vec![Peak {
+                    lag: lag as f32,
+                    value: 1.0
+                }],
+                "lag {lag}"
+            );
+        }
+    }
+
+    /// The blocked, branch-free selection equals the definition: every local maximum
+    /// (first sample of a plateau), stably sorted by value, the first m kept, refined,
+    /// stably sorted again. Random windows of up to 300 lags (several 32-lag blocks) with
+    /// coarse values, so that ties and plateaus are common.
+    #[test]
+    fn peak_selection_equals_brute_force() {
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            seed >> 33
+        };
+        let mut got = Vec::new();
+        for case in 0..3000 {
+            let h = 1 + (next() % 150) as usize;
+            let levels = 2 + next() % 12;
+            let r: Vec<f32> = (0..2 * h + 1)
+                .map(|_| (next() % levels) as f32 / levels as f32 - 0.3)
+                .collect();
+            let m = [1, 2, 3, 5, 8, 9, 12, 16, 17, 30, 33, 64][(next() % 12) as usize];
+            for interp in [Interpolation::None, Interpolation::Parabolic] {
+                let mut want: Vec<(usize, Peak)> = (1..2 * h)
+                    .filter(|&i| r[i] > r[i - 1] && r[i] >= r[i + 1])
+                    .map(|i| {
+                        let p = Peak {
+                            lag: i as f32 - h as f32,
+                            value: r[i],
+                        };
+                        (i, p)
+                    })
+                    .collect();
+                want.sort_by(|a, b| b.1.value.total_cmp(&a.1.value));
+                want.truncate(m);
+                let mut want: Vec<Peak> = want
+                    .into_iter()
+                    .map(|(i, p)| {
+                        let (prev, here, next) = (r[i - 1], r[i], r[i + 1]);
+                        let denom = prev - 2.0 * here + next;
+                        match interp {
+                            Interpolation::Parabolic if denom < 0.0 => {
+                                let d = (0.5 * (prev - next) / denom).clamp(-0.5, 0.5);
+                                Peak {
+                                    lag: p.lag + d,
+                                    value: here - 0.25 * (prev - next) * d,
+                                }
+                            }
+                            _ => p,
+                        }
+                    })
+                    .collect();
+                want.sort_by(|a, b| b.value.total_cmp(&a.value));
+                find_peaks(&r, m, interp, &mut got);
+                assert_eq!(got, want, "case {case}, h {h}, m {m}, {interp:?}: {r:?}");
+            }
+        }
+    }
+
+}

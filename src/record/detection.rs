@@ -1,0 +1,72 @@
+//! One row of `ssl analyze`: a detected source in one frame.
+
+use super::{fixed, OutputError};
+use crate::method::Detection;
+use serde::{Deserialize, Serialize};
+
+/// A detection as written (docs/interface.md, "Detections"): the contract's fields
+/// first, in order, then ours. Values are rounded to fixed precision: time to the
+/// microsecond, angles to a thousandth of a degree, the vector to 1e-6, the score to
+/// 1e-4.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct DetectionRecord {
+    /// Centre of the analysis frame, seconds from the start of the file.
+    pub time_s: f64,
+    /// `atan2(y, x)` in degrees, in (-180, 180]: 0 is +x (forward), +90 is +y (left).
+    pub azimuth_deg: f64,
+    /// `asin(z)` in degrees: +90 is +z (up).
+    pub elevation_deg: f64,
+    /// Unit vector from the array centre toward the source: x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// Summed weighted correlation of the chosen delay set.
+    pub score: f64,
+    /// The input, as given (`<stdin>` for `-`).
+    #[serde(default)]
+    pub file: String,
+    /// Frame index: frame `i` starts at sample `i * N / 2`.
+    #[serde(default)]
+    pub frame: Option<u64>,
+    /// Microphones that took part.
+    #[serde(default)]
+    pub mics: Option<usize>,
+}
+
+impl DetectionRecord {
+    /// The record of `detection` in the recording named `file`. Fails on a non-finite
+    /// value, which is never written.
+    pub fn new(file: &str, d: &Detection) -> Result<Self, OutputError> {
+        let record = DetectionRecord {
+            time_s: fixed(d.time_s, 6),
+            azimuth_deg: fixed(d.azimuth_deg, 3),
+            elevation_deg: fixed(d.elevation_deg, 3),
+            x: fixed(d.direction.x, 6),
+            y: fixed(d.direction.y, 6),
+            z: fixed(d.direction.z, 6),
+            score: fixed(d.score, 4),
+            file: file.to_string(),
+            frame: Some(d.frame),
+            mics: Some(d.mics),
+        };
+        let values = [
+            ("time_s", record.time_s),
+            ("azimuth_deg", record.azimuth_deg),
+            ("elevation_deg", record.elevation_deg),
+            ("x", record.x),
+            ("y", record.y),
+            ("z", record.z),
+            ("score", record.score),
+        ];
+        match values.iter().find(|(_, v)| !v.is_finite()) {
+            Some(&(field, _)) => Err(OutputError::NonFinite {
+                field,
+                file: file.to_string(),
+                frame: d.frame,
+            }),
+            None => Ok(record),
+        }
+    }
+}

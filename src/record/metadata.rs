@@ -1,0 +1,218 @@
+//! The JSON document's metadata: the tool, the array as understood, the parameters, and
+//! one entry per input file (docs/interface.md, "Detections").
+
+use super::fixed;
+use crate::geometry::{Geometry, Shape};
+use crate::method::{Interpolation, Params, Window, DEFAULT_MIN_SCORE_PER_PAIR};
+use crate::stream::Summary;
+use serde::{Deserialize, Serialize};
+use serde_json::{json, Value};
+
+/// The run's metadata, in the order the JSON document carries it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunMetadata {
+    /// This tool and its version.
+    pub tool: Tool,
+    /// The array as the tool understood it.
+    pub geometry: GeometryInfo,
+    /// The method's parameters.
+    pub parameters: ParametersInfo,
+}
+
+/// A tool's name and version.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Tool {
+    /// `ssl`.
+    pub name: String,
+    /// The crate's version.
+    pub version: String,
+}
+
+impl Default for Tool {
+    fn default() -> Self {
+        Tool {
+            name: "ssl".into(),
+            version: env!("CARGO_PKG_VERSION").into(),
+        }
+    }
+}
+
+/// What the tool understood of the geometry, including the ambiguity it resolves.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GeometryInfo {
+    /// The geometry file, as given.
+    pub file: String,
+    /// The array's `name`.
+    pub name: Option<String>,
+    /// Number of microphones.
+    pub microphones: usize,
+    /// The geometry's speed of sound (m/s).
+    pub speed_of_sound: f64,
+    /// The array centre (mean of the positions), metres.
+    pub centre: [f64; 3],
+    /// `3-D`, `planar` or `linear`.
+    pub shape: String,
+    /// The side directions are reported on (planar and linear arrays).
+    pub side: Option<[f64; 3]>,
+    /// What the array cannot tell, for planar and linear arrays.
+    pub note: Option<String>,
+    /// The microphones.
+    pub mics: Vec<MicInfo>,
+}
+
+/// One microphone of [`GeometryInfo`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MicInfo {
+    /// Position in the array frame (metres).
+    pub position: [f64; 3],
+    /// 0-based channel in the recording.
+    pub channel: usize,
+}
+
+/// The parameters as the JSON document records them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParametersInfo {
+    /// Frame size N, or `"auto"` (about 21 ms at every rate).
+    pub frame_size: Value,
+    /// Always `"frame_size / 2"`.
+    pub hop: String,
+    /// The analysis window.
+    pub window: Window,
+    /// `alpha` of eq. (4).
+    pub alpha: f32,
+    /// `gamma` of eq. (5).
+    pub gamma: f32,
+    /// Spectral weighting on (else plain PHAT).
+    pub weighting: bool,
+    /// Peaks M per pair.
+    pub peaks: usize,
+    /// Consistency tolerance (samples).
+    pub tolerance_samples: f32,
+    /// Sub-sample refinement of the peaks.
+    pub interpolation: Interpolation,
+    /// Speed of sound used (m/s).
+    pub speed_of_sound: f64,
+    /// Detection threshold, or the default's rule.
+    pub min_score: Value,
+}
+
+impl RunMetadata {
+    /// The metadata of a run with `geometry` (read from `geometry_file`) and `params`.
+    pub fn new(geometry: &Geometry, geometry_file: &str, params: &Params) -> Self {
+        RunMetadata {
+            tool: Tool::default(),
+            geometry: GeometryInfo::new(geometry, geometry_file),
+            parameters: ParametersInfo {
+                frame_size: params.frame_size.map_or(json!("auto"), |n| json!(n)),
+                hop: "frame_size / 2".into(),
+                window: params.window,
+                alpha: params.alpha,
+                gamma: params.gamma,
+                weighting: params.weighting,
+                peaks: params.peaks,
+                tolerance_samples: params.tolerance,
+                interpolation: params.interpolation,
+                speed_of_sound: params.speed_of_sound.unwrap_or(geometry.speed_of_sound),
+                min_score: params.min_score.map_or(
+                    json!(format!("{DEFAULT_MIN_SCORE_PER_PAIR} per microphone pair")),
+                    |s| json!(s),
+                ),
+            },
+        }
+    }
+}
+
+impl GeometryInfo {
+    /// `geometry`, read from `file`.
+    pub fn new(g: &Geometry, file: &str) -> Self {
+        GeometryInfo {
+            file: file.to_string(),
+            name: g.name.clone(),
+            microphones: g.mics.len(),
+            speed_of_sound: g.speed_of_sound,
+            centre: [g.centre.x, g.centre.y, g.centre.z].map(|v| fixed(v, 9)),
+            shape: g.shape.label().to_string(),
+            side: match g.shape {
+                Shape::Volumetric => None,
+                _ => Some([g.side.x, g.side.y, g.side.z]),
+            },
+            note: ambiguity_note(g),
+            mics: g
+                .mics
+                .iter()
+                .map(|m| MicInfo {
+                    position: [m.position.x, m.position.y, m.position.z],
+                    channel: m.channel,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// One sentence on what the array cannot tell, or `None` for a 3-D array.
+pub fn ambiguity_note(g: &Geometry) -> Option<String> {
+    let s = g.side;
+    match g.shape {
+        Shape::Volumetric => None,
+        Shape::Planar { normal } => Some(format!(
+            "planar array: a direction and its mirror image through the array's plane are indistinguishable; directions are reported on the side of the plane that side = [{}, {}, {}] points to (normal [{:.3}, {:.3}, {:.3}])",
+            s.x, s.y, s.z, normal.x + 0.0, normal.y + 0.0, normal.z + 0.0
+        )),
+        Shape::Linear { axis } => Some(format!(
+            "linear array: only the angle to the axis [{:.3}, {:.3}, {:.3}] is known; directions are reported in the plane of the axis and side = [{}, {}, {}], on that side",
+            axis.x + 0.0, axis.y + 0.0, axis.z + 0.0, s.x, s.y, s.z
+        )),
+    }
+}
+
+/// A file's entry in the JSON document's `files` array: what was analysed, or why not.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FileEntry {
+    /// The input, as given.
+    pub file: String,
+    /// Why it could not be analysed (to its end), if so.
+    pub error: Option<String>,
+    /// Sample rate (Hz).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub sample_rate: Option<u32>,
+    /// Channels in the recording.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub channels: Option<usize>,
+    /// Sample format, e.g. `8 ch, 48000 Hz, 16-bit PCM`.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub format: Option<String>,
+    /// Frame size N.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub frame_size: Option<usize>,
+    /// Frames analysed.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub frames: Option<u64>,
+    /// Frames with a detection.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub detections: Option<u64>,
+    /// Warnings about the recording.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub warnings: Option<Vec<String>>,
+}
+
+impl FileEntry {
+    /// The entry of `file`: what its summary says (when it was opened) and its error.
+    pub fn new(file: &str, summary: Option<&Summary>, error: Option<String>) -> Self {
+        FileEntry {
+            file: file.to_string(),
+            error,
+            sample_rate: summary.map(|s| s.sample_rate),
+            channels: summary.map(|s| s.channels),
+            format: summary.map(|s| s.format.clone()),
+            frame_size: summary.map(|s| s.frame_size),
+            frames: summary.map(|s| s.stats.frames),
+            detections: summary.map(|s| s.stats.detections),
+            warnings: summary.map(|s| {
+                s.warnings
+                    .iter()
+                    .map(|w| format!("{}: {w}", s.name))
+                    .collect()
+            }),
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! Records and output formats (docs/interface.md, "Detections").
+//!
+//! One serde type per record: [`DetectionRecord`] (a row of `ssl analyze`),
+//! [`RunMetadata`] and [`FileEntry`] (the JSON document's metadata and per-file entries),
+//! and [`Truth`] (what `ssl simulate` knows and `ssl evaluate` scores against). The
+//! field order of each type is the column order of every format. Writers for CSV, NDJSON
+//! and JSON sit behind one [`Exporter`] trait; [`read_detections`] reads any of them
+//! back.
+
+mod csv;
+mod detection;
+mod json;
+mod metadata;
+mod read;
+mod truth;
+
+pub use self::csv::CsvExporter;
+pub use self::json::{JsonExporter, NdjsonExporter};
+pub use detection::DetectionRecord;
+pub use metadata::{ambiguity_note, FileEntry, GeometryInfo, MicInfo, ParametersInfo, RunMetadata, Tool};
+pub use read::{parse_detections, read_detections, ReadError};
+pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
+
+use std::fmt;
+use std::io::{self, Write};
+use std::str::FromStr;
+
+/// Output formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// A header line, then one row per detection.
+    Csv,
+    /// One JSON document: run metadata and a `detections` array.
+    Json,
+    /// One JSON object per detection per line.
+    Ndjson,
+}
+
+impl Format {
+    /// Every format, with its name and a one-line description.
+    pub const ALL: [(Format, &'static str, &'static str); 3] = [
+        (Format::Csv, "csv", "A header line, then one row per detection"),
+        (Format::Json, "json", "One JSON document: run metadata and a `detections` array"),
+        (Format::Ndjson, "ndjson", "One JSON object per detection per line"),
+    ];
+
+    /// The format's name (`csv`, `json`, `ndjson`).
+    pub fn name(self) -> &'static str {
+        Self::ALL.iter().find(|f| f.0 == self).expect("listed").1
+    }
+
+    /// A writer of this format to `out`.
+    pub fn exporter<W: Write + 'static>(self, out: W) -> Box<dyn Exporter<W>> {
+        match self {
+            Format::Csv => Box::new(CsvExporter::new(out)),
+            Format::Json => Box::new(JsonExporter::new(out)),
+            Format::Ndjson => Box::new(NdjsonExporter::new(out)),
+        }
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .iter()
+            .find(|f| f.1 == s)
+            .map(|f| f.0)
+            .ok_or_else(|| format!("unknown format `{s}` (csv, json or ndjson)"))
+    }
+}
+
+/// Writes detections in one format, as they are analysed: memory does not grow with
+/// the number of detections (the JSON document's array is streamed too).
+pub trait Exporter<W: Write> {
+    /// Starts the output: the CSV header, or the JSON document's metadata.
+    fn begin(&mut self, meta: &RunMetadata) -> Result<(), OutputError>;
+    /// Writes one detection.
+    fn detection(&mut self, record: &DetectionRecord) -> Result<(), OutputError>;
+    /// Flush after every record from now on (a live consumer at the other end of a pipe).
+    fn flush_each_record(&mut self);
+    /// Ends the output (the JSON document closes with the per-file entries) and returns
+    /// the writer, flushed.
+    fn finish(self: Box<Self>, files: &[FileEntry]) -> Result<W, OutputError>;
+}
+
+/// Why output could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The destination failed.
+    #[error("{0}")]
+    Io(#[from] io::Error),
+    /// The CSV writer failed.
+    #[error("{0}")]
+    Csv(#[from] ::csv::Error),
+    /// The JSON writer failed.
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+    /// A record holds NaN or an infinity (a bug: it is never written).
+    #[error("internal error: non-finite {field} in a detection of {file} (frame {frame})")]
+    NonFinite {
+        /// The field.
+        field: &'static str,
+        /// The input's name.
+        file: String,
+        /// The frame.
+        frame: u64,
+    },
+}
+
+impl OutputError {
+    /// Whether the reader at the other end went away (`ssl ... | head`).
+    pub fn is_broken_pipe(&self) -> bool {
+        let kind = match self {
+            OutputError::Io(e) => Some(e.kind()),
+            OutputError::Csv(e) => match e.kind() {
+                ::csv::ErrorKind::Io(e) => Some(e.kind()),
+                _ => None,
+            },
+            OutputError::Json(e) => e.io_error_kind(),
+            OutputError::NonFinite { .. } => None,
+        };
+        kind == Some(io::ErrorKind::BrokenPipe)
+    }
+}
+
+/// `v` rounded to `decimals` places, with -0 written as 0.
+pub(crate) fn fixed(v: f64, decimals: i32) -> f64 {
+    let f = 10f64.powi(decimals);
+    (v * f).round() / f + 0.0
+}

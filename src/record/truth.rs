@@ -1,0 +1,138 @@
+//! The truth of a simulated recording: what `ssl simulate` writes beside the WAV and
+//! `ssl evaluate` scores against (docs/interface.md, "Truth files").
+
+use super::metadata::Tool;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// A simulated recording's truth. Directions are in the array frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    /// The tool that wrote it.
+    #[serde(default)]
+    pub tool: Tool,
+    /// Sample rate (Hz).
+    pub sample_rate: u32,
+    /// Length of the recording (seconds).
+    pub duration_s: f64,
+    /// The random seed of the scene.
+    #[serde(default)]
+    pub seed: u64,
+    /// Speed of sound (m/s).
+    #[serde(default = "default_speed")]
+    pub speed_of_sound: f64,
+    /// The room, or `None` in free field.
+    #[serde(default)]
+    pub room: Option<TruthRoom>,
+    /// Where the array was.
+    #[serde(default)]
+    pub array: TruthArray,
+    /// The sources, in scene order.
+    pub sources: Vec<TruthSource>,
+    /// The noise, when the scene has a `[noise]` table.
+    #[serde(default)]
+    pub noise: Option<TruthNoise>,
+    /// The WAV file this truth belongs to, as written by `ssl simulate`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recording: Option<String>,
+}
+
+fn default_speed() -> f64 {
+    343.0
+}
+
+/// The simulated room.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TruthRoom {
+    /// Length, width, height (metres).
+    pub dimensions: [f64; 3],
+    /// The RT60 the scene asked for (seconds), if it did.
+    pub rt60_requested: Option<f64>,
+    /// The RT60 measured on a simulated response (T20, seconds).
+    pub rt60_measured: f64,
+    /// Eyring's RT60 of the same walls (seconds).
+    pub rt60_eyring: f64,
+    /// The walls' pressure reflection coefficient.
+    pub reflection_coefficient: f64,
+}
+
+/// The array's place in the room.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TruthArray {
+    /// The geometry file, as the scene gives it.
+    pub geometry: PathBuf,
+    /// The array centre in the room (metres).
+    pub position: [f64; 3],
+    /// Azimuth of the array's +x axis in the room (degrees).
+    pub yaw_deg: f64,
+}
+
+/// One source.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthSource {
+    /// 0-based index in the scene.
+    pub index: usize,
+    /// Its signal (`white`, `pink`, `clicks`, `tone`, `speech`, `file`).
+    pub signal: String,
+    /// RMS of its direct sound at the array centre (dBFS).
+    #[serde(default)]
+    pub level_db: f64,
+    /// Its position in the room (metres).
+    #[serde(default)]
+    pub position_room: [f64; 3],
+    /// Unit vector from the array centre toward it, array frame: x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// Its azimuth (degrees, docs/interface.md conventions).
+    pub azimuth_deg: f64,
+    /// Its elevation (degrees).
+    pub elevation_deg: f64,
+    /// Distance from the array centre (metres).
+    pub distance_m: Option<f64>,
+    /// When it is heard at the array centre: `[start, end]` in seconds.
+    pub active: Vec<[f64; 2]>,
+}
+
+impl TruthSource {
+    /// The unit vector toward the source.
+    pub fn direction(&self) -> Vector3<f64> {
+        Vector3::new(self.x, self.y, self.z).normalize()
+    }
+}
+
+/// The noise of the scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthNoise {
+    /// Mean source level over the fans and diffuse noise together (dB).
+    pub snr_db: f64,
+    /// Independent noise in each channel (dBFS), if any.
+    pub sensor_db: Option<f64>,
+    /// Point noise sources.
+    pub fans: Vec<TruthFan>,
+    /// Whether a diffuse field was added.
+    pub diffuse: bool,
+}
+
+/// A point noise source.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthFan {
+    /// Its position in the room (metres).
+    pub position_room: [f64; 3],
+    /// Its azimuth from the array (degrees).
+    pub azimuth_deg: f64,
+    /// Its elevation from the array (degrees).
+    pub elevation_deg: f64,
+    /// Its distance from the array centre (metres).
+    pub distance_m: f64,
+}
+
+impl Truth {
+    /// The room's measured RT60, if the scene had a room.
+    pub fn rt60_s(&self) -> Option<f64> {
+        self.room.map(|r| r.rt60_measured)
+    }
+}

@@ -1,0 +1,473 @@
+//! Rendering a scene: place the array in the room, render each source through the
+//! room's impulse responses ([`room`](super::room)), add the noise, and write down the
+//! truth. Same scene and seed, same samples.
+
+use super::noise::{add_normalised, colour_noise, diffuse_noise, mean_power};
+use super::room::{add_tap, Room, SINC_HALF_WIDTH};
+use super::scene::{NoiseSpec, SampleFormat, SceneFile, SignalKind, SourceSpec};
+use super::signals::{generate, Signal};
+use super::SceneError;
+use crate::geometry::Geometry;
+use crate::method::direction::{angles_deg, unit_from_angles};
+use crate::record::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
+use crate::stream::WavStream;
+use nalgebra::{Matrix3, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use realfft::RealFftPlanner;
+use std::path::Path;
+
+/// A rendered scene: the channels and their truth.
+pub struct Simulation {
+    /// Sample rate (Hz).
+    pub sample_rate: u32,
+    /// The sample format the scene asks for.
+    pub format: SampleFormat,
+    /// One channel per microphone, in geometry order.
+    pub channels: Vec<Vec<f32>>,
+    /// What is where, and when.
+    pub truth: Truth,
+}
+
+macro_rules! invalid {
+    ($($arg:tt)*) => {
+        return Err(SceneError::Invalid(format!($($arg)*)))
+    };
+}
+
+/// Reads and renders a scene file; relative paths in it are relative to its folder.
+pub fn simulate_file(path: &Path) -> Result<Simulation, SceneError> {
+    let scene = SceneFile::from_file(path)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    simulate(&scene, dir).map_err(|error| SceneError::File {
+        path: path.to_path_buf(),
+        error: Box::new(error),
+    })
+}
+
+/// Renders a scene; `dir` resolves relative paths.
+pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError> {
+    check(scene)?;
+    let placed = Placed::new(scene, dir)?;
+    let len = (scene.duration * scene.sample_rate as f64).round() as usize;
+    let mut rng = ChaCha8Rng::seed_from_u64(scene.seed);
+    let mut out = vec![vec![0.0f64; len]; placed.mics.len()];
+    let mut sources = Vec::new();
+    let mut level_sum = 0.0;
+    for (i, s) in scene.source.iter().enumerate() {
+        let truth = render_source(scene, dir, &placed, (i, s), &mut out, &mut rng)?;
+        let level = 10f64.powf(s.level_db / 20.0);
+        level_sum += level * level;
+        sources.push(truth);
+    }
+    let noise = match &scene.noise {
+        Some(noise) => Some(add_noise(scene, noise, &placed, level_sum, &mut out, &mut rng)?),
+        None => None,
+    };
+    let peak = out.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if scene.format != SampleFormat::Float32 && peak >= 1.0 {
+        invalid!("the scene clips (peak {peak:.2} of full scale): lower the levels or use format = \"float32\"");
+    }
+    let truth = Truth {
+        tool: Default::default(),
+        sample_rate: scene.sample_rate,
+        duration_s: scene.duration,
+        seed: scene.seed,
+        speed_of_sound: placed.c,
+        room: placed.room.map(|r| TruthRoom {
+            dimensions: [r.dims.x, r.dims.y, r.dims.z],
+            rt60_requested: scene.room.as_ref().and_then(|s| s.rt60),
+            rt60_measured: r.rt60(),
+            rt60_eyring: r.eyring_rt60(),
+            reflection_coefficient: r.beta,
+        }),
+        array: TruthArray {
+            geometry: scene.array.geometry.clone(),
+            position: scene.array.position,
+            yaw_deg: scene.array.yaw_deg,
+        },
+        sources,
+        noise,
+        recording: None,
+    };
+    Ok(Simulation {
+        sample_rate: scene.sample_rate,
+        format: scene.format,
+        channels: out
+            .into_iter()
+            .map(|ch| ch.into_iter().map(|v| v as f32).collect())
+            .collect(),
+        truth,
+    })
+}
+
+/// The scene-wide numbers.
+fn check(scene: &SceneFile) -> Result<(), SceneError> {
+    if !(1000..=768_000).contains(&scene.sample_rate) {
+        invalid!(
+            "sample_rate must be between 1000 and 768000 Hz, got {}",
+            scene.sample_rate
+        );
+    }
+    if !(scene.duration.is_finite() && scene.duration > 0.0 && scene.duration <= 3600.0) {
+        invalid!(
+            "duration must be between 0 and 3600 seconds, got {}",
+            scene.duration
+        );
+    }
+    let c = scene.speed_of_sound.unwrap_or(343.0);
+    if !(c.is_finite() && c > 0.0) {
+        invalid!("speed_of_sound must be positive, got {c}");
+    }
+    Ok(())
+}
+
+/// The array in the room: the room, the microphones in room coordinates, the pose.
+struct Placed {
+    room: Option<Room>,
+    mics: Vec<Vector3<f64>>,
+    centre: Vector3<f64>,
+    /// Array frame to room frame.
+    rotation: Matrix3<f64>,
+    fs: f64,
+    c: f64,
+    /// How long reflections last after the direct sound (seconds).
+    tail_s: f64,
+}
+
+impl Placed {
+    fn new(scene: &SceneFile, dir: &Path) -> Result<Self, SceneError> {
+        let geometry = Geometry::from_file(&dir.join(&scene.array.geometry))?;
+        let room = match &scene.room {
+            None => None,
+            Some(r) => {
+                let dims = Vector3::from(r.dimensions);
+                Some(match (r.rt60, r.absorption) {
+                    (Some(t), None) => Room::with_rt60(dims, t)?,
+                    (None, Some(a)) => Room::with_absorption(dims, a)?,
+                    _ => invalid!("[room] needs exactly one of `rt60` or `absorption`"),
+                })
+            }
+        };
+        let yaw = scene.array.yaw_deg.to_radians();
+        #[rustfmt::skip]
+        let rotation = Matrix3::new(
+            yaw.cos(), -yaw.sin(), 0.0,
+            yaw.sin(), yaw.cos(), 0.0,
+            0.0, 0.0, 1.0,
+        );
+        let centre = Vector3::from(scene.array.position);
+        let placed = Placed {
+            mics: geometry
+                .mics
+                .iter()
+                .map(|m| centre + rotation * (m.position - geometry.centre))
+                .collect(),
+            tail_s: room.map_or(0.0, |r| 1.2 * r.rt60()),
+            room,
+            centre,
+            rotation,
+            fs: scene.sample_rate as f64,
+            c: scene.speed_of_sound.unwrap_or(343.0),
+        };
+        for (i, m) in placed.mics.iter().enumerate() {
+            placed.check_inside(&format!("mic {}", i + 1), m)?;
+        }
+        Ok(placed)
+    }
+
+    fn check_inside(&self, what: &str, p: &Vector3<f64>) -> Result<(), SceneError> {
+        if let Some(room) = &self.room {
+            if !room.contains(p) {
+                invalid!(
+                    "{what} at [{:.3}, {:.3}, {:.3}] is outside the room [0..{}, 0..{}, 0..{}]",
+                    p.x,
+                    p.y,
+                    p.z,
+                    room.dims.x,
+                    room.dims.y,
+                    room.dims.z
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Impulse responses from `p` to every microphone (1/r gain, direct path included).
+    fn responses(&self, p: &Vector3<f64>) -> Vec<Vec<f64>> {
+        let (fs, c) = (self.fs, self.c);
+        let far = self.mics.iter().map(|m| (m - p).norm()).fold(0.0, f64::max);
+        let len = ((far / c + self.tail_s) * fs) as usize + 2 * SINC_HALF_WIDTH + 1;
+        self.mics
+            .iter()
+            .map(|m| match &self.room {
+                Some(room) => room.impulse_response(p, m, fs, c, len),
+                None => {
+                    // Free field: the direct path only.
+                    let mut h = vec![0.0; len];
+                    let d = (m - p).norm();
+                    add_tap(&mut h, d / c * fs, 1.0 / d.max(1e-3));
+                    h
+                }
+            })
+            .collect()
+    }
+
+}
+
+/// Renders source `i` into `out`: its signal in each active interval, through the room;
+/// returns its truth.
+fn render_source(
+    scene: &SceneFile,
+    dir: &Path,
+    placed: &Placed,
+    (i, s): (usize, &SourceSpec),
+    out: &mut [Vec<f64>],
+    rng: &mut ChaCha8Rng,
+) -> Result<TruthSource, SceneError> {
+    let fs = placed.fs;
+    let what = format!("source {}", i + 1);
+    let about = |error| SceneError::About {
+        what: what.clone(),
+        error: Box::new(error),
+    };
+    let position = source_position(s, placed).map_err(about)?;
+    placed.check_inside(&what, &position)?;
+    let distance = (position - placed.centre).norm();
+    if distance < 1e-3 {
+        invalid!("{what} is at the array centre");
+    }
+    let level = 10f64.powf(s.level_db / 20.0);
+    let signal = match s.signal {
+        SignalKind::White => Some(Signal::WhiteNoise),
+        SignalKind::Pink => Some(Signal::PinkNoise),
+        SignalKind::Speech => Some(Signal::SpeechLike),
+        SignalKind::Clicks => Some(Signal::Clicks {
+            per_second: s.rate.unwrap_or(10.0),
+        }),
+        SignalKind::Tone => Some(Signal::Tone {
+            hz: s.frequency.unwrap_or(1000.0),
+        }),
+        SignalKind::File => None,
+    };
+    let recording = match (&s.signal, &s.file) {
+        (SignalKind::File, Some(f)) => {
+            Some(read_mono(&dir.join(f), scene.sample_rate).map_err(about)?)
+        }
+        (SignalKind::File, None) => invalid!("{what}: signal = \"file\" needs `file = \"...\"`"),
+        _ => None,
+    };
+    let len = out[0].len();
+    let responses = placed.responses(&position);
+    let delay_s = distance / placed.c;
+    let mut active = Vec::new();
+    for [a, b] in s.active.clone().unwrap_or(vec![[0.0, scene.duration]]) {
+        if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b && b <= scene.duration) {
+            invalid!(
+                "{what}: active interval [{a}, {b}] must lie within [0, {}] and not be empty",
+                scene.duration
+            );
+        }
+        let start = (a * fs).round() as usize;
+        let n = ((b * fs).round() as usize).min(len) - start;
+        let mut dry = vec![0.0; n];
+        // Scaled so that the direct sound at the array centre (gain 1 / distance) has `level`.
+        match (&signal, &recording) {
+            (Some(sig), _) => generate(sig, level * distance, fs, &mut dry, rng),
+            (None, Some(rec)) => {
+                for (k, v) in dry.iter_mut().enumerate() {
+                    *v = rec[k % rec.len()];
+                }
+                let rms = (dry.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+                if rms > 0.0 {
+                    dry.iter_mut().for_each(|v| *v *= level * distance / rms);
+                }
+            }
+            _ => unreachable!("a signal or a recording"),
+        }
+        for (m, wet) in convolve(&dry, &responses).into_iter().enumerate() {
+            for (o, v) in out[m][start..].iter_mut().zip(wet) {
+                *o += v;
+            }
+        }
+        active.push([
+            round6(a + delay_s),
+            round6((b + delay_s).min(scene.duration)),
+        ]);
+    }
+    let u = placed.rotation.transpose() * (position - placed.centre) / distance;
+    let (azimuth_deg, elevation_deg) = angles_deg(&u);
+    Ok(TruthSource {
+        index: i,
+        signal: format!("{:?}", s.signal).to_lowercase(),
+        level_db: s.level_db,
+        position_room: [position.x, position.y, position.z],
+        x: u.x,
+        y: u.y,
+        z: u.z,
+        azimuth_deg,
+        elevation_deg,
+        distance_m: Some(distance),
+        active,
+    })
+}
+
+/// Adds fans and diffuse noise, each normalised to unit power, weighted, then scaled
+/// together to `snr_db` below the mean source level; then sensor noise.
+fn add_noise(
+    scene: &SceneFile,
+    noise: &NoiseSpec,
+    placed: &Placed,
+    level_sum: f64,
+    out: &mut [Vec<f64>],
+    rng: &mut ChaCha8Rng,
+) -> Result<TruthNoise, SceneError> {
+    let (fs, len) = (placed.fs, out[0].len());
+    let mut total = vec![vec![0.0f64; len]; out.len()];
+    let mut components = 0;
+    for (i, fan) in noise.fan.iter().enumerate() {
+        let p = Vector3::from(fan.position);
+        placed.check_inside(&format!("fan {}", i + 1), &p)?;
+        let responses = placed.responses(&p);
+        // Start the fan early so the room is already ringing at time 0.
+        let lead = responses[0].len();
+        let mut dry = vec![0.0; len + lead];
+        colour_noise(fan.signal, fs, &mut dry, rng);
+        let wet = convolve(&dry, &responses);
+        add_normalised(
+            &mut total,
+            wet.iter().map(|w| &w[lead..lead + len]).collect(),
+            fan.weight_db,
+        );
+        components += 1;
+    }
+    if let Some(d) = &noise.diffuse {
+        let field = diffuse_noise(&placed.mics, d.signal, fs, placed.c, len, rng);
+        add_normalised(
+            &mut total,
+            field.iter().map(|w| &w[..]).collect(),
+            d.weight_db,
+        );
+        components += 1;
+    }
+    if components > 0 {
+        if level_sum == 0.0 {
+            invalid!("[noise] snr_db needs at least one [[source]] to be relative to");
+        }
+        let mean_level2 = level_sum / scene.source.len() as f64;
+        let power = mean_power(&total);
+        let gain = (mean_level2 / 10f64.powf(noise.snr_db / 10.0) / power).sqrt();
+        for (o, t) in out.iter_mut().zip(&total) {
+            for (a, b) in o.iter_mut().zip(t) {
+                *a += gain * b;
+            }
+        }
+    }
+    if let Some(db) = noise.sensor_db {
+        let sigma = 10f64.powf(db / 20.0);
+        for ch in out.iter_mut() {
+            for v in ch.iter_mut() {
+                let z: f64 = StandardNormal.sample(rng);
+                *v += sigma * z;
+            }
+        }
+    }
+    Ok(TruthNoise {
+        snr_db: noise.snr_db,
+        sensor_db: noise.sensor_db,
+        fans: noise
+            .fan
+            .iter()
+            .map(|f| {
+                let v = placed.rotation.transpose() * (Vector3::from(f.position) - placed.centre);
+                let (azimuth_deg, elevation_deg) = angles_deg(&v.normalize());
+                TruthFan {
+                    position_room: f.position,
+                    azimuth_deg,
+                    elevation_deg,
+                    distance_m: v.norm(),
+                }
+            })
+            .collect(),
+        diffuse: noise.diffuse.is_some(),
+    })
+}
+
+fn round6(v: f64) -> f64 {
+    (v * 1e6).round() / 1e6
+}
+
+fn source_position(s: &SourceSpec, placed: &Placed) -> Result<Vector3<f64>, SceneError> {
+    match (s.position, s.azimuth_deg, s.elevation_deg, s.distance) {
+        (Some(p), None, None, None) => Ok(Vector3::from(p)),
+        (None, Some(az), el, Some(d)) => {
+            if !(d.is_finite() && d > 0.0) {
+                invalid!("distance must be positive, got {d}");
+            }
+            let u = unit_from_angles(az, el.unwrap_or(0.0));
+            Ok(placed.centre + placed.rotation * u * d)
+        }
+        _ => invalid!(
+            "give either `position`, or `azimuth_deg`, `distance` (and optionally `elevation_deg`)"
+        ),
+    }
+}
+
+/// Reads a mono WAV at the given rate as f64 samples.
+fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
+    let name = path.display().to_string();
+    let input = |error| SceneError::Input {
+        path: path.to_path_buf(),
+        error,
+    };
+    let mut stream = WavStream::open(&name).map_err(input)?;
+    if stream.format.channels != 1 || stream.format.sample_rate != rate {
+        invalid!(
+            "{name}: a source file must be mono at the scene's rate ({rate} Hz); it has {} channel(s) at {} Hz",
+            stream.format.channels,
+            stream.format.sample_rate
+        );
+    }
+    let mut all = Vec::new();
+    let mut buf = vec![0.0f32; 65536];
+    loop {
+        let n = stream.read(&mut buf).map_err(input)?;
+        if n == 0 {
+            break;
+        }
+        all.extend(buf[..n].iter().map(|&v| v as f64));
+    }
+    if all.is_empty() {
+        invalid!("{name}: no samples");
+    }
+    Ok(all)
+}
+
+/// Convolves `x` with each response by FFT; outputs have `x.len() + h.len() - 1` samples.
+fn convolve(x: &[f64], responses: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let hlen = responses.iter().map(Vec::len).max().unwrap_or(1);
+    let n = (x.len() + hlen).next_power_of_two();
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fwd = planner.plan_fft_forward(n);
+    let inv = planner.plan_fft_inverse(n);
+    let mut buf = vec![0.0; n];
+    buf[..x.len()].copy_from_slice(x);
+    let mut xs = fwd.make_output_vec();
+    fwd.process(&mut buf, &mut xs).expect("sizes match");
+    responses
+        .iter()
+        .map(|h| {
+            let mut hb = vec![0.0; n];
+            hb[..h.len()].copy_from_slice(h);
+            let mut hs = fwd.make_output_vec();
+            fwd.process(&mut hb, &mut hs).expect("sizes match");
+            for (a, b) in hs.iter_mut().zip(&xs) {
+                *a = *a * b / n as f64;
+            }
+            inv.process(&mut hs, &mut hb).expect("sizes match");
+            hb.truncate(x.len() + h.len() - 1);
+            hb
+        })
+        .collect()
+}

@@ -1,0 +1,319 @@
+//! One recording through the method: open a source, check it against the geometry, and
+//! stream its frames through the [`Analyzer`], reading the next block while the thread
+//! pool analyses the current one.
+
+use super::source::{Channels, Framer, SampleSource};
+use super::wav::WavStream;
+use super::InputError;
+use crate::geometry::Geometry;
+use crate::method::{Analyzer, Detection, FrameStats, Params, ParamsError, StageTimes};
+use std::fmt;
+use std::io::Read;
+use std::ops::ControlFlow;
+
+/// A recording opened for analysis with one geometry and set of parameters.
+///
+/// Every entry point (a WAV path, WAV bytes from a reader, channels in memory) ends in
+/// the same [`Analysis::run`], and gives the same detections for the same samples on any
+/// number of threads.
+pub struct Analysis<S> {
+    source: S,
+    framer: Framer,
+    analyzer: Analyzer,
+}
+
+/// Why a recording could not be analysed (or not to its end): the file's name and what
+/// went wrong.
+#[derive(Debug, thiserror::Error)]
+#[error("{file}: {kind}")]
+pub struct AnalysisError {
+    /// The input's name (path, `<stdin>`, or the caller's).
+    pub file: String,
+    /// What went wrong.
+    pub kind: ErrorKind,
+}
+
+/// What went wrong with a recording.
+#[derive(Debug, thiserror::Error)]
+pub enum ErrorKind {
+    /// The samples could not be read.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// The parameters do not suit the array at this sample rate.
+    #[error(transparent)]
+    Params(#[from] ParamsError),
+    /// Without `channel` keys, the recording must have one channel per microphone.
+    #[error("the file has {channels} channel(s) but the geometry has {mics} microphones; {}", if channels > mics { "add a `channel = N` key to each [[mic]] to say which channels to use" } else { "is this the right geometry for this recording?" })]
+    ChannelCount {
+        /// Channels in the recording.
+        channels: usize,
+        /// Microphones in the geometry.
+        mics: usize,
+    },
+    /// A `channel` key names a channel the recording does not have.
+    #[error("the geometry assigns channel {channel} but the file has {channels} channel(s) (0 to {})", channels - 1)]
+    MissingChannel {
+        /// The channel asked for.
+        channel: usize,
+        /// Channels in the recording.
+        channels: usize,
+    },
+    /// The recording holds no complete frame.
+    #[error("the recording is {samples} samples ({:.1} ms) long, shorter than one analysis frame of {frame_size} samples ({:.1} ms)", *samples as f64 * 1000.0 / *sample_rate as f64, *frame_size as f64 * 1000.0 / *sample_rate as f64)]
+    TooShort {
+        /// Sample frames in the recording.
+        samples: u64,
+        /// The frame size N.
+        frame_size: usize,
+        /// Sample rate (Hz).
+        sample_rate: u32,
+    },
+}
+
+/// Something the user should know about a recording that was analysed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Warning {
+    /// Every channel was constant.
+    Silence,
+    /// A microphone's channel was constant in some frames, which left it out of them.
+    DeadMic {
+        /// 0-based microphone.
+        mic: usize,
+        /// Its channel in the recording.
+        channel: usize,
+        /// Frames where it was constant.
+        frames: u64,
+        /// Frames analysed.
+        of: u64,
+    },
+    /// The consistency search stopped at its node budget in some frames.
+    SearchBudget {
+        /// Frames where it did.
+        frames: u64,
+    },
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        match self {
+            Warning::Silence => write!(f, "every channel is constant (digital silence): no detections"),
+            Warning::DeadMic { mic, channel, frames, of } => write!(
+                f,
+                "mic {} (channel {channel}) is constant (dead or disconnected?) in {frames} of {of} frames; it was left out of those frames' pairs",
+                mic + 1
+            ),
+            Warning::SearchBudget { frames } => write!(
+                f,
+                "the consistency search hit its node budget in {frames} frames (best set found so far used); a smaller tolerance or fewer peaks per pair avoids this"
+            ),
+        }
+    }
+}
+
+/// What a finished (or failed) recording reports.
+#[derive(Debug, Clone)]
+pub struct Summary {
+    /// The input's name.
+    pub name: String,
+    /// The source's sample format, e.g. `8 ch, 48000 Hz, 16-bit PCM`.
+    pub format: String,
+    /// Channels in the source.
+    pub channels: usize,
+    /// Sample rate (Hz).
+    pub sample_rate: u32,
+    /// The frame size N used.
+    pub frame_size: usize,
+    /// The counters.
+    pub stats: FrameStats,
+    /// Time per stage, when stage timing was on.
+    pub stage_times: Option<StageTimes>,
+    /// Remarks for the user.
+    pub warnings: Vec<Warning>,
+}
+
+impl Analysis<WavStream> {
+    /// Opens the WAV file at `path` (`-` for standard input) and checks it against
+    /// `geometry`.
+    pub fn open(path: &str, geometry: &Geometry, params: &Params) -> Result<Self, AnalysisError> {
+        let name = if path == "-" { "<stdin>" } else { path };
+        let stream = WavStream::open(path).map_err(|e| fail(name, e.into()))?;
+        Self::new(stream, geometry, params)
+    }
+
+    /// Reads WAV bytes from `reader` (a pipe, a socket, a buffer), named `name` in messages.
+    pub fn from_reader(
+        name: &str,
+        reader: impl Read + 'static,
+        geometry: &Geometry,
+        params: &Params,
+    ) -> Result<Self, AnalysisError> {
+        let stream =
+            WavStream::from_reader(name, Box::new(reader), None).map_err(|e| fail(name, e.into()))?;
+        Self::new(stream, geometry, params)
+    }
+}
+
+impl<'a> Analysis<Channels<'a>> {
+    /// Channels already in memory (`channels[c]` is channel `c`, all of one length).
+    pub fn from_channels(
+        name: &str,
+        channels: Vec<&'a [f32]>,
+        sample_rate: u32,
+        geometry: &Geometry,
+        params: &Params,
+    ) -> Result<Self, AnalysisError> {
+        let source =
+            Channels::new(name, channels, sample_rate).map_err(|e| fail(name, e.into()))?;
+        Self::new(source, geometry, params)
+    }
+}
+
+impl<S: SampleSource> Analysis<S> {
+    /// Checks `source` against `geometry` and plans the method for its sample rate.
+    pub fn new(source: S, geometry: &Geometry, params: &Params) -> Result<Self, AnalysisError> {
+        let name = source.name().to_string();
+        let (channels, mics) = (source.channels(), geometry.mics.len());
+        if geometry.explicit_channels {
+            if let Some(m) = geometry.mics.iter().find(|m| m.channel >= channels) {
+                let channel = m.channel;
+                return Err(fail(&name, ErrorKind::MissingChannel { channel, channels }));
+            }
+        } else if channels != mics {
+            return Err(fail(&name, ErrorKind::ChannelCount { channels, mics }));
+        }
+        let sample_rate = source.sample_rate();
+        let analyzer =
+            Analyzer::new(geometry, sample_rate, params).map_err(|e| fail(&name, e.into()))?;
+        let n = analyzer.frame_size();
+        if let Some(samples) = source.frames().filter(|&f| f < n as u64) {
+            let kind = ErrorKind::TooShort {
+                samples,
+                frame_size: n,
+                sample_rate,
+            };
+            return Err(fail(&name, kind));
+        }
+        let framer = Framer::new(n, geometry.mics.iter().map(|m| m.channel).collect(), channels);
+        Ok(Analysis {
+            source,
+            framer,
+            analyzer,
+        })
+    }
+
+    /// The input's name.
+    pub fn name(&self) -> &str {
+        self.source.name()
+    }
+
+    /// The frame size N.
+    pub fn frame_size(&self) -> usize {
+        self.analyzer.frame_size()
+    }
+
+    /// Measures the time spent in each stage (reported in the summary).
+    pub fn enable_stage_timing(&mut self) {
+        self.analyzer.enable_stage_timing();
+    }
+
+    /// Frames the recording will give, when its length is known.
+    pub fn total_frames(&self) -> Option<u64> {
+        let n = self.analyzer.frame_size() as u64;
+        let hop = self.analyzer.hop() as u64;
+        self.source
+            .frames()
+            .map(|f| if f < n { 0 } else { (f - n) / hop + 1 })
+    }
+
+    /// Streams every frame through the method. `sink` sees each frame's index and its
+    /// detection, if any, in frame order; [`ControlFlow::Break`] stops the run (a closed
+    /// output). Returns the summary of what was analysed and the error that stopped the
+    /// recording, if any (the frames before a read error are analysed first).
+    pub fn run(
+        mut self,
+        mut sink: impl FnMut(u64, Option<&Detection>) -> ControlFlow<()>,
+    ) -> (Summary, Result<(), AnalysisError>) {
+        let result = self.run_blocks(&mut sink);
+        let summary = self.summary();
+        let result = match result {
+            Ok(()) if summary.stats.frames == 0 => Err(ErrorKind::TooShort {
+                samples: self.framer.samples_read,
+                frame_size: summary.frame_size,
+                sample_rate: summary.sample_rate,
+            }),
+            Ok(()) => Ok(()),
+            Err(e) => Err(e.into()),
+        };
+        (summary, result.map_err(|kind| fail(self.source.name(), kind)))
+    }
+
+    fn run_blocks(
+        &mut self,
+        sink: &mut dyn FnMut(u64, Option<&Detection>) -> ControlFlow<()>,
+    ) -> Result<(), InputError> {
+        let mut current = self.analyzer.block();
+        let mut next = self.analyzer.block();
+        let (framer, source) = (&mut self.framer, &mut self.source);
+        let mut error = framer.fill(source, &mut current);
+        loop {
+            if current.count == 0 {
+                return error.map_or(Ok(()), Err);
+            }
+            let mut next_error = None;
+            let detections = self.analyzer.analyse(&current, || {
+                next_error = framer.fill(source, &mut next);
+            });
+            for (detection, index) in detections.iter().zip(current.first..) {
+                if sink(index, detection.as_ref()).is_break() {
+                    return Ok(());
+                }
+            }
+            // A read error (a truncated file) ends the run after the frames read before it.
+            if let Some(e) = error {
+                return Err(e);
+            }
+            error = next_error;
+            std::mem::swap(&mut current, &mut next);
+        }
+    }
+
+    fn summary(&self) -> Summary {
+        let stats = self.analyzer.stats().clone();
+        let mut warnings = Vec::new();
+        if stats.frames > 0 && stats.silent_frames == stats.frames {
+            warnings.push(Warning::Silence);
+        }
+        for (mic, &frames) in stats.dead_frames.iter().enumerate() {
+            if frames > 0 {
+                warnings.push(Warning::DeadMic {
+                    mic,
+                    channel: self.framer.channel_of(mic),
+                    frames,
+                    of: stats.frames,
+                });
+            }
+        }
+        if stats.budget_frames > 0 {
+            warnings.push(Warning::SearchBudget {
+                frames: stats.budget_frames,
+            });
+        }
+        Summary {
+            name: self.source.name().to_string(),
+            format: self.source.describe(),
+            channels: self.source.channels(),
+            sample_rate: self.source.sample_rate(),
+            frame_size: self.analyzer.frame_size(),
+            stage_times: self.analyzer.stage_times().cloned(),
+            stats,
+            warnings,
+        }
+    }
+}
+
+fn fail(name: &str, kind: ErrorKind) -> AnalysisError {
+    AnalysisError {
+        file: name.to_string(),
+        kind,
+    }
+}

@@ -1,0 +1,93 @@
+//! Streaming: samples in, detections out, with memory that does not grow with the
+//! recording.
+//!
+//! - [`wav`]: WAV files and WAV bytes from any reader (pipes included), decoded a block
+//!   at a time.
+//! - [`source`]: the [`SampleSource`] every input is, channels already in memory, and the
+//!   framer that cuts any source into blocks of overlapping frames.
+//! - [`analysis`]: one recording through the method, whatever its source, on the threads
+//!   of the current rayon pool.
+
+pub mod analysis;
+pub mod source;
+pub mod wav;
+
+pub use analysis::{Analysis, AnalysisError, ErrorKind, Summary, Warning};
+pub use source::{Channels, SampleSource};
+pub use wav::{WavFormat, WavStream};
+
+use std::io;
+
+/// Why samples could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    /// The file could not be opened.
+    #[error("cannot open: {}", io_reason(.0))]
+    Open(io::Error),
+    /// The path is a directory.
+    #[error("is a directory, not a WAV file")]
+    Directory,
+    /// Reading failed (the reason is the operating system's).
+    #[error("{}", io_reason(.0))]
+    Io(io::Error),
+    /// Reading the samples failed.
+    #[error("read error: {}", io_reason(.0))]
+    Read(io::Error),
+    /// Not a WAV file; the message names what it is when that is recognised.
+    #[error("{0}")]
+    NotWav(String),
+    /// A WAV encoding this tool does not decode; the message says how to convert it.
+    #[error("{0}")]
+    Unsupported(String),
+    /// A damaged or cut-short header, or channels that do not make a recording.
+    #[error("{0}")]
+    Corrupt(String),
+    /// The data ends before the sample frames its header promises.
+    #[error("truncated WAV: the header promises {promised} sample frames ({:.3} s) but the data ends after {read} ({:.3} s)", *promised as f64 / *sample_rate as f64, *read as f64 / *sample_rate as f64)]
+    Truncated {
+        /// Sample frames the header promises.
+        promised: u64,
+        /// Sample frames read.
+        read: u64,
+        /// Sample rate (Hz).
+        sample_rate: u32,
+    },
+    /// A sample is NaN or infinite.
+    #[error("sample {frame} of channel {channel} is {} (at {:.6} s): the recording is corrupt", if *nan { "NaN" } else { "infinite" }, *frame as f64 / *sample_rate as f64)]
+    NonFinite {
+        /// Sample frame index.
+        frame: u64,
+        /// 0-based channel.
+        channel: usize,
+        /// NaN (else infinite).
+        nan: bool,
+        /// Sample rate (Hz).
+        sample_rate: u32,
+    },
+}
+
+impl InputError {
+    pub(crate) fn non_finite(frame: u64, channel: usize, value: f32, sample_rate: u32) -> Self {
+        InputError::NonFinite {
+            frame,
+            channel,
+            nan: value.is_nan(),
+            sample_rate,
+        }
+    }
+}
+
+/// An I/O error as a short lower-case reason without the "(os error N)" suffix.
+pub fn io_reason(e: &io::Error) -> String {
+    match e.kind() {
+        io::ErrorKind::NotFound => "no such file".into(),
+        io::ErrorKind::PermissionDenied => "permission denied".into(),
+        _ => {
+            let s = e.to_string();
+            match s.find(" (os error") {
+                Some(i) => s[..i].to_string(),
+                None => s,
+            }
+        }
+    }
+}

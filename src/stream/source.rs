@@ -1,0 +1,217 @@
+//! Where samples come from, and how they become blocks of overlapping frames.
+//!
+//! Every input (a WAV file, WAV bytes from any reader, channels already in memory, or a
+//! source of the caller's own) is a [`SampleSource`]: interleaved `f32` samples read a
+//! chunk at a time. The [`Framer`] cuts any source into the same blocks of frames, so the
+//! method sees the same frames whatever the input.
+
+use super::InputError;
+use crate::method::frames::FrameBlock;
+use multiversion::multiversion;
+
+/// A stream of interleaved samples in [-1, 1), read a chunk at a time.
+pub trait SampleSource {
+    /// The name used in messages (a path, `<stdin>`, or the caller's choice).
+    fn name(&self) -> &str;
+    /// Channels per sample frame.
+    fn channels(&self) -> usize;
+    /// Sample frames per second.
+    fn sample_rate(&self) -> u32;
+    /// Sample frames the source promises, when known in advance.
+    fn frames(&self) -> Option<u64>;
+    /// Reads up to `out.len() / channels` sample frames into `out`, interleaved, and
+    /// returns how many were read; 0 at the end. Samples must be finite.
+    fn read(&mut self, out: &mut [f32]) -> Result<usize, InputError>;
+    /// The sample format in words, for reports.
+    fn describe(&self) -> String {
+        format!(
+            "{} ch, {} Hz, 32-bit float",
+            self.channels(),
+            self.sample_rate()
+        )
+    }
+}
+
+/// Channels already in memory, one slice per channel, all of the same length.
+#[derive(Debug, Clone)]
+pub struct Channels<'a> {
+    name: String,
+    channels: Vec<&'a [f32]>,
+    sample_rate: u32,
+    position: usize,
+}
+
+impl<'a> Channels<'a> {
+    /// Channels named `name` in messages. Fails when there is no channel or when the
+    /// channels differ in length.
+    pub fn new(
+        name: &str,
+        channels: Vec<&'a [f32]>,
+        sample_rate: u32,
+    ) -> Result<Self, InputError> {
+        let len = channels.first().map_or(0, |c| c.len());
+        if channels.is_empty() || channels.iter().any(|c| c.len() != len) {
+            return Err(InputError::Corrupt(
+                "channels in memory must be at least one, all of the same length".into(),
+            ));
+        }
+        if sample_rate == 0 {
+            return Err(InputError::Corrupt("a sample rate of 0 Hz".into()));
+        }
+        Ok(Channels {
+            name: name.to_string(),
+            channels,
+            sample_rate,
+            position: 0,
+        })
+    }
+}
+
+impl SampleSource for Channels<'_> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn channels(&self) -> usize {
+        self.channels.len()
+    }
+
+    fn sample_rate(&self) -> u32 {
+        self.sample_rate
+    }
+
+    fn frames(&self) -> Option<u64> {
+        Some(self.channels[0].len() as u64)
+    }
+
+    fn read(&mut self, out: &mut [f32]) -> Result<usize, InputError> {
+        let ch = self.channels.len();
+        let frames = (out.len() / ch).min(self.channels[0].len() - self.position);
+        for (c, channel) in self.channels.iter().enumerate() {
+            let part = &channel[self.position..self.position + frames];
+            if let Some(i) = part.iter().position(|v| !v.is_finite()) {
+                return Err(InputError::non_finite(
+                    (self.position + i) as u64,
+                    c,
+                    part[i],
+                    self.sample_rate,
+                ));
+            }
+            for (o, &v) in out[c..].iter_mut().step_by(ch).zip(part) {
+                *o = v;
+            }
+        }
+        self.position += frames;
+        Ok(frames)
+    }
+}
+
+/// Cuts a source into [`FrameBlock`]s, picking the geometry's channels; the last
+/// `n - hop` samples of each block start the next.
+pub(crate) struct Framer {
+    n: usize,
+    hop: usize,
+    channels: Vec<usize>,
+    source_channels: usize,
+    /// Decoded interleaved samples, read a chunk at a time.
+    interleaved: Vec<f32>,
+    /// Per mic, the samples the next block's first frame shares with the last one.
+    carry: Vec<f32>,
+    next_index: u64,
+    started: bool,
+    /// Sample frames read from the source so far.
+    pub samples_read: u64,
+}
+
+/// Sample frames read at a time.
+const CHUNK: usize = 4096;
+
+impl Framer {
+    /// `channels[m]` is the source channel of mic `m`; `source_channels` the source's count.
+    pub fn new(n: usize, channels: Vec<usize>, source_channels: usize) -> Self {
+        let mics = channels.len();
+        Framer {
+            n,
+            hop: n / 2,
+            interleaved: vec![0.0; CHUNK * source_channels],
+            carry: vec![0.0; mics * (n - n / 2)],
+            channels,
+            source_channels,
+            next_index: 0,
+            started: false,
+            samples_read: 0,
+        }
+    }
+
+    /// The source channel of mic `m`.
+    pub fn channel_of(&self, m: usize) -> usize {
+        self.channels[m]
+    }
+
+    /// Fills `block` with the frames that follow the last block filled (frame `i` of
+    /// the source starts at sample `i * hop`): as many as fit, fewer at the end of the
+    /// source (none after it). A read error keeps the complete frames before it and is
+    /// returned.
+    pub fn fill(
+        &mut self,
+        source: &mut dyn SampleSource,
+        block: &mut FrameBlock,
+    ) -> Option<InputError> {
+        assert!(block.n == self.n, "a block for another frame size");
+        let (n, keep, stride, ch) = (
+            self.n,
+            self.n - self.hop,
+            block.stride,
+            self.source_channels,
+        );
+        block.first = self.next_index;
+        block.count = 0;
+        let mut error = None;
+        let mut filled = 0;
+        if self.started {
+            for (m, carry) in self.carry.chunks_exact(keep).enumerate() {
+                block.data[m * stride..m * stride + keep].copy_from_slice(carry);
+            }
+            filled = keep;
+        }
+        while filled < stride {
+            let want = (stride - filled).min(CHUNK);
+            let got = match source.read(&mut self.interleaved[..want * ch]) {
+                Ok(0) => break,
+                Ok(got) => got,
+                Err(e) => {
+                    error = Some(e);
+                    break;
+                }
+            };
+            for (m, &c) in self.channels.iter().enumerate() {
+                let row = &mut block.data[m * stride + filled..m * stride + filled + got];
+                deinterleave(&self.interleaved[..got * ch], ch, c, row);
+            }
+            filled += got;
+            self.samples_read += got as u64;
+        }
+        if filled < n {
+            return error;
+        }
+        block.count = (filled - n) / self.hop + 1;
+        // The next frame starts `count` hops in; its first `keep` samples are here.
+        let start = block.count * self.hop;
+        if start + keep <= filled {
+            for (m, carry) in self.carry.chunks_exact_mut(keep).enumerate() {
+                carry.copy_from_slice(&block.data[m * stride + start..m * stride + start + keep]);
+            }
+        }
+        self.started = true;
+        self.next_index += block.count as u64;
+        error
+    }
+}
+
+/// `out[i] = interleaved[i * channels + channel]`.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn deinterleave(interleaved: &[f32], channels: usize, channel: usize, out: &mut [f32]) {
+    for (d, s) in out.iter_mut().zip(interleaved.chunks_exact(channels)) {
+        *d = s[channel];
+    }
+}
