@@ -2,14 +2,15 @@
 //! are known (fractional delays, independent sensor noise), for 3-D, planar and linear
 //! arrays, several sample rates and every sample encoding.
 
-mod common;
+mod support;
 
-use common::*;
 use nalgebra::Vector3;
-use ssl::synth::{Encoding, Signal};
+use ssl::sim::signals::Signal;
+use ssl::sim::Encoding;
+use support::*;
 
 fn analyze_scene(
-    scene: &ssl::synth::Scene,
+    scene: &ssl::sim::freefield::Scene,
     positions: &[Vector3<f64>],
     extra_toml: &str,
     encoding: Encoding,
@@ -311,9 +312,27 @@ fn shipped_example_matches_its_truth() {
         );
         for r in inside {
             assert!(
-                ssl::direction::angle_between_deg(&r.u, &u) < 1.0,
+                ssl::method::direction::angle_between_deg(&r.u, &u) < 1.0,
                 "{r:?} vs {u:?}"
             );
         }
+    }
+}
+
+#[test]
+fn sphere_lattice_points_lie_on_the_sphere_and_are_spread() {
+    for k in [4usize, 16, 32] {
+        let p = support::sphere_lattice(k, 0.25);
+        assert_eq!(p.len(), k);
+        let mut closest = f64::INFINITY;
+        for (i, a) in p.iter().enumerate() {
+            assert!((a.norm() - 0.25).abs() < 1e-12, "{a:?}");
+            for b in &p[i + 1..] {
+                closest = closest.min((a - b).norm());
+            }
+        }
+        // Evenly spread: no two points closer than half the spacing of k equal caps.
+        let spacing = 0.25 * (4.0 * std::f64::consts::PI / k as f64).sqrt();
+        assert!(closest > 0.5 * spacing, "k {k}: {closest} vs {spacing}");
     }
 }

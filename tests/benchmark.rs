@@ -1,11 +1,13 @@
 //! A reduced accuracy benchmark for CI: the paper's Table I conditions with 4 horizontal
 //! angles instead of 8, and 20 s of background alone. Bounds are loose enough to be
 //! stable and tight enough to catch a real regression; the full run is
-//! `cargo run --release --example benchmark` (results in docs/accuracy.md).
+//! `cargo bench --bench accuracy` (results in docs/accuracy.md).
 
-use ssl::benchmark::{azimuths, Bench, Lab, Pooled, SIGNALS, TABLE_I};
-use ssl::scene::SignalKind;
+mod support;
+
+use ssl::sim::scene::SignalKind;
 use ssl::Params;
+use support::bench::{azimuths, Bench, Lab, Pooled, SIGNALS, TABLE_I};
 
 #[test]
 fn table_i_rows_stay_accurate_and_background_stays_quiet() {

@@ -1,16 +1,18 @@
 //! The command line's handling of inputs good and bad: every bad input gets one clear
 //! line on stderr naming the file and a non-zero exit, never a panic or NaN.
 
-mod common;
+mod support;
 
-use common::*;
-use ssl::synth::{self, Encoding, Signal};
+use ssl::sim::freefield as synth;
+use ssl::sim::signals::Signal;
+use ssl::sim::{write_wav, Encoding};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
+use support::*;
 
 /// A 0.6 s prism recording of one noise source at azimuth 30, elevation 10.
-fn base_scene() -> ssl::synth::Scene {
+fn base_scene() -> ssl::sim::freefield::Scene {
     scene(
         prism(),
         48000,
@@ -53,10 +55,10 @@ fn expect_error(file: &str, geo: &Path, name: &str, needles: &[&str]) -> String 
 
 fn detections_near_truth(stdout: &[u8]) -> Vec<Row> {
     let rows = parse_csv(std::str::from_utf8(stdout).unwrap());
-    let truth = ssl::direction::unit_from_angles(30.0, 10.0);
+    let truth = ssl::method::direction::unit_from_angles(30.0, 10.0);
     for r in &rows {
         assert!(
-            ssl::direction::angle_between_deg(&r.u, &truth) < 2.0,
+            ssl::method::direction::angle_between_deg(&r.u, &truth) < 2.0,
             "{r:?}"
         );
     }
@@ -165,19 +167,11 @@ fn wrong_channel_count() {
     ten.push(vec![0.0; ten[0].len()]);
     ten.push(vec![0.0; ten[0].len()]);
     let wav = dir.path().join("ten.wav");
-    synth::write_wav(&wav, &ten, 48000, Encoding::Int16).unwrap();
+    write_wav(&wav, &ten, 48000, Encoding::Int16).unwrap();
     expect_error(s(&wav), &geo, "ten.wav", &["10 channel", "channel = N"]);
     // A geometry that names a channel the file lacks.
-    let mut toml = String::new();
-    for (i, p) in PRISM.iter().enumerate() {
-        toml += &format!(
-            "[[mic]]\nposition = [{}, {}, {}]\nchannel = {}\n",
-            p[0],
-            p[1],
-            p[2],
-            i + 5
-        );
-    }
+    let channels: Vec<usize> = (0..8).map(|i| i + 5).collect();
+    let toml = geometry_toml_with_channels(&prism(), &channels);
     let picky = write(dir.path(), "picky.toml", toml);
     expect_error(s(&wav), &picky, "ten.wav", &["channel 10", "10 channel"]);
 }
@@ -191,17 +185,9 @@ fn channel_keys_pick_channels_from_a_wider_file() {
     let mut chans = vec![vec![0.3; len], vec![0.0; len]];
     chans.extend(mics.iter().rev().cloned());
     let wav = dir.path().join("wide.wav");
-    synth::write_wav(&wav, &chans, 48000, Encoding::Int16).unwrap();
-    let mut toml = String::new();
-    for (i, p) in PRISM.iter().enumerate() {
-        toml += &format!(
-            "[[mic]]\nposition = [{}, {}, {}]\nchannel = {}\n",
-            p[0],
-            p[1],
-            p[2],
-            9 - i
-        );
-    }
+    write_wav(&wav, &chans, 48000, Encoding::Int16).unwrap();
+    let channels: Vec<usize> = (0..8).map(|i| 9 - i).collect();
+    let toml = geometry_toml_with_channels(&prism(), &channels);
     let geo = write(dir.path(), "wide.toml", toml);
     let out = run(&["analyze", s(&wav), "--geometry", s(&geo)]);
     assert!(out.status.success(), "{}", stderr(&out));
@@ -216,7 +202,7 @@ fn shorter_than_one_frame() {
         .map(|c| c[..1000].to_vec())
         .collect();
     let wav = dir.path().join("short.wav");
-    synth::write_wav(&wav, &short, 48000, Encoding::Int16).unwrap();
+    write_wav(&wav, &short, 48000, Encoding::Int16).unwrap();
     expect_error(
         s(&wav),
         &geo,
@@ -235,7 +221,7 @@ fn nan_and_infinite_samples() {
         let mut chans = synth::render(&base_scene());
         chans[3][5000] = bad;
         let wav = dir.path().join(name);
-        synth::write_wav(&wav, &chans, 48000, Encoding::Float32).unwrap();
+        write_wav(&wav, &chans, 48000, Encoding::Float32).unwrap();
         let err = expect_error(s(&wav), &geo, name, &[word, "channel 3"]);
         assert!(!err.contains("NaN,") && !err.contains("null"));
     }
@@ -245,7 +231,7 @@ fn nan_and_infinite_samples() {
 fn digital_silence_runs_with_no_detections() {
     let (dir, _, geo) = setup();
     let wav = dir.path().join("zero.wav");
-    synth::write_wav(&wav, &vec![vec![0.0; 48000]; 8], 48000, Encoding::Int16).unwrap();
+    write_wav(&wav, &vec![vec![0.0; 48000]; 8], 48000, Encoding::Int16).unwrap();
     let out = run(&["analyze", s(&wav), "--geometry", s(&geo)]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(
@@ -263,7 +249,7 @@ fn dead_and_stuck_channels_are_named_and_left_out() {
         let mut chans = synth::render(&base_scene());
         chans[5].iter_mut().for_each(|v| *v = value);
         let wav = dir.path().join(name);
-        synth::write_wav(&wav, &chans, 48000, Encoding::Int16).unwrap();
+        write_wav(&wav, &chans, 48000, Encoding::Int16).unwrap();
         let out = run(&["analyze", s(&wav), "--geometry", s(&geo)]);
         assert!(out.status.success(), "{}", stderr(&out));
         let err = stderr(&out);
@@ -563,7 +549,7 @@ fn output_is_the_same_for_any_number_of_threads() {
     let mut chans = synth::render(&sc);
     chans[2][20000..60000].iter_mut().for_each(|v| *v = 0.0);
     let wav = dir.path().join("threads.wav");
-    synth::write_wav(&wav, &chans, 48000, Encoding::Int16).unwrap();
+    write_wav(&wav, &chans, 48000, Encoding::Int16).unwrap();
     let geo = write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
     for format in ["csv", "json", "ndjson"] {
         let outputs: Vec<Vec<u8>> = ["1", "2", "3"]

@@ -1,10 +1,15 @@
-//! Processing a frame does not allocate: plans and buffers are made once. A counting
-//! global allocator watches `Analyzer::process` over many frames after a warm-up.
+//! Analysing a recording does not allocate per frame or per block: plans and buffers are
+//! made once. A counting global allocator watches a one-thread run over several blocks
+//! after a warm-up. (With several threads, rayon boxes one job per block.)
 
-use ssl::geometry::PAPER_PRISM;
-use ssl::synth::{self, Place, Scene, Signal, Source};
-use ssl::{Analyzer, Geometry, Params};
+mod support;
+
+use ssl::method::direction::unit_from_angles;
+use ssl::sim::freefield::{render, Place, Scene, Source};
+use ssl::sim::signals::Signal;
+use ssl::{Analysis, Params};
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 struct Counting;
@@ -29,53 +34,60 @@ unsafe impl GlobalAlloc for Counting {
 static GLOBAL: Counting = Counting;
 
 #[test]
-fn processing_frames_does_not_allocate() {
-    let g = Geometry::from_positions(&PAPER_PRISM).unwrap();
+fn analysing_frames_does_not_allocate() {
+    let g = support::prism_geometry();
     let scene = Scene {
         sample_rate: 48000,
-        duration_s: 1.0,
+        duration_s: 5.0,
         mics: g.positions(),
         speed_of_sound: 343.0,
         sources: vec![Source {
-            place: Place::Direction(ssl::direction::unit_from_angles(50.0, -10.0)),
+            place: Place::Direction(unit_from_angles(50.0, -10.0)),
             signal: Signal::WhiteNoise,
             start_s: 0.3,
-            end_s: 0.7,
+            end_s: 4.7,
             level: 0.05,
         }],
         sensor_noise: 0.005,
         seed: 1,
     };
-    let ch = synth::render(&scene);
-    let mut analyzer = Analyzer::new(&g, 48000, &Params::default()).unwrap();
-    let n = analyzer.frame_size();
-    let frames: Vec<Vec<f32>> = (0..(48000 - n) / (n / 2))
-        .map(|i| {
-            ch.iter()
-                .flat_map(|c| c[i * n / 2..i * n / 2 + n].iter().copied())
-                .collect()
-        })
-        .collect();
-    // Warm-up: the first detection builds the direction solver for the live set.
-    let mut detections = 0;
-    for (i, f) in frames.iter().enumerate().take(40) {
-        detections += analyzer.process(i as u64, f).is_some() as usize;
-    }
-    assert!(detections > 0);
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
-    let mut later = 0;
-    for (i, f) in frames.iter().enumerate().skip(40) {
-        later += analyzer.process(i as u64, f).is_some() as usize;
-    }
-    let after = ALLOCATIONS.load(Ordering::Relaxed);
+    let ch = render(&scene);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let (frames, counts) = pool.install(|| {
+        let channels = ch.iter().map(|c| &c[..]).collect();
+        let analysis =
+            Analysis::from_channels("t", channels, 48000, &g, &Params::default()).unwrap();
+        // Allocations counted when the sink sees each frame (frames arrive a block at a
+        // time, after the block is analysed and the next one read).
+        let mut counts = Vec::with_capacity(1000);
+        let mut detections = 0;
+        let (summary, result) = analysis.run(|_, d| {
+            detections += d.is_some() as usize;
+            counts.push((ALLOCATIONS.load(Ordering::Relaxed), detections));
+            ControlFlow::Continue(())
+        });
+        result.unwrap();
+        (summary.stats.frames as usize, counts)
+    });
+    assert_eq!(frames, counts.len());
+    // From the second block on (the first block's detections have built the direction
+    // solver for the live set), nothing allocates.
+    let (start, found) = counts[128];
+    let (end, total) = *counts.last().unwrap();
     assert!(
-        later > 10,
-        "the measured frames include detections: {later}"
+        frames > 3 * 128,
+        "{frames} frames: several blocks are measured"
+    );
+    assert!(
+        found > 10 && total - found > 100,
+        "the measured frames include detections"
     );
     assert_eq!(
-        after - before,
+        end - start,
         0,
-        "allocations while processing {} frames",
-        frames.len() - 40
+        "allocations while analysing frames 128 to {frames}"
     );
 }

@@ -1,10 +1,10 @@
 //! `ssl simulate` and `ssl evaluate` end to end: reproducible scenes, truth in the array
 //! frame, a reverberant scene localized and scored, background alone, bad scenes.
 
-mod common;
+mod support;
 
-use common::*;
 use std::path::Path;
+use support::*;
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
@@ -176,10 +176,11 @@ weight_db = -6
         &early[..early.len().min(5)]
     );
     // The analysis is live: the source at the end is found.
-    let truth = ssl::direction::unit_from_angles(30.0, 0.0);
+    let truth = ssl::method::direction::unit_from_angles(30.0, 0.0);
     assert!(
-        rows.iter()
-            .any(|r| r.time_s > 7.8 && ssl::direction::angle_between_deg(&r.u, &truth) < 5.0),
+        rows.iter().any(
+            |r| r.time_s > 7.8 && ssl::method::direction::angle_between_deg(&r.u, &truth) < 5.0
+        ),
         "{rows:?}"
     );
 }
@@ -215,14 +216,14 @@ fn source_from_a_wav_file() {
     let dir = tempdir();
     prism_file(dir.path());
     // A mono noise recording as the source signal.
-    let mono = ssl::synth::render(&ssl::synth::Scene {
+    let mono = ssl::sim::freefield::render(&ssl::sim::freefield::Scene {
         sample_rate: 16000,
         duration_s: 0.5,
         mics: vec![nalgebra::Vector3::zeros()],
         speed_of_sound: 343.0,
-        sources: vec![ssl::synth::Source {
-            place: ssl::synth::Place::Direction(nalgebra::Vector3::x()),
-            signal: ssl::synth::Signal::WhiteNoise,
+        sources: vec![ssl::sim::freefield::Source {
+            place: ssl::sim::freefield::Place::Direction(nalgebra::Vector3::x()),
+            signal: ssl::sim::signals::Signal::WhiteNoise,
             start_s: 0.0,
             end_s: 0.5,
             level: 0.1,
@@ -230,11 +231,11 @@ fn source_from_a_wav_file() {
         sensor_noise: 0.0,
         seed: 2,
     });
-    ssl::synth::write_wav(
+    ssl::sim::write_wav(
         &dir.path().join("voice.wav"),
         &mono,
         16000,
-        ssl::synth::Encoding::Int16,
+        ssl::sim::Encoding::Int16,
     )
     .unwrap();
     let scene = "sample_rate = 16000\nduration = 1.0\n[array]\ngeometry = \"prism.toml\"\nposition = [0.0, 0.0, 0.0]\n[[source]]\nazimuth_deg = -60.0\nelevation_deg = 20.0\ndistance = 3.0\nsignal = \"file\"\nfile = \"voice.wav\"\nactive = [[0.2, 0.9]]\n";
@@ -251,7 +252,7 @@ fn source_from_a_wav_file() {
         "0",
     ]);
     let rows = parse_csv(&String::from_utf8(o.stdout).unwrap());
-    let truth = ssl::direction::unit_from_angles(-60.0, 20.0);
+    let truth = ssl::method::direction::unit_from_angles(-60.0, 20.0);
     let inside: Vec<&Row> = rows
         .iter()
         .filter(|r| r.time_s > 0.25 && r.time_s < 0.85)
@@ -259,5 +260,5 @@ fn source_from_a_wav_file() {
     assert!(inside.len() > 30, "{}", inside.len());
     assert!(inside
         .iter()
-        .all(|r| ssl::direction::angle_between_deg(&r.u, &truth) < 2.0));
+        .all(|r| ssl::method::direction::angle_between_deg(&r.u, &truth) < 2.0));
 }

@@ -83,7 +83,9 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         files.push(FileEntry::new(path, Some(&summary), message));
     }
     let out = exporter.finish(&files).map_err(output_failed)?;
-    let sink = out.into_inner().map_err(|e| output_failed(e.into_error().into()))?;
+    let sink = out
+        .into_inner()
+        .map_err(|e| output_failed(e.into_error().into()))?;
     match &args.output {
         Some(path) => sink.commit(path)?,
         None => sink

@@ -2,8 +2,8 @@
 
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
-use ssl::method::{Interpolation, Params, Window, DEFAULT_TOLERANCE};
 use ssl::method::peaks::MAX_PEAKS;
+use ssl::method::{Interpolation, Params, Window, DEFAULT_TOLERANCE};
 use ssl::Format;
 use std::path::PathBuf;
 
@@ -234,6 +234,9 @@ impl AnalyzeArgs {
 fn choice<T: Copy + Send + Sync + 'static>(
     all: &'static [(T, &'static str, &'static str)],
 ) -> impl TypedValueParser<Value = T> {
-    PossibleValuesParser::new(all.iter().map(|&(_, name, help)| PossibleValue::new(name).help(help)))
-        .map(move |s| all.iter().find(|c| c.1 == s).expect("a possible value").0)
+    PossibleValuesParser::new(
+        all.iter()
+            .map(|&(_, name, help)| PossibleValue::new(name).help(help)),
+    )
+    .map(move |s| all.iter().find(|c| c.1 == s).expect("a possible value").0)
 }

@@ -15,7 +15,12 @@ pub fn run(args: &GeometryArgs) -> Result<()> {
     for w in &g.warnings {
         eprintln!("ssl: warning: {path}: {w}");
     }
-    let text = report(&g, &path, args.rate, args.speed_of_sound.unwrap_or(g.speed_of_sound));
+    let text = report(
+        &g,
+        &path,
+        args.rate,
+        args.speed_of_sound.unwrap_or(g.speed_of_sound),
+    );
     let mut out = std::io::stdout().lock();
     out.write_all(text.as_bytes())?;
     out.flush()?;
@@ -26,7 +31,11 @@ pub fn run(args: &GeometryArgs) -> Result<()> {
 fn report(g: &Geometry, path: &str, rate: u32, c: f64) -> String {
     let (aperture, i, j) = g.aperture();
     let n = default_frame_size(rate);
-    let named = g.name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default();
+    let named = g
+        .name
+        .as_ref()
+        .map(|n| format!(" ({n})"))
+        .unwrap_or_default();
     let mut summary = vec![
         ("geometry", format!("{path}{named}")),
         ("microphones", g.mics.len().to_string()),
@@ -36,8 +45,19 @@ fn report(g: &Geometry, path: &str, rate: u32, c: f64) -> String {
         summary.push(("note", note));
     }
     summary.extend([
-        ("aperture", format!("{aperture:.4} m (mics {} and {})", i + 1, j + 1)),
-        ("centre", format!("[{:.4}, {:.4}, {:.4}] m", g.centre.x + 0.0, g.centre.y + 0.0, g.centre.z + 0.0)),
+        (
+            "aperture",
+            format!("{aperture:.4} m (mics {} and {})", i + 1, j + 1),
+        ),
+        (
+            "centre",
+            format!(
+                "[{:.4}, {:.4}, {:.4}] m",
+                g.centre.x + 0.0,
+                g.centre.y + 0.0,
+                g.centre.z + 0.0
+            ),
+        ),
         ("speed of sound", format!("{c} m/s")),
         (
             "sample rate",
@@ -54,14 +74,29 @@ fn report(g: &Geometry, path: &str, rate: u32, c: f64) -> String {
     let _ = writeln!(s, "\n mic  channel         x         y         z");
     for (k, m) in g.mics.iter().enumerate() {
         let p = m.position.map(|v| v + 0.0);
-        let _ = writeln!(s, "{:>4}  {:>7}  {:>8.4}  {:>8.4}  {:>8.4}", k + 1, m.channel, p.x, p.y, p.z);
+        let _ = writeln!(
+            s,
+            "{:>4}  {:>7}  {:>8.4}  {:>8.4}  {:>8.4}",
+            k + 1,
+            m.channel,
+            p.x,
+            p.y,
+            p.z
+        );
     }
     let _ = writeln!(s, "\n pair   distance_m  max_lag_samples");
     let count = g.mics.len();
     for a in 0..count {
         for b in a + 1..count {
             let lag = g.max_lag_samples(a, b, rate as f64, c);
-            let _ = writeln!(s, "{:>2}-{:<2}  {:>10.4}  {:>15.2}", a + 1, b + 1, g.spacing(a, b), lag);
+            let _ = writeln!(
+                s,
+                "{:>2}-{:<2}  {:>10.4}  {:>15.2}",
+                a + 1,
+                b + 1,
+                g.spacing(a, b),
+                lag
+            );
         }
     }
     s

@@ -21,8 +21,13 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             args.output.display()
         );
     };
-    write_wav(tmp.path(), &sim.channels, sim.sample_rate, sim.format.into())
-        .with_context(|| format!("{}: cannot write", args.output.display()))?;
+    write_wav(
+        tmp.path(),
+        &sim.channels,
+        sim.sample_rate,
+        sim.format.into(),
+    )
+    .with_context(|| format!("{}: cannot write", args.output.display()))?;
     let mut truth = sim.truth;
     truth.recording = Some(args.output.display().to_string());
     let text = serde_json::to_string_pretty(&truth)? + "\n";

@@ -48,7 +48,9 @@ impl Sink {
                     .prefix(".ssl-")
                     .suffix(".tmp")
                     .tempfile_in(dir)
-                    .with_context(|| format!("{}: cannot create the output file", path.display()))?;
+                    .with_context(|| {
+                        format!("{}: cannot create the output file", path.display())
+                    })?;
                 Ok(Sink::Atomic(tmp, target))
             }
         }
@@ -64,9 +66,9 @@ impl Sink {
     pub fn commit(self, shown: &Path) -> Result<()> {
         match self {
             Sink::Atomic(tmp, target) => {
-                tmp.persist(&target)
-                    .map_err(|e| e.error)
-                    .with_context(|| format!("{}: cannot write the output file", shown.display()))?;
+                tmp.persist(&target).map_err(|e| e.error).with_context(|| {
+                    format!("{}: cannot write the output file", shown.display())
+                })?;
             }
             Sink::Stdout(mut out) => out.flush()?,
             Sink::Direct(mut file) => file.flush()?,

@@ -15,8 +15,8 @@
 
 mod report;
 
-use crate::method::direction::{angle_between_deg, angles_deg};
 use crate::method::default_frame_size;
+use crate::method::direction::{angle_between_deg, angles_deg};
 use crate::record::{DetectionRecord, Truth};
 use nalgebra::Vector3;
 
@@ -140,9 +140,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
         .iter()
         .find_map(|d| d.frame.map(|f| d.time_s / (f as f64 + 1.0)))
         .unwrap_or_else(|| {
-            default_frame_size(truth.sample_rate) as f64
-                / 2.0
-                / truth.sample_rate as f64
+            default_frame_size(truth.sample_rate) as f64 / 2.0 / truth.sample_rate as f64
         });
     let frames = if truth.duration_s >= 2.0 * hop {
         ((truth.duration_s - 2.0 * hop) / hop + 1e-9).floor() as u64 + 1
@@ -369,7 +367,10 @@ mod tests {
             let d = parse_detections(text).unwrap();
             assert_eq!(d.len(), 1);
             assert_eq!(d[0].frame, Some(49));
-            assert_eq!((d[0].x, d[0].file.as_str(), d[0].mics), (1.0, "a.wav", Some(8)));
+            assert_eq!(
+                (d[0].x, d[0].file.as_str(), d[0].mics),
+                (1.0, "a.wav", Some(8))
+            );
         }
         let two = parse_detections(&format!("{csv}0.6,0,0,1,0,0,3,b.wav,50,8\n")).unwrap();
         let err = evaluate(&truth(), &two, 0.0).unwrap_err();

@@ -152,21 +152,17 @@ fn cross_spectra(
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::method::peaks::find_peaks;
+    use crate::method::spectrum::{ForwardFft, Window};
+    use rand::{Rng, SeedableRng};
 
+    /// Uniform noise in [-0.5, 0.5).
     fn noise(n: usize, seed: u64) -> Vec<f32> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((s >> 40) as f32 / (1u64 << 24) as f32) - 0.5
-            })
-            .collect()
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        (0..n).map(|_| rng.random::<f32>() - 0.5).collect()
     }
 
     /// `r(tau)` for `tau = -(N/2 - 1)..=N/2 - 1` of the first or second pair.

@@ -17,8 +17,8 @@
 //! the plane. Linear arrays: rank 1, only `cos` of the angle to the axis is known; the
 //! direction is reported in the plane of the axis and `side`.
 
-use crate::geometry::{Geometry, Shape};
 use super::pairs::{pair_count, pair_index};
+use crate::geometry::{Geometry, Shape};
 use nalgebra::{DMatrix, Vector2, Vector3};
 
 enum Solver {

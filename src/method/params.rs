@@ -126,7 +126,11 @@ pub(crate) struct Setup {
 }
 
 impl Setup {
-    pub fn new(geometry: &Geometry, sample_rate: u32, params: &Params) -> Result<Self, ParamsError> {
+    pub fn new(
+        geometry: &Geometry,
+        sample_rate: u32,
+        params: &Params,
+    ) -> Result<Self, ParamsError> {
         let n = params
             .frame_size
             .unwrap_or_else(|| default_frame_size(sample_rate));

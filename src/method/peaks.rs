@@ -196,7 +196,6 @@ impl<const K: usize> Top<K> {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -264,13 +263,8 @@ mod tests {
     /// coarse values, so that ties and plateaus are common.
     #[test]
     fn peak_selection_equals_brute_force() {
-        let mut seed = 7u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            seed >> 33
-        };
+        let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(7);
+        let mut next = || rand::Rng::random::<u32>(&mut rng) as u64;
         let mut got = Vec::new();
         for case in 0..3000 {
             let h = 1 + (next() % 150) as usize;
@@ -315,5 +309,4 @@ mod tests {
             }
         }
     }
-
 }

@@ -24,9 +24,17 @@ pub enum Window {
 impl Window {
     /// Every window, with its name and a one-line description.
     pub const ALL: [(Window, &'static str, &'static str); 3] = [
-        (Window::Hann, "hann", "Periodic Hann window (the default)"),
+        (
+            Window::Hann,
+            "hann",
+            "Periodic Hann window (the default; see the README for the measurement)",
+        ),
         (Window::Hamming, "hamming", "Periodic Hamming window"),
-        (Window::Rectangular, "rectangular", "No window (rectangular)"),
+        (
+            Window::Rectangular,
+            "rectangular",
+            "No window (rectangular)",
+        ),
     ];
 
     /// The window's name.

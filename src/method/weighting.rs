@@ -221,6 +221,8 @@ pub fn enhanced_weights(x: &[f32], xn: &[f32], alpha: f32, gamma: f32, out: &mut
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     #[test]
     fn weights_match_hand_computed_values() {
@@ -251,13 +253,9 @@ mod tests {
         assert_eq!(out, [1.0, 1.0, 1.0]);
     }
 
-    /// Deterministic pseudo-random exponential (periodogram-like) power values.
-    fn periodogram(seed: &mut u64) -> f32 {
-        *seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        let u = ((*seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
-        (-u.ln()) as f32
+    /// Exponential (periodogram-like) power values of mean 1.
+    fn periodogram(rng: &mut ChaCha8Rng) -> f32 {
+        rng.sample::<f32, _>(rand_distr::Exp1)
     }
 
     #[test]
@@ -267,11 +265,11 @@ mod tests {
         let mut est = NoiseEstimator::new(bins, hop, NoiseSettings::default());
         let mut ema = vec![0.0f32; bins]; // a plain 0.5 s time average, for contrast
         let a = coefficient(0.5, hop);
-        let mut seed = 1;
+        let mut seed = ChaCha8Rng::seed_from_u64(1);
         let mut x = vec![0.0f32; bins];
         let frames = |s: f64| (s / hop) as usize;
         // 2 s of noise at power 1 (averaged over 8 mics: 8 exponentials / 8).
-        let frame = |level_src: f32, seed: &mut u64, x: &mut Vec<f32>| {
+        let frame = |level_src: f32, seed: &mut ChaCha8Rng, x: &mut Vec<f32>| {
             for (k, v) in x.iter_mut().enumerate() {
                 let noise: f32 = (0..8).map(|_| periodogram(seed)).sum::<f32>() / 8.0;
                 *v = noise + if k < bins / 2 { level_src } else { 0.0 };

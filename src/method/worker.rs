@@ -77,7 +77,12 @@ impl Worker {
 
     /// The first stage: live microphones, spectra and `X(k)`. Mic `m`'s samples are
     /// `frame[m * stride..][..N]`. Returns `false` when no microphone is live.
-    pub fn spectra(&mut self, setup: &Setup, frame: (&[f32], usize), state: &mut FrameState) -> bool {
+    pub fn spectra(
+        &mut self,
+        setup: &Setup,
+        frame: (&[f32], usize),
+        state: &mut FrameState,
+    ) -> bool {
         frame_spectra(
             &mut self.fft,
             frame,
@@ -234,9 +239,9 @@ fn direction(
     solution: &Solution,
 ) -> Option<Detection> {
     let mask = state.live.iter().fold(0u64, |acc, &m| acc | (1u64 << m));
-    let solver = solvers.entry(mask).or_insert_with(|| {
-        DirectionSolver::new(&setup.geometry, mask, setup.rate, setup.speed)
-    });
+    let solver = solvers
+        .entry(mask)
+        .or_insert_with(|| DirectionSolver::new(&setup.geometry, mask, setup.rate, setup.speed));
     let u = solver.as_ref()?.solve(&solution.lags)?;
     let (azimuth_deg, elevation_deg) = angles_deg(&u);
     Some(Detection {

@@ -52,7 +52,11 @@ impl<W: Write> Exporter<W> for JsonExporter<W> {
     }
 
     fn finish(mut self: Box<Self>, files: &[FileEntry]) -> Result<W, OutputError> {
-        write!(self.out, "\n],\n\"files\":{}}}\n", serde_json::to_string(files)?)?;
+        write!(
+            self.out,
+            "\n],\n\"files\":{}}}\n",
+            serde_json::to_string(files)?
+        )?;
         self.out.flush()?;
         Ok(self.out)
     }

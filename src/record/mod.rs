@@ -17,7 +17,9 @@ mod truth;
 pub use self::csv::CsvExporter;
 pub use self::json::{JsonExporter, NdjsonExporter};
 pub use detection::DetectionRecord;
-pub use metadata::{ambiguity_note, FileEntry, GeometryInfo, MicInfo, ParametersInfo, RunMetadata, Tool};
+pub use metadata::{
+    ambiguity_note, FileEntry, GeometryInfo, MicInfo, ParametersInfo, RunMetadata, Tool,
+};
 pub use read::{parse_detections, read_detections, ReadError};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 
@@ -39,9 +41,21 @@ pub enum Format {
 impl Format {
     /// Every format, with its name and a one-line description.
     pub const ALL: [(Format, &'static str, &'static str); 3] = [
-        (Format::Csv, "csv", "A header line, then one row per detection"),
-        (Format::Json, "json", "One JSON document: run metadata and a `detections` array"),
-        (Format::Ndjson, "ndjson", "One JSON object per detection per line"),
+        (
+            Format::Csv,
+            "csv",
+            "A header line, then one row per detection",
+        ),
+        (
+            Format::Json,
+            "json",
+            "One JSON document: run metadata and a `detections` array",
+        ),
+        (
+            Format::Ndjson,
+            "ndjson",
+            "One JSON object per detection per line",
+        ),
     ];
 
     /// The format's name (`csv`, `json`, `ndjson`).

@@ -62,7 +62,9 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
         sources.push(truth);
     }
     let noise = match &scene.noise {
-        Some(noise) => Some(add_noise(scene, noise, &placed, level_sum, &mut out, &mut rng)?),
+        Some(noise) => Some(add_noise(
+            scene, noise, &placed, level_sum, &mut out, &mut rng,
+        )?),
         None => None,
     };
     let peak = out.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -213,7 +215,6 @@ impl Placed {
             })
             .collect()
     }
-
 }
 
 /// Renders source `i` into `out`: its signal in each active interval, through the room;

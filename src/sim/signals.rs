@@ -134,4 +134,3 @@ fn shape_spectrum(x: &mut [f64], fs: f64, gain: impl Fn(f64) -> f64) {
     }
     inv.process(&mut spec, x).expect("sizes match");
 }
-

@@ -74,4 +74,3 @@ pub fn write_wav(
     w.finalize()?;
     Ok(())
 }
-

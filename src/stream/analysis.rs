@@ -147,8 +147,8 @@ impl Analysis<WavStream> {
         geometry: &Geometry,
         params: &Params,
     ) -> Result<Self, AnalysisError> {
-        let stream =
-            WavStream::from_reader(name, Box::new(reader), None).map_err(|e| fail(name, e.into()))?;
+        let stream = WavStream::from_reader(name, Box::new(reader), None)
+            .map_err(|e| fail(name, e.into()))?;
         Self::new(stream, geometry, params)
     }
 }
@@ -193,7 +193,11 @@ impl<S: SampleSource> Analysis<S> {
             };
             return Err(fail(&name, kind));
         }
-        let framer = Framer::new(n, geometry.mics.iter().map(|m| m.channel).collect(), channels);
+        let framer = Framer::new(
+            n,
+            geometry.mics.iter().map(|m| m.channel).collect(),
+            channels,
+        );
         Ok(Analysis {
             source,
             framer,
@@ -244,7 +248,10 @@ impl<S: SampleSource> Analysis<S> {
             Ok(()) => Ok(()),
             Err(e) => Err(e.into()),
         };
-        (summary, result.map_err(|kind| fail(self.source.name(), kind)))
+        (
+            summary,
+            result.map_err(|kind| fail(self.source.name(), kind)),
+        )
     }
 
     fn run_blocks(

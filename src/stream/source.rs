@@ -44,11 +44,7 @@ pub struct Channels<'a> {
 impl<'a> Channels<'a> {
     /// Channels named `name` in messages. Fails when there is no channel or when the
     /// channels differ in length.
-    pub fn new(
-        name: &str,
-        channels: Vec<&'a [f32]>,
-        sample_rate: u32,
-    ) -> Result<Self, InputError> {
+    pub fn new(name: &str, channels: Vec<&'a [f32]>, sample_rate: u32) -> Result<Self, InputError> {
         let len = channels.first().map_or(0, |c| c.len());
         if channels.is_empty() || channels.iter().any(|c| c.len() != len) {
             return Err(InputError::Corrupt(
@@ -213,5 +209,50 @@ impl Framer {
 fn deinterleave(interleaved: &[f32], channels: usize, channel: usize, out: &mut [f32]) {
     for (d, s) in out.iter_mut().zip(interleaved.chunks_exact(channels)) {
         *d = s[channel];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Blocks of overlapping frames hold exactly the file's samples, frame after frame,
+    /// across block boundaries, picking and reordering channels, and stop at the last
+    /// complete frame (lengths that end mid-hop, exactly on a block, shorter than a frame).
+    #[test]
+    fn frame_blocks_hold_consecutive_overlapping_frames() {
+        let (n, hop) = (8, 4);
+        for len in [5usize, 8, 11, 12, 27, 28, 29, 40, 41] {
+            let ch: Vec<Vec<f32>> = (0..3)
+                .map(|c| (0..len).map(|t| (c * 1000 + t) as f32 / 4096.0).collect())
+                .collect();
+            let mut source =
+                Channels::new("ramp", ch.iter().map(|c| &c[..]).collect(), 8000).unwrap();
+            let mut framer = Framer::new(n, vec![2, 0], 3);
+            let mut block = FrameBlock::new(n, 2, 3);
+            let mut seen = 0u64;
+            loop {
+                assert!(framer.fill(&mut source, &mut block).is_none());
+                if block.count == 0 {
+                    break;
+                }
+                assert_eq!(block.first, seen);
+                for i in 0..block.count {
+                    let (data, stride) = block.frame(i);
+                    let start = (block.first as usize + i) * hop;
+                    for (m, c) in [(0, 2), (1, 0)] {
+                        assert_eq!(
+                            &data[m * stride..m * stride + n],
+                            &ch[c][start..start + n],
+                            "len {len}, frame {}",
+                            block.first as usize + i
+                        );
+                    }
+                }
+                seen += block.count as u64;
+            }
+            let want = if len < n { 0 } else { (len - n) / hop + 1 };
+            assert_eq!(seen, want as u64, "len {len}");
+        }
     }
 }

@@ -116,12 +116,12 @@ impl WavStream {
             match &head[0..4] {
                 b"fmt " => {
                     if !(16..=1024).contains(&len) {
-                        return Err(InputError::Corrupt(format!("corrupt WAV: format chunk of {len} bytes")));
+                        return Err(InputError::Corrupt(format!(
+                            "corrupt WAV: format chunk of {len} bytes"
+                        )));
                     }
                     let mut body = vec![0u8; len as usize];
-                    if read_full(&mut input, &mut body).map_err(InputError::Io)?
-                        < body.len()
-                    {
+                    if read_full(&mut input, &mut body).map_err(InputError::Io)? < body.len() {
                         return Err(InputError::Corrupt(
                             "truncated WAV: the file ends in the format chunk".into(),
                         ));
@@ -196,8 +196,7 @@ impl WavStream {
         if self.raw.len() < bytes {
             self.raw.resize(bytes, 0);
         }
-        let got = read_full(&mut self.input, &mut self.raw[..bytes])
-            .map_err(InputError::Read)?;
+        let got = read_full(&mut self.input, &mut self.raw[..bytes]).map_err(InputError::Read)?;
         let frames = got / self.block_align;
         decode(
             &self.raw[..frames * self.block_align],
@@ -306,7 +305,9 @@ fn parse_fmt(b: &[u8]) -> Result<(WavFormat, u64), InputError> {
     let mut bits = container_bits;
     if tag == 0xFFFE {
         if b.len() < 40 {
-            return Err(InputError::Corrupt("corrupt WAV: WAVE_FORMAT_EXTENSIBLE header is too short".into()));
+            return Err(InputError::Corrupt(
+                "corrupt WAV: WAVE_FORMAT_EXTENSIBLE header is too short".into(),
+            ));
         }
         let valid = u16_at(18);
         if valid > 0 {
@@ -315,10 +316,14 @@ fn parse_fmt(b: &[u8]) -> Result<(WavFormat, u64), InputError> {
         tag = u16_at(24);
     }
     if channels == 0 {
-        return Err(InputError::Corrupt("corrupt WAV: the header says 0 channels".into()));
+        return Err(InputError::Corrupt(
+            "corrupt WAV: the header says 0 channels".into(),
+        ));
     }
     if sample_rate == 0 {
-        return Err(InputError::Corrupt("corrupt WAV: the header says a sample rate of 0 Hz".into()));
+        return Err(InputError::Corrupt(
+            "corrupt WAV: the header says a sample rate of 0 Hz".into(),
+        ));
     }
     if block_align == 0
         || block_align % channels as u64 != 0
@@ -377,53 +382,10 @@ fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> io::Result<usize> {
     Ok(n)
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "simulate"))]
 mod tests {
     use super::*;
-    use crate::synth::{write_wav, Encoding};
-
-    /// Blocks of overlapping frames hold exactly the file's samples, frame after frame,
-    /// across block boundaries, picking and reordering channels, and stop at the last
-    /// complete frame (lengths that end mid-hop, exactly on a block, shorter than a frame).
-    #[test]
-    fn frame_blocks_hold_consecutive_overlapping_frames() {
-        let dir = tempfile::tempdir().unwrap();
-        let (n, hop) = (8, 4);
-        for len in [5usize, 8, 11, 12, 27, 28, 29, 40, 41] {
-            let ch: Vec<Vec<f32>> = (0..3)
-                .map(|c| (0..len).map(|t| (c * 1000 + t) as f32 / 4096.0).collect())
-                .collect();
-            let path = dir.path().join(format!("ramp{len}.wav"));
-            write_wav(&path, &ch, 8000, Encoding::Float32).unwrap();
-            let mut stream = WavStream::open(path.to_str().unwrap()).unwrap();
-            let mut framer = Framer::new(n, vec![2, 0], 3);
-            let mut block = FrameBlock::new(n, 2, 3);
-            let mut seen = 0u64;
-            loop {
-                framer.fill(&mut stream, &mut block);
-                assert!(block.error.is_none());
-                if block.count == 0 {
-                    break;
-                }
-                assert_eq!(block.first, seen);
-                for i in 0..block.count {
-                    let (data, stride) = block.frame(i);
-                    let start = (block.first as usize + i) * hop;
-                    for (m, c) in [(0, 2), (1, 0)] {
-                        assert_eq!(
-                            &data[m * stride..m * stride + n],
-                            &ch[c][start..start + n],
-                            "len {len}, frame {}",
-                            block.first as usize + i
-                        );
-                    }
-                }
-                seen += block.count as u64;
-            }
-            let want = if len < n { 0 } else { (len - n) / hop + 1 };
-            assert_eq!(seen, want as u64, "len {len}");
-        }
-    }
+    use crate::sim::{write_wav, Encoding};
 
     /// Our block decoder against hound's per-sample reader, for every encoding hound
     /// writes, over the full range including the extremes.

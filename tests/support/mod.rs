@@ -1,17 +1,49 @@
-//! Helpers shared by the integration tests: synthetic recordings with known truth,
-//! hand-made WAV bytes for corner cases, and running the `ssl` binary.
+//! Fixtures shared by the integration tests and the benchmarks: the paper's array and
+//! other arrays, synthetic recordings with known truth, hand-made WAV bytes for corner
+//! cases, running the `ssl` binary, and the accuracy benchmark's scenes ([`bench`]).
 #![allow(dead_code)]
 
+pub mod bench;
+
 use nalgebra::Vector3;
-use ssl::direction::{angle_between_deg, unit_from_angles};
-use ssl::synth::{self, Encoding, Place, Scene, Signal, Source};
+use ssl::method::direction::{angle_between_deg, unit_from_angles};
+use ssl::sim::freefield::{render, Place, Scene, Source};
+use ssl::sim::signals::Signal;
+use ssl::sim::{write_wav, Encoding};
+use ssl::Geometry;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-pub use ssl::geometry::PAPER_PRISM as PRISM;
+/// The shipped files: `testdata/NAME`.
+pub fn testdata(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("testdata")
+        .join(name)
+}
 
+/// The paper's array (8 microphones on the corners of a 50 x 40 x 36 cm prism), as
+/// shipped in `testdata/prism.toml`.
+pub fn prism_geometry() -> Geometry {
+    Geometry::from_file(&testdata("prism.toml")).unwrap()
+}
+
+/// The paper's array's microphone positions (metres, array frame).
 pub fn prism() -> Vec<Vector3<f64>> {
-    PRISM.iter().map(|p| Vector3::from(*p)).collect()
+    prism_geometry().positions()
+}
+
+/// `k` points spread evenly over a sphere of radius `r` centred on the origin (a
+/// Fibonacci lattice): arrays of any size.
+pub fn sphere_lattice(k: usize, r: f64) -> Vec<Vector3<f64>> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..k)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / k as f64;
+            let rho = (1.0 - z * z).sqrt();
+            let phi = golden * i as f64;
+            Vector3::new(r * rho * phi.cos(), r * rho * phi.sin(), r * z)
+        })
+        .collect()
 }
 
 /// A geometry TOML for positions, with optional extra top-level lines.
@@ -21,6 +53,20 @@ pub fn geometry_toml(positions: &[Vector3<f64>], extra: &str) -> String {
         s += &format!("[[mic]]\nposition = [{}, {}, {}]\n", p.x, p.y, p.z);
     }
     s
+}
+
+/// A geometry TOML for positions, each microphone on the given channel.
+pub fn geometry_toml_with_channels(positions: &[Vector3<f64>], channels: &[usize]) -> String {
+    positions
+        .iter()
+        .zip(channels)
+        .map(|(p, c)| {
+            format!(
+                "[[mic]]\nposition = [{}, {}, {}]\nchannel = {c}\n",
+                p.x, p.y, p.z
+            )
+        })
+        .collect()
 }
 
 pub fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
@@ -68,9 +114,9 @@ pub fn scene(
 }
 
 pub fn render_wav(dir: &Path, name: &str, scene: &Scene, encoding: Encoding) -> PathBuf {
-    let channels = synth::render(scene);
+    let channels = render(scene);
     let p = dir.join(name);
-    synth::write_wav(&p, &channels, scene.sample_rate, encoding).unwrap();
+    write_wav(&p, &channels, scene.sample_rate, encoding).unwrap();
     p
 }
 
@@ -98,26 +144,24 @@ pub struct Row {
     pub mics: usize,
 }
 
+/// The rows of a CSV result, read by the library's reader (the header is checked).
 pub fn parse_csv(text: &str) -> Vec<Row> {
-    let mut lines = text.lines();
     assert_eq!(
-        lines.next().unwrap(),
+        text.lines().next().unwrap(),
         "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics"
     );
-    lines
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            let n = |i: usize| f[i].parse::<f64>().unwrap();
-            Row {
-                time_s: n(0),
-                azimuth_deg: n(1),
-                elevation_deg: n(2),
-                u: Vector3::new(n(3), n(4), n(5)),
-                score: n(6),
-                file: f[7].to_string(),
-                frame: f[8].parse().unwrap(),
-                mics: f[9].parse().unwrap(),
-            }
+    ssl::record::parse_detections(text)
+        .unwrap()
+        .into_iter()
+        .map(|r| Row {
+            time_s: r.time_s,
+            azimuth_deg: r.azimuth_deg,
+            elevation_deg: r.elevation_deg,
+            u: Vector3::new(r.x, r.y, r.z),
+            score: r.score,
+            file: r.file,
+            frame: r.frame.unwrap(),
+            mics: r.mics.unwrap(),
         })
         .collect()
 }

@@ -1,0 +1,232 @@
+//! The accuracy benchmark's scenes: simulated after the paper's experiments, analysed
+//! and scored. `cargo bench --bench accuracy` runs it in full and prints the markdown
+//! tables committed in `docs/accuracy.md`; `tests/benchmark.rs` runs a reduced version.
+//!
+//! Every case is a recording of one signal type with 8 events (or fewer in the reduced
+//! runs), one per horizontal angle, each 0.8 s long with 0.5 s gaps, after 1 s of
+//! background. It is written to a WAV file, analysed by [`Analysis`] exactly as
+//! `ssl analyze` would, and scored by [`evaluate`].
+
+use ssl::evaluate::{evaluate, Report};
+use ssl::sim::scene::{
+    ArraySpec, Colour, DiffuseSpec, FanSpec, NoiseSpec, RoomSpec, SampleFormat, SceneFile,
+    SignalKind, SourceSpec,
+};
+use ssl::sim::{simulate, write_wav, Encoding};
+use ssl::{Analysis, DetectionRecord, Geometry, Params, Truth};
+use std::error::Error;
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+
+type Result<T> = std::result::Result<T, Box<dyn Error>>;
+
+/// The paper's Table I: (distance m, elevation deg, the paper's mean angular error deg).
+pub const TABLE_I: [(f64, f64, f64); 4] = [
+    (3.0, -7.0, 1.7),
+    (3.0, 8.0, 3.0),
+    (1.5, -13.0, 3.1),
+    (0.9, 24.0, 3.3),
+];
+
+/// The source signals of the benchmark.
+pub const SIGNALS: [SignalKind; 3] = [SignalKind::Speech, SignalKind::Clicks, SignalKind::White];
+
+/// A lab-like room: 8 x 7 x 3 m, the array centre 0.8 m above the floor (a robot), a fan
+/// near the ceiling in a corner plus weaker diffuse noise.
+#[derive(Debug, Clone)]
+pub struct Lab {
+    /// `None`: free field.
+    pub rt60: Option<f64>,
+    pub snr_db: f64,
+    /// Point fan and diffuse noise (`false`: sensor noise only).
+    pub fan: bool,
+}
+
+impl Default for Lab {
+    fn default() -> Self {
+        Lab {
+            rt60: Some(0.35),
+            snr_db: 10.0,
+            fan: true,
+        }
+    }
+}
+
+/// Holds the working files of a benchmark run (the array geometry and the recordings).
+pub struct Bench {
+    dir: tempfile::TempDir,
+}
+
+impl Bench {
+    pub fn new() -> Result<Self> {
+        let dir = tempfile::tempdir()?;
+        std::fs::copy(super::testdata("prism.toml"), dir.path().join("prism.toml"))?;
+        Ok(Bench { dir })
+    }
+
+    /// The scene: `azimuths` events of `signal` at `distance` and `elevation` from the array.
+    pub fn scene(
+        &self,
+        lab: &Lab,
+        signal: SignalKind,
+        distance: f64,
+        elevation: f64,
+        azimuths: &[f64],
+        seed: u64,
+    ) -> SceneFile {
+        let sources = azimuths
+            .iter()
+            .enumerate()
+            .map(|(i, &az)| {
+                let start = 1.0 + 1.3 * i as f64;
+                SourceSpec {
+                    position: None,
+                    azimuth_deg: Some(az),
+                    elevation_deg: Some(elevation),
+                    distance: Some(distance),
+                    signal,
+                    // Clicks are 2 ms transients: their level is the RMS during a click.
+                    level_db: if signal == SignalKind::Clicks {
+                        -14.0
+                    } else {
+                        -26.0
+                    },
+                    active: Some(vec![[start, start + 0.8]]),
+                    rate: Some(8.0),
+                    frequency: None,
+                    file: None,
+                }
+            })
+            .collect();
+        SceneFile {
+            sample_rate: 48000,
+            duration: 1.0 + 1.3 * azimuths.len() as f64,
+            seed,
+            format: SampleFormat::Float32,
+            speed_of_sound: None,
+            room: lab.rt60.map(|rt60| RoomSpec {
+                dimensions: [8.0, 7.0, 3.0],
+                rt60: Some(rt60),
+                absorption: None,
+            }),
+            array: ArraySpec {
+                geometry: PathBuf::from("prism.toml"),
+                position: [4.0, 3.5, 0.8],
+                yaw_deg: 0.0,
+            },
+            source: sources,
+            noise: Some(NoiseSpec {
+                snr_db: lab.snr_db,
+                sensor_db: Some(-70.0),
+                fan: if lab.fan {
+                    vec![FanSpec {
+                        position: [7.6, 6.6, 2.7],
+                        signal: Colour::Pink,
+                        weight_db: 0.0,
+                    }]
+                } else {
+                    vec![]
+                },
+                diffuse: lab.fan.then_some(DiffuseSpec {
+                    signal: Colour::Pink,
+                    weight_db: -6.0,
+                }),
+            }),
+        }
+    }
+
+    /// Simulates a scene to a WAV file; returns its path and truth.
+    pub fn record(&self, scene: &SceneFile, name: &str) -> Result<(PathBuf, Truth)> {
+        let sim = simulate(scene, self.dir.path())?;
+        let path = self.dir.path().join(format!("{name}.wav"));
+        write_wav(&path, &sim.channels, sim.sample_rate, Encoding::Float32)?;
+        Ok((path, sim.truth))
+    }
+
+    /// Analyses a recording with `params` and scores it.
+    pub fn score(&self, wav: &Path, truth: &Truth, params: &Params) -> Result<Report> {
+        let geometry = Geometry::from_file(&self.dir.path().join("prism.toml"))?;
+        let name = wav.display().to_string();
+        let analysis = Analysis::open(&name, &geometry, params)?;
+        let mut records = Vec::new();
+        let (_, result) = analysis.run(|_, d| {
+            records.extend(d.map(|d| DetectionRecord::new(&name, d).expect("finite")));
+            ControlFlow::Continue(())
+        });
+        result?;
+        Ok(evaluate(
+            truth,
+            &records,
+            truth.rt60_s().map_or(0.0, |t| t / 2.0),
+        )?)
+    }
+}
+
+/// Several reports pooled: detections weighted by count, events and frames summed.
+#[derive(Debug, Clone, Default)]
+pub struct Pooled {
+    pub errors_sum: f64,
+    pub detections: usize,
+    pub events: usize,
+    pub events_detected: usize,
+    pub frames: usize,
+    pub frames_detected: usize,
+    pub false_detections: usize,
+    pub background_s: f64,
+}
+
+impl Pooled {
+    pub fn add(&mut self, r: &Report) {
+        for s in &r.sources {
+            self.errors_sum += s.mean_error_deg.unwrap_or(0.0) * s.detections as f64;
+            self.detections += s.detections;
+            self.events += s.events;
+            self.events_detected += s.events_detected;
+            self.frames += s.active_frames;
+            self.frames_detected += s.frames_detected;
+        }
+        self.false_detections += r.false_detections;
+        self.background_s += r.background_s;
+    }
+
+    pub fn mean_error(&self) -> f64 {
+        if self.detections == 0 {
+            f64::NAN
+        } else {
+            self.errors_sum / self.detections as f64
+        }
+    }
+
+    pub fn event_rate(&self) -> f64 {
+        self.events_detected as f64 / self.events.max(1) as f64
+    }
+
+    pub fn frame_rate(&self) -> f64 {
+        self.frames_detected as f64 / self.frames.max(1) as f64
+    }
+
+    pub fn false_per_minute(&self) -> f64 {
+        if self.background_s > 0.0 {
+            self.false_detections as f64 / (self.background_s / 60.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// "mean error / events detected / frames detected" for a table cell.
+    pub fn cell(&self) -> String {
+        format!(
+            "{:.2} / {:.0}% / {:.0}%",
+            self.mean_error(),
+            100.0 * self.event_rate(),
+            100.0 * self.frame_rate()
+        )
+    }
+}
+
+/// `n` horizontal angles evenly spread, starting 10 degrees off the array's axes.
+pub fn azimuths(n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| -170.0 + 10.0 + 360.0 * i as f64 / n as f64)
+        .collect()
+}
