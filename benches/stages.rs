@@ -4,33 +4,50 @@
 //! Prints, before the timings, the search's node counts on real frames (a source in
 //! sensor noise, and sensor noise alone) for 8, 16 and 32 microphones.
 
+#[path = "../tests/support/mod.rs"]
+mod support;
+
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
-use ssl::correlation::{find_peaks, whiten, Correlator, ForwardFft, Interpolation, Peak, Window};
-use ssl::direction::{pair_count, pair_index, unit_from_angles};
-use ssl::geometry::{sphere_lattice, PAPER_PRISM};
-use ssl::search::Searcher;
-use ssl::synth::{self, Place, Scene, Signal, Source};
-use ssl::{Analyzer, Geometry, Params};
+use ssl::method::correlation::{whiten, Correlator};
+use ssl::method::direction::unit_from_angles;
+use ssl::method::pairs::{pair_count, pair_index};
+use ssl::method::peaks::{find_peaks, Interpolation, Peak};
+use ssl::method::search::Searcher;
+use ssl::method::spectrum::{ForwardFft, Window};
+use ssl::sim::freefield::{render, Place, Scene, Source};
+use ssl::sim::signals::Signal;
+use ssl::{Analysis, Geometry, Params};
 use std::hint::black_box;
+use std::ops::ControlFlow;
 
 const N: usize = 1024;
 
 /// `mics` positions: the prism for 8, else points spread over a 0.5 m sphere (fixed).
-fn array(mics: usize) -> Vec<[f64; 3]> {
+fn array(mics: usize) -> Vec<Vector3<f64>> {
     if mics == 8 {
-        return PAPER_PRISM.to_vec();
+        return support::prism();
     }
-    sphere_lattice(mics, 0.25)
+    support::sphere_lattice(mics, 0.25)
+}
+
+fn geometry(positions: &[Vector3<f64>]) -> Geometry {
+    Geometry::from_positions(
+        &positions
+            .iter()
+            .map(|p| [p.x, p.y, p.z])
+            .collect::<Vec<_>>(),
+    )
+    .unwrap()
 }
 
 /// One frame (mic-major) of a scene: with a source, or sensor noise alone.
-fn frame(positions: &[[f64; 3]], with_source: bool) -> Vec<f32> {
+fn frame(positions: &[Vector3<f64>], with_source: bool) -> Vec<f32> {
     let scene = Scene {
         sample_rate: 48000,
         duration_s: 0.1,
-        mics: positions.iter().map(|p| Vector3::from(*p)).collect(),
+        mics: positions.to_vec(),
         speed_of_sound: 343.0,
         sources: if with_source {
             vec![Source {
@@ -46,16 +63,16 @@ fn frame(positions: &[[f64; 3]], with_source: bool) -> Vec<f32> {
         sensor_noise: 0.01,
         seed: 5,
     };
-    let ch = synth::render(&scene);
+    let ch = render(&scene);
     ch.iter()
         .flat_map(|c| c[1000..1000 + N].iter().copied())
         .collect()
 }
 
 /// The peak table of a frame, as the pipeline builds it (plain PHAT weights).
-fn peaks(positions: &[[f64; 3]], frame: &[f32]) -> Vec<Vec<Peak>> {
+fn peaks(positions: &[Vector3<f64>], frame: &[f32]) -> Vec<Vec<Peak>> {
     let k = positions.len();
-    let g = Geometry::from_positions(positions).unwrap();
+    let g = geometry(positions);
     let mut fft = ForwardFft::new(N, Window::Hann);
     let ones = vec![1.0f32; N / 2 + 1];
     let spectra: Vec<Vec<Complex32>> = (0..k)
@@ -131,7 +148,7 @@ fn stages(c: &mut Criterion) {
         },
     );
     // The 28 pairs' lag windows of a frame with a source (plain PHAT weights).
-    let g = Geometry::from_positions(&pos).unwrap();
+    let g = geometry(&pos);
     let ones = vec![1.0f32; N / 2 + 1];
     let white: Vec<Vec<Complex32>> = (0..8)
         .map(|m| {
@@ -169,21 +186,47 @@ fn stages(c: &mut Criterion) {
             });
         }
     }
-    let g = Geometry::from_positions(&pos).unwrap();
-    // --min-score 0: no correlation can be skipped (the same frame over and over would
-    // otherwise soon be noise to the estimator, and its correlations skipped).
+    // --min-score 0: no correlation can be skipped.
     let every_pair = Params {
         min_score: Some(0.0),
         ..Params::default()
     };
-    let mut analyzer = Analyzer::new(&g, 48000, &every_pair).unwrap();
-    let mut index = 0;
+    let g = geometry(&pos);
+    let second = render(&Scene {
+        sample_rate: 48000,
+        duration_s: 1.0,
+        mics: pos.clone(),
+        speed_of_sound: 343.0,
+        sources: vec![Source {
+            place: Place::Direction(unit_from_angles(35.0, 12.0)),
+            signal: Signal::WhiteNoise,
+            start_s: 0.0,
+            end_s: 1.0,
+            level: 0.05,
+        }],
+        sensor_noise: 0.01,
+        seed: 5,
+    });
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     c.bench_function(
-        "whole frame, 8 mics, every correlation (Analyzer::process)",
+        "a whole second, 8 mics, every correlation (92 frames, one thread)",
         |b| {
             b.iter(|| {
-                index += 1;
-                black_box(analyzer.process(index, black_box(&frame8)))
+                one.install(|| {
+                    let channels = second.iter().map(|c| &c[..]).collect();
+                    let analysis =
+                        Analysis::from_channels("bench", channels, 48000, &g, &every_pair).unwrap();
+                    let mut found = 0;
+                    let (_, result) = analysis.run(|_, d| {
+                        found += d.is_some() as usize;
+                        ControlFlow::Continue(())
+                    });
+                    result.unwrap();
+                    black_box(found)
+                })
             })
         },
     );
