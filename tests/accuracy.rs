@@ -288,19 +288,10 @@ fn shipped_example_matches_its_truth() {
         .unwrap();
     assert!(out.status.success(), "{}", stderr(&out));
     let rows = parse_csv(&String::from_utf8(out.stdout).unwrap());
-    let truth: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(root.join("testdata/example.truth.json")).unwrap())
-            .unwrap();
-    for s in truth["sources"].as_array().unwrap() {
-        let u = Vector3::new(
-            s["x"].as_f64().unwrap(),
-            s["y"].as_f64().unwrap(),
-            s["z"].as_f64().unwrap(),
-        );
-        let (a, b) = (
-            s["active"][0][0].as_f64().unwrap(),
-            s["active"][0][1].as_f64().unwrap(),
-        );
+    let truth = ssl::Truth::from_file(&root.join("testdata/example.truth.json")).unwrap();
+    for s in &truth.sources {
+        let u = s.direction();
+        let [a, b] = s.active[0];
         let inside: Vec<&Row> = rows
             .iter()
             .filter(|r| r.time_s - 0.0107 >= a && r.time_s + 0.0107 <= b)

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod bench;
+pub mod harness;
 
 use nalgebra::Vector3;
 use ssl::method::direction::{angle_between_deg, unit_from_angles};
@@ -118,6 +119,26 @@ pub fn render_wav(dir: &Path, name: &str, scene: &Scene, encoding: Encoding) -> 
     let p = dir.join(name);
     write_wav(&p, &channels, scene.sample_rate, encoding).unwrap();
     p
+}
+
+/// The frame size and every frame's detection (or none) of channels in memory, through
+/// the library's one entry point.
+pub fn frame_detections(
+    channels: &[Vec<f32>],
+    rate: u32,
+    geometry: &Geometry,
+    params: &ssl::Params,
+) -> (usize, Vec<Option<ssl::Detection>>) {
+    let slices = channels.iter().map(|c| &c[..]).collect();
+    let analysis = ssl::Analysis::from_channels("memory", slices, rate, geometry, params).unwrap();
+    let n = analysis.frame_size();
+    let mut all = Vec::new();
+    let (_, result) = analysis.run(|_, d| {
+        all.push(d.copied());
+        std::ops::ControlFlow::Continue(())
+    });
+    result.unwrap();
+    (n, all)
 }
 
 pub fn ssl() -> Command {

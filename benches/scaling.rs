@@ -1,0 +1,175 @@
+//! How `ssl analyze` scales beyond 8 channels at 48 kHz: 16 and 32 microphones, 16 and
+//! 96 kHz, and many small files in one call.
+//!
+//! `cargo bench --bench scaling -- [SECONDS]` (default 30). For each case it writes a free-field scene with `ssl simulate` (white
+//! noise events of 0.8 s every 1.5 s from changing directions at 3 m, -26 dBFS, sensor
+//! noise at -50 dBFS), analyses it with `--threads 1` and with all cores (wall time,
+//! x real time, peak memory), checks that both outputs are identical byte for byte,
+//! and scores the result with `ssl evaluate`. The 16- and 32-microphone arrays are
+//! Fibonacci lattices on a sphere of radius 0.25 m; the others are the paper's prism.
+
+#[path = "../tests/support/mod.rs"]
+mod support;
+
+use nalgebra::Vector3;
+use ssl::evaluate::{evaluate, Report};
+use ssl::record::read_detections;
+use ssl::Truth;
+use std::error::Error;
+use std::fmt::Write as _;
+use std::path::Path;
+use support::harness::{binary, cores, run_measured, seconds_arg};
+use support::{geometry_toml, prism, sphere_lattice};
+
+/// A free-field scene of white-noise events, each from its own direction.
+fn scene_toml(rate: u32, seconds: f64) -> String {
+    let mut s = format!(
+        "sample_rate = {rate}\nduration = {seconds}\nseed = 5\nformat = \"int16\"\n\
+         [array]\ngeometry = \"array.toml\"\nposition = [0.0, 0.0, 0.0]\n"
+    );
+    let mut t = 0.4;
+    let mut i = 0;
+    while t + 0.8 < seconds {
+        let azimuth = -170.0 + (i * 67 % 340) as f64;
+        let elevation = -40.0 + (i * 29 % 80) as f64;
+        write!(
+            s,
+            "[[source]]\nazimuth_deg = {azimuth}\nelevation_deg = {elevation}\ndistance = 3.0\n\
+             signal = \"white\"\nlevel_db = -26\nactive = [[{t:.2}, {:.2}]]\n",
+            t + 0.8
+        )
+        .unwrap();
+        t += 1.5;
+        i += 1;
+    }
+    s + "[noise]\nsensor_db = -50\n"
+}
+
+struct Case {
+    name: String,
+    mics: Vec<Vector3<f64>>,
+    rate: u32,
+    seconds: f64,
+    /// Analyse this many copies of the recording in one call.
+    copies: usize,
+}
+
+fn main() -> Result<(), Box<dyn Error>> {
+    let seconds = seconds_arg(30.0)?;
+    let exe = binary();
+    let cores = cores();
+    let prism = prism();
+    let cases = [
+        Case {
+            name: "prism (8 mics, 28 pairs), 48 kHz".into(),
+            mics: prism.clone(),
+            rate: 48000,
+            seconds,
+            copies: 1,
+        },
+        Case {
+            name: "16 mics (120 pairs), 48 kHz".into(),
+            mics: sphere_lattice(16, 0.25),
+            rate: 48000,
+            seconds,
+            copies: 1,
+        },
+        Case {
+            name: "32 mics (496 pairs), 48 kHz".into(),
+            mics: sphere_lattice(32, 0.25),
+            rate: 48000,
+            seconds: seconds / 2.0,
+            copies: 1,
+        },
+        Case {
+            name: "prism, 96 kHz (N = 2048)".into(),
+            mics: prism.clone(),
+            rate: 96000,
+            seconds,
+            copies: 1,
+        },
+        Case {
+            name: "prism, 16 kHz (N = 256)".into(),
+            mics: prism.clone(),
+            rate: 16000,
+            seconds,
+            copies: 1,
+        },
+        Case {
+            name: "200 files of 2 s (prism, 48 kHz), one call".into(),
+            mics: prism,
+            rate: 48000,
+            seconds: 2.0,
+            copies: 200,
+        },
+    ];
+    println!(
+        "| recording | audio | --threads 1 | --threads {cores} | peak memory | mean error | events found |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for case in &cases {
+        let dir = tempfile::tempdir()?;
+        let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+        let array = path("array.toml");
+        std::fs::write(&array, geometry_toml(&case.mics, ""))?;
+        std::fs::write(path("scene.toml"), scene_toml(case.rate, case.seconds))?;
+        let wav = path("rec.wav");
+        let truth = path("truth.json");
+        let simulate = [
+            "simulate",
+            &path("scene.toml"),
+            "-o",
+            &wav,
+            "--truth",
+            &truth,
+        ];
+        run_measured(exe, &simulate)?;
+        let mut inputs = vec![wav.clone()];
+        for c in 1..case.copies {
+            let copy = path(&format!("rec{c}.wav"));
+            std::fs::hard_link(&wav, &copy)?;
+            inputs.push(copy);
+        }
+        let mut cells = Vec::new();
+        let mut peak = 0.0f64;
+        for threads in [1, cores] {
+            let out = path(&format!("out{threads}.csv"));
+            let threads_arg = threads.to_string();
+            let mut args = vec!["analyze", "-g", &array];
+            args.extend(inputs.iter().map(String::as_str));
+            args.extend(["-o", &out, "--threads", &threads_arg]);
+            let (wall, peak_mb) = run_measured(exe, &args)?;
+            let audio = case.seconds * case.copies as f64;
+            cells.push(format!("{wall:.2} s ({:.0}x)", audio / wall));
+            peak = peak.max(peak_mb);
+        }
+        if std::fs::read(path("out1.csv"))? != std::fs::read(path(&format!("out{cores}.csv")))? {
+            return Err(
+                format!("{}: the output depends on the number of threads", case.name).into(),
+            );
+        }
+        let report = score_first_file(Path::new(&truth), Path::new(&path("out1.csv")))?;
+        let mean = report.mean_error_deg.unwrap_or(f64::NAN);
+        let events = report.event_detection_rate.unwrap_or(f64::NAN);
+        println!(
+            "| {} | {} s | {} | {} | {peak:.1} MB | {mean:.2} deg | {:.0}% |",
+            case.name,
+            case.seconds * case.copies as f64,
+            cells[0],
+            cells[1],
+            100.0 * events
+        );
+    }
+    Ok(())
+}
+
+/// The evaluation of the first file's detections (for many identical files, the first
+/// one's rows are what the truth describes; the result holds them all, in file order).
+fn score_first_file(truth: &Path, result: &Path) -> Result<Report, Box<dyn Error>> {
+    let truth = Truth::from_file(truth)?;
+    let mut records = read_detections(result)?;
+    let first = records.first().map(|r| r.file.clone()).unwrap_or_default();
+    records.retain(|r| r.file == first);
+    let tail = truth.rt60_s().map_or(0.0, |t| t / 2.0);
+    Ok(evaluate(&truth, &records, tail)?)
+}
