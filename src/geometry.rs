@@ -1,6 +1,6 @@
 //! Array geometry: the microphone positions `p_i` behind the difference vectors
 //! `x_ij = p_j - p_i` of the paper's eq. (9)-(13), read from the TOML file described in
-//! the interface contract, validated, and classified as 3-D, planar or linear.
+//! docs/interface.md ("Geometry file"), validated, and classified as 3-D, planar or linear.
 //!
 //! A 3-D array determines the full direction (eq. 13 has rank 3). A planar array only
 //! determines the in-plane part of the direction; the out-of-plane part comes from
@@ -53,7 +53,7 @@ macro_rules! invalid {
     };
 }
 
-/// Default speed of sound in m/s (dry air at about 20 degrees C), as in the contract.
+/// Default speed of sound in m/s (dry air at about 20 degrees C; docs/interface.md).
 pub const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
 /// The most microphones an array may have (subsets of live microphones are bit masks).
 pub const MAX_MICS: usize = 64;
@@ -131,7 +131,7 @@ pub struct Geometry {
     pub centre: Vector3<f64>,
     /// The side vector used to resolve the planar/linear ambiguity (given or default).
     pub side: Vector3<f64>,
-    /// Whether `side` came from the file (`false`: the contract's default).
+    /// Whether `side` came from the file (`false`: the default of docs/interface.md).
     pub side_given: bool,
     /// 3-D, planar or linear.
     pub shape: Shape,
@@ -378,7 +378,7 @@ enum RawShape {
     Volumetric,
 }
 
-/// Applies the contract's `side` rules: a planar array reports directions on the side of
+/// Applies the `side` rules of docs/interface.md: a planar array reports directions on the side of
 /// its plane that `side` points to (default +z; +x when the plane contains the z axis;
 /// +y when it contains both); a linear array reports directions in the plane of its axis
 /// and `side`, on `side`'s side (default +x; +y when the array lies along x).

@@ -163,7 +163,7 @@ impl DirectionSolver {
     }
 }
 
-/// Azimuth and elevation in degrees per the contract: azimuth = atan2(y, x) in
+/// Azimuth and elevation in degrees (docs/interface.md, "Directions"): azimuth = atan2(y, x) in
 /// (-180, 180], elevation = asin(z).
 pub fn angles_deg(u: &Vector3<f64>) -> (f64, f64) {
     let mut az = u.y.atan2(u.x).to_degrees();
@@ -269,7 +269,7 @@ mod tests {
 
     #[test]
     fn exact_delays_give_exact_directions_linear() {
-        // Along y; the contract's default side for an array not along x is +x.
+        // Along y; the default side (docs/interface.md) for an array not along x is +x.
         let g = Geometry::from_positions(&[
             [0.0, -0.1, 0.0],
             [0.0, 0.0, 0.0],

@@ -57,7 +57,7 @@ impl Default for Params {
 }
 
 /// How much of the start of a recording primes the noise estimate before it is analysed
-/// (seconds, at most one block of frames; see [`Analyzer`](super::Analyzer)).
+/// (seconds, at most one block of frames; see the `analyzer` module).
 pub const PRIMING_S: f64 = 0.25;
 
 /// Default consistency tolerance in samples (see the README for how it was chosen).

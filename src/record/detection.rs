@@ -4,7 +4,7 @@ use super::{fixed, OutputError};
 use crate::method::Detection;
 use serde::{Deserialize, Serialize};
 
-/// A detection as written (docs/interface.md, "Detections"): the contract's fields
+/// A detection as written (docs/interface.md, "Detections"): the fields every tool reads
 /// first, in order, then ours. Values are rounded to fixed precision: time to the
 /// microsecond, angles to a thousandth of a degree, the vector to 1e-6, the score to
 /// 1e-4.

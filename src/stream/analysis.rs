@@ -1,5 +1,5 @@
 //! One recording through the method: open a source, check it against the geometry, and
-//! stream its frames through the [`Analyzer`], reading the next block while the thread
+//! stream its frames through the method's analyzer, reading the next block while the thread
 //! pool analyses the current one.
 
 use super::source::{Channels, Framer, SampleSource};

@@ -2,7 +2,7 @@
 //!
 //! Every input (a WAV file, WAV bytes from any reader, channels already in memory, or a
 //! source of the caller's own) is a [`SampleSource`]: interleaved `f32` samples read a
-//! chunk at a time. The [`Framer`] cuts any source into the same blocks of frames, so the
+//! chunk at a time. The framer cuts any source into the same blocks of frames, so the
 //! method sees the same frames whatever the input.
 
 use super::InputError;
