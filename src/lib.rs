@@ -67,6 +67,14 @@
 
 #![warn(missing_docs)]
 
+/// Returns `Err(variant(message))` from the enclosing function, the message formatted
+/// like `format!`: for errors that are a sentence about what is wrong.
+macro_rules! fail {
+    ($variant:path, $($arg:tt)*) => {
+        return Err($variant(format!($($arg)*)))
+    };
+}
+
 pub mod evaluate;
 pub mod geometry;
 pub mod method;

@@ -9,7 +9,7 @@ use super::signals::{generate, Signal};
 use super::SceneError;
 use crate::geometry::Geometry;
 use crate::method::direction::{angles_deg, unit_from_angles};
-use crate::record::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
+use crate::record::{fixed, Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 use crate::stream::WavStream;
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
@@ -28,12 +28,6 @@ pub struct Simulation {
     pub channels: Vec<Vec<f32>>,
     /// What is where, and when.
     pub truth: Truth,
-}
-
-macro_rules! invalid {
-    ($($arg:tt)*) => {
-        return Err(SceneError::Invalid(format!($($arg)*)))
-    };
 }
 
 /// Reads and renders a scene file; relative paths in it are relative to its folder.
@@ -69,7 +63,7 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
     };
     let peak = out.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
     if scene.format != SampleFormat::Float32 && peak >= 1.0 {
-        invalid!("the scene clips (peak {peak:.2} of full scale): lower the levels or use format = \"float32\"");
+        fail!(SceneError::Invalid, "the scene clips (peak {peak:.2} of full scale): lower the levels or use format = \"float32\"");
     }
     let truth = Truth {
         tool: Default::default(),
@@ -107,20 +101,25 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
 /// The scene-wide numbers.
 fn check(scene: &SceneFile) -> Result<(), SceneError> {
     if !(1000..=768_000).contains(&scene.sample_rate) {
-        invalid!(
+        fail!(
+            SceneError::Invalid,
             "sample_rate must be between 1000 and 768000 Hz, got {}",
             scene.sample_rate
         );
     }
     if !(scene.duration.is_finite() && scene.duration > 0.0 && scene.duration <= 3600.0) {
-        invalid!(
+        fail!(
+            SceneError::Invalid,
             "duration must be between 0 and 3600 seconds, got {}",
             scene.duration
         );
     }
     let c = scene.speed_of_sound.unwrap_or(343.0);
     if !(c.is_finite() && c > 0.0) {
-        invalid!("speed_of_sound must be positive, got {c}");
+        fail!(
+            SceneError::Invalid,
+            "speed_of_sound must be positive, got {c}"
+        );
     }
     Ok(())
 }
@@ -148,7 +147,10 @@ impl Placed {
                 Some(match (r.rt60, r.absorption) {
                     (Some(t), None) => Room::with_rt60(dims, t)?,
                     (None, Some(a)) => Room::with_absorption(dims, a)?,
-                    _ => invalid!("[room] needs exactly one of `rt60` or `absorption`"),
+                    _ => fail!(
+                        SceneError::Invalid,
+                        "[room] needs exactly one of `rt60` or `absorption`"
+                    ),
                 })
             }
         };
@@ -182,7 +184,8 @@ impl Placed {
     fn check_inside(&self, what: &str, p: &Vector3<f64>) -> Result<(), SceneError> {
         if let Some(room) = &self.room {
             if !room.contains(p) {
-                invalid!(
+                fail!(
+                    SceneError::Invalid,
                     "{what} at [{:.3}, {:.3}, {:.3}] is outside the room [0..{}, 0..{}, 0..{}]",
                     p.x,
                     p.y,
@@ -237,7 +240,7 @@ fn render_source(
     placed.check_inside(&what, &position)?;
     let distance = (position - placed.centre).norm();
     if distance < 1e-3 {
-        invalid!("{what} is at the array centre");
+        fail!(SceneError::Invalid, "{what} is at the array centre");
     }
     let level = 10f64.powf(s.level_db / 20.0);
     let signal = match s.signal {
@@ -256,7 +259,10 @@ fn render_source(
         (SignalKind::File, Some(f)) => {
             Some(read_mono(&dir.join(f), scene.sample_rate).map_err(about)?)
         }
-        (SignalKind::File, None) => invalid!("{what}: signal = \"file\" needs `file = \"...\"`"),
+        (SignalKind::File, None) => fail!(
+            SceneError::Invalid,
+            "{what}: signal = \"file\" needs `file = \"...\"`"
+        ),
         _ => None,
     };
     let len = out[0].len();
@@ -265,7 +271,8 @@ fn render_source(
     let mut active = Vec::new();
     for [a, b] in s.active.clone().unwrap_or(vec![[0.0, scene.duration]]) {
         if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b && b <= scene.duration) {
-            invalid!(
+            fail!(
+                SceneError::Invalid,
                 "{what}: active interval [{a}, {b}] must lie within [0, {}] and not be empty",
                 scene.duration
             );
@@ -293,8 +300,8 @@ fn render_source(
             }
         }
         active.push([
-            round6(a + delay_s),
-            round6((b + delay_s).min(scene.duration)),
+            fixed(a + delay_s, 6),
+            fixed((b + delay_s).min(scene.duration), 6),
         ]);
     }
     let u = placed.rotation.transpose() * (position - placed.centre) / distance;
@@ -354,7 +361,10 @@ fn add_noise(
     }
     if components > 0 {
         if level_sum == 0.0 {
-            invalid!("[noise] snr_db needs at least one [[source]] to be relative to");
+            fail!(
+                SceneError::Invalid,
+                "[noise] snr_db needs at least one [[source]] to be relative to"
+            );
         }
         let mean_level2 = level_sum / scene.source.len() as f64;
         let power = mean_power(&total);
@@ -395,23 +405,22 @@ fn add_noise(
     })
 }
 
-fn round6(v: f64) -> f64 {
-    (v * 1e6).round() / 1e6
-}
-
 fn source_position(s: &SourceSpec, placed: &Placed) -> Result<Vector3<f64>, SceneError> {
     match (s.position, s.azimuth_deg, s.elevation_deg, s.distance) {
         (Some(p), None, None, None) => Ok(Vector3::from(p)),
         (None, Some(az), el, Some(d)) => {
             if !(d.is_finite() && d > 0.0) {
-                invalid!("distance must be positive, got {d}");
+                fail!(SceneError::Invalid, "distance must be positive, got {d}");
             }
             let u = unit_from_angles(az, el.unwrap_or(0.0));
             Ok(placed.centre + placed.rotation * u * d)
         }
-        _ => invalid!(
+        _ => {
+            fail!(
+SceneError::Invalid,
             "give either `position`, or `azimuth_deg`, `distance` (and optionally `elevation_deg`)"
-        ),
+        )
+        }
     }
 }
 
@@ -424,7 +433,8 @@ fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
     };
     let mut stream = WavStream::open(&name).map_err(input)?;
     if stream.format.channels != 1 || stream.format.sample_rate != rate {
-        invalid!(
+        fail!(
+SceneError::Invalid,
             "{name}: a source file must be mono at the scene's rate ({rate} Hz); it has {} channel(s) at {} Hz",
             stream.format.channels,
             stream.format.sample_rate
@@ -440,7 +450,7 @@ fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
         all.extend(buf[..n].iter().map(|&v| v as f64));
     }
     if all.is_empty() {
-        invalid!("{name}: no samples");
+        fail!(SceneError::Invalid, "{name}: no samples");
     }
     Ok(all)
 }

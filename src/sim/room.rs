@@ -17,11 +17,6 @@ use super::SceneError;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
-macro_rules! bail {
-    ($($arg:tt)*) => {
-        return Err(SceneError::Invalid(format!($($arg)*)))
-    };
-}
 use nalgebra::Vector3;
 
 /// Half-width of the windowed-sinc fractional-delay kernel, in samples.
@@ -48,7 +43,10 @@ impl Room {
     pub fn with_rt60(dims: Vector3<f64>, rt60: f64) -> Result<Self> {
         check_dims(&dims)?;
         if !(rt60.is_finite() && rt60 >= 0.0) {
-            bail!("rt60 must be a non-negative number of seconds, got {rt60}");
+            fail!(
+                SceneError::Invalid,
+                "rt60 must be a non-negative number of seconds, got {rt60}"
+            );
         }
         if rt60 == 0.0 {
             return Ok(Room { dims, beta: 0.0 });
@@ -64,7 +62,10 @@ impl Room {
             };
             let measured = room.reference_rt60(1.5 * rt60);
             if !measured.is_finite() {
-                bail!("rt60 {rt60} s: the simulated room does not decay as requested");
+                fail!(
+                    SceneError::Invalid,
+                    "rt60 {rt60} s: the simulated room does not decay as requested"
+                );
             }
             log_inv_beta *= measured / rt60;
             if (measured / rt60 - 1.0).abs() < 0.005 {
@@ -97,7 +98,10 @@ impl Room {
     pub fn with_absorption(dims: Vector3<f64>, absorption: f64) -> Result<Self> {
         check_dims(&dims)?;
         if !(0.0..=1.0).contains(&absorption) || absorption == 0.0 {
-            bail!("wall absorption must be in (0, 1], got {absorption}");
+            fail!(
+                SceneError::Invalid,
+                "wall absorption must be in (0, 1], got {absorption}"
+            );
         }
         Ok(Room {
             dims,
@@ -205,7 +209,8 @@ impl Room {
 
 fn check_dims(d: &Vector3<f64>) -> Result<()> {
     if !d.iter().all(|v| v.is_finite() && *v > 0.0) {
-        bail!(
+        fail!(
+            SceneError::Invalid,
             "room dimensions must be positive numbers of metres, got {:?}",
             d.as_slice()
         );

@@ -6,6 +6,7 @@
 //! microphones); `sensor_db` adds independent noise to every channel.
 
 use super::SceneError;
+use crate::geometry::toml_line;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -191,9 +192,7 @@ impl SceneFile {
         })?;
         toml::from_str(&text).map_err(|e| SceneError::Toml {
             path: path.to_path_buf(),
-            line: e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1)),
+            line: toml_line(&text, &e),
             message: e.message().trim().to_string(),
         })
     }

@@ -8,10 +8,21 @@
 //! the angle to its axis; the direction is reported in the plane spanned by the axis and
 //! `side`.
 
+mod shape;
+
+pub use shape::Shape;
+use shape::{classify, orient};
+
 use crate::stream::io_reason;
-use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
+
+/// The 1-based line a TOML parse error points at, when it points at one.
+pub(crate) fn toml_line(text: &str, e: &toml::de::Error) -> Option<usize> {
+    e.span()
+        .map(|span| text[..span.start.min(text.len())].lines().count().max(1))
+}
 
 /// Why a geometry cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -46,12 +57,6 @@ pub enum GeometryError {
 }
 
 type Result<T> = std::result::Result<T, GeometryError>;
-
-macro_rules! invalid {
-    ($($arg:tt)*) => {
-        return Err(GeometryError::Invalid(format!($($arg)*)))
-    };
-}
 
 /// Default speed of sound in m/s (dry air at about 20 degrees C; docs/interface.md).
 pub const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
@@ -88,34 +93,6 @@ pub struct Mic {
     pub position: Vector3<f64>,
     /// 0-based channel in the recording.
     pub channel: usize,
-}
-
-/// What a set of microphone positions can resolve.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Shape {
-    /// All microphones on one line (unit axis vector): only the angle to the axis is known.
-    Linear {
-        /// Unit vector along the array.
-        axis: Vector3<f64>,
-    },
-    /// All microphones in one plane (unit normal, oriented toward `side`): up/down ambiguous.
-    Planar {
-        /// Unit normal of the plane, on the `side` directions are reported on.
-        normal: Vector3<f64>,
-    },
-    /// Microphones span 3-D space: the full direction is determined.
-    Volumetric,
-}
-
-impl Shape {
-    /// `3-D`, `planar` or `linear`.
-    pub fn label(&self) -> &'static str {
-        match self {
-            Shape::Linear { .. } => "linear",
-            Shape::Planar { .. } => "planar",
-            Shape::Volumetric => "3-D",
-        }
-    }
 }
 
 /// A validated microphone array.
@@ -159,15 +136,14 @@ impl Geometry {
         let file: GeometryFile = toml::from_str(text).map_err(|e| {
             // toml's messages span several lines with a source excerpt; keep one line.
             GeometryError::Toml {
-                line: e
-                    .span()
-                    .map(|span| text[..span.start.min(text.len())].lines().count().max(1)),
+                line: toml_line(text, &e),
                 message: e.message().trim().to_string(),
             }
         })?;
         let explicit = file.mic.iter().filter(|m| m.channel.is_some()).count();
         if explicit != 0 && explicit != file.mic.len() {
-            invalid!(
+            fail!(
+                GeometryError::Invalid,
                 "{} of {} microphones have a `channel` key: give it to all of them or to none",
                 explicit,
                 file.mic.len()
@@ -214,20 +190,23 @@ impl Geometry {
     ) -> Result<Self> {
         let mut warnings = Vec::new();
         if mics.len() < 2 {
-            invalid!(
+            fail!(
+                GeometryError::Invalid,
                 "the array has {} microphone(s); at least 2 `[[mic]]` tables are needed",
                 mics.len()
             );
         }
         if mics.len() > MAX_MICS {
-            invalid!(
+            fail!(
+                GeometryError::Invalid,
                 "the array has {} microphones; at most {MAX_MICS} are supported",
                 mics.len()
             );
         }
         for (i, m) in mics.iter().enumerate() {
             if !m.position.iter().all(|v| v.is_finite()) {
-                invalid!(
+                fail!(
+                    GeometryError::Invalid,
                     "mic {} has a non-finite position {:?}",
                     i + 1,
                     m.position.as_slice()
@@ -237,7 +216,8 @@ impl Geometry {
         let mut seen = std::collections::HashMap::new();
         for (i, m) in mics.iter().enumerate() {
             if let Some(j) = seen.insert(m.channel, i) {
-                invalid!(
+                fail!(
+                    GeometryError::Invalid,
                     "mics {} and {} both use channel {}: each microphone needs its own channel",
                     j + 1,
                     i + 1,
@@ -247,14 +227,18 @@ impl Geometry {
         }
         let speed = speed_of_sound.unwrap_or(DEFAULT_SPEED_OF_SOUND);
         if !(speed.is_finite() && speed > 0.0) {
-            invalid!("speed_of_sound must be a positive number of m/s, got {speed}");
+            fail!(
+                GeometryError::Invalid,
+                "speed_of_sound must be a positive number of m/s, got {speed}"
+            );
         }
         let mut aperture: f64 = 0.0;
         for i in 0..mics.len() {
             for j in i + 1..mics.len() {
                 let d = (mics[j].position - mics[i].position).norm();
                 if d < MIN_SPACING_M {
-                    invalid!(
+                    fail!(
+                        GeometryError::Invalid,
                         "mics {} and {} have the same position {:?}",
                         i + 1,
                         j + 1,
@@ -273,7 +257,8 @@ impl Geometry {
         let centre = positions.iter().sum::<Vector3<f64>>() / positions.len() as f64;
         if let Some(s) = side {
             if !(s.iter().all(|v| v.is_finite()) && s.norm() > 0.0) {
-                invalid!(
+                fail!(
+                    GeometryError::Invalid,
                     "side must be a finite non-zero vector, got {:?}",
                     s.as_slice()
                 );
@@ -335,7 +320,7 @@ impl Geometry {
             .map(|i| self.mics[i].position)
             .collect();
         if pos.len() < 2 {
-            invalid!("fewer than 2 microphones");
+            fail!(GeometryError::Invalid, "fewer than 2 microphones");
         }
         let side = if self.side_given {
             Some(self.side)
@@ -344,95 +329,6 @@ impl Geometry {
         };
         Ok(orient(classify(&pos), side)?.0)
     }
-}
-
-/// Classifies positions by the spread of their principal axes: the square roots of the
-/// eigenvalues of the scatter matrix. An axis whose spread is below [`FLATNESS`] times
-/// the largest counts as flat: solving it in 3-D would amplify timing noise on it by
-/// the inverse of that ratio.
-fn classify(positions: &[Vector3<f64>]) -> RawShape {
-    let n = positions.len() as f64;
-    let centre = positions.iter().sum::<Vector3<f64>>() / n;
-    let mut scatter = Matrix3::zeros();
-    for p in positions {
-        let d = p - centre;
-        scatter += d * d.transpose();
-    }
-    let eig = SymmetricEigen::new(scatter);
-    let mut order = [0usize, 1, 2];
-    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
-    let spread = |k: usize| eig.eigenvalues[order[k]].max(0.0).sqrt();
-    let axis = |k: usize| eig.eigenvectors.column(order[k]).into_owned().normalize();
-    if spread(1) < FLATNESS * spread(0) {
-        RawShape::Linear(axis(0))
-    } else if spread(2) < FLATNESS * spread(0) {
-        RawShape::Planar(axis(2))
-    } else {
-        RawShape::Volumetric
-    }
-}
-
-enum RawShape {
-    Linear(Vector3<f64>),
-    Planar(Vector3<f64>),
-    Volumetric,
-}
-
-/// Applies the `side` rules of docs/interface.md: a planar array reports directions on the side of
-/// its plane that `side` points to (default +z; +x when the plane contains the z axis;
-/// +y when it contains both); a linear array reports directions in the plane of its axis
-/// and `side`, on `side`'s side (default +x; +y when the array lies along x).
-fn orient(raw: RawShape, side: Option<Vector3<f64>>) -> Result<(Shape, Vector3<f64>)> {
-    const PARALLEL: f64 = 1e-6;
-    let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
-    match raw {
-        RawShape::Volumetric => Ok((Shape::Volumetric, side.unwrap_or(z))),
-        RawShape::Planar(n) => {
-            let s = match side {
-                Some(s) => {
-                    if n.dot(&s).abs() < PARALLEL * s.norm() {
-                        invalid!(
-                            "side {:?} lies in the plane of this planar array: it must point out of the plane (normal {:?})",
-                            s.as_slice(),
-                            round3(&n)
-                        );
-                    }
-                    s
-                }
-                None => [z, x, y]
-                    .into_iter()
-                    .find(|c| n.dot(c).abs() > PARALLEL)
-                    .expect("a unit normal is not orthogonal to all three axes"),
-            };
-            let normal = if n.dot(&s) < 0.0 { -n } else { n };
-            Ok((Shape::Planar { normal }, s))
-        }
-        RawShape::Linear(a) => {
-            let s = match side {
-                Some(s) => {
-                    if (s - a * a.dot(&s)).norm() < PARALLEL * s.norm() {
-                        invalid!(
-                            "side {:?} is parallel to the axis of this linear array: it must point away from the axis",
-                            s.as_slice()
-                        );
-                    }
-                    s
-                }
-                None => {
-                    if (x - a * a.dot(&x)).norm() > 1e-3 {
-                        x
-                    } else {
-                        y
-                    }
-                }
-            };
-            Ok((Shape::Linear { axis: a }, s))
-        }
-    }
-}
-
-fn round3(v: &Vector3<f64>) -> [f64; 3] {
-    [v.x, v.y, v.z].map(|c| (c * 1000.0).round() / 1000.0 + 0.0)
 }
 
 #[cfg(test)]
