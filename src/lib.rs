@@ -9,7 +9,9 @@
 //! src/
 //!   lib.rs          this page
 //!   main.rs         the `ssl` binary: calls cli::main
-//!   geometry.rs     the array: geometry file, shape, side (Sec. III, p_i)
+//!   geometry/       the array (Sec. III, p_i)
+//!     mod.rs          the geometry file, validation
+//!     shape.rs        3-D, planar or linear, and the side rules
 //!   method/         the paper's method
 //!     params.rs       parameters, defaults, validation against array and rate
 //!     frames.rs       frames of N samples, 50% overlap (Sec. II)
@@ -78,6 +80,7 @@ macro_rules! fail {
 pub mod evaluate;
 pub mod geometry;
 pub mod method;
+mod named;
 pub mod record;
 #[cfg(feature = "simulate")]
 pub mod sim;
@@ -85,5 +88,6 @@ pub mod stream;
 
 pub use geometry::{Geometry, GeometryError};
 pub use method::{Detection, Params, ParamsError};
+pub use named::Named;
 pub use record::{DetectionRecord, Exporter, Format, OutputError, RunMetadata, Truth};
 pub use stream::{Analysis, AnalysisError, Summary};

@@ -4,7 +4,7 @@ use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
 use ssl::method::{Interpolation, Params, Window, DEFAULT_TOLERANCE};
-use ssl::Format;
+use ssl::{Format, Named};
 use std::path::PathBuf;
 
 /// Find where sounds come from in multichannel microphone-array recordings.
@@ -75,7 +75,7 @@ pub struct AnalyzeArgs {
     pub geometry: PathBuf,
 
     /// Output format
-    #[arg(short, long, default_value = "csv", value_parser = choice(&Format::ALL))]
+    #[arg(short, long, default_value = "csv", value_parser = choice::<Format>())]
     pub format: Format,
 
     /// Write to this file (atomically: complete or not at all) instead of standard output
@@ -115,11 +115,11 @@ pub struct AnalyzeArgs {
     pub min_score: Option<f64>,
 
     /// Analysis window
-    #[arg(long, default_value = "hann", value_parser = choice(&Window::ALL))]
+    #[arg(long, default_value = "hann", value_parser = choice::<Window>())]
     pub window: Window,
 
     /// Sub-sample refinement of correlation peaks
-    #[arg(long, default_value = "parabolic", value_parser = choice(&Interpolation::ALL))]
+    #[arg(long, default_value = "parabolic", value_parser = choice::<Interpolation>())]
     pub interpolation: Interpolation,
 
     /// Threads to analyse with (0: all cores); the output is the same for any number
@@ -230,13 +230,10 @@ impl AnalyzeArgs {
     }
 }
 
-/// A parser for one of the library's named choices (`T::ALL`: value, name, help).
-fn choice<T: Copy + Send + Sync + 'static>(
-    all: &'static [(T, &'static str, &'static str)],
-) -> impl TypedValueParser<Value = T> {
-    PossibleValuesParser::new(
-        all.iter()
-            .map(|&(_, name, help)| PossibleValue::new(name).help(help)),
-    )
-    .map(move |s| all.iter().find(|c| c.1 == s).expect("a possible value").0)
+/// A parser for one of the library's named choices, listing each with its help.
+fn choice<T: Named + Send + Sync>() -> impl TypedValueParser<Value = T> {
+    let values = T::ALL
+        .iter()
+        .map(|&(_, name, help)| PossibleValue::new(name).help(help));
+    PossibleValuesParser::new(values).map(|s| T::from_name(&s).expect("a possible value"))
 }

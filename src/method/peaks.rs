@@ -1,6 +1,7 @@
 //! The M highest peaks of each pair's correlation (the paper's eq. 7 generalised to M
 //! candidates, Section II-C), with optional sub-sample refinement.
 
+use crate::Named;
 use multiversion::multiversion;
 
 /// How a peak's lag is refined between samples.
@@ -13,9 +14,8 @@ pub enum Interpolation {
     Parabolic,
 }
 
-impl Interpolation {
-    /// Every refinement, with its name and a one-line description.
-    pub const ALL: [(Interpolation, &'static str, &'static str); 2] = [
+impl Named for Interpolation {
+    const ALL: &'static [(Interpolation, &'static str, &'static str)] = &[
         (Interpolation::None, "none", "Integer lags only"),
         (
             Interpolation::Parabolic,
@@ -23,22 +23,6 @@ impl Interpolation {
             "A parabola through the peak and its two neighbours (the default)",
         ),
     ];
-
-    /// The refinement's name.
-    pub fn name(self) -> &'static str {
-        Self::ALL.iter().find(|w| w.0 == self).expect("listed").1
-    }
-}
-
-impl std::str::FromStr for Interpolation {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL
-            .iter()
-            .find(|w| w.1 == s)
-            .map(|w| w.0)
-            .ok_or_else(|| format!("unknown interpolation `{s}` (none or parabolic)"))
-    }
 }
 
 /// One candidate delay of a pair: its lag in samples (sub-sample refined) and the value of

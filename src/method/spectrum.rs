@@ -4,6 +4,7 @@
 //! Each channel's windowed frame is transformed once (`N/2 + 1` bins), two channels per
 //! complex FFT. Plans and buffers are made once.
 
+use crate::Named;
 use multiversion::multiversion;
 use realfft::num_complex::Complex32;
 use rustfft::{Fft, FftPlanner};
@@ -21,9 +22,8 @@ pub enum Window {
     Rectangular,
 }
 
-impl Window {
-    /// Every window, with its name and a one-line description.
-    pub const ALL: [(Window, &'static str, &'static str); 3] = [
+impl Named for Window {
+    const ALL: &'static [(Window, &'static str, &'static str)] = &[
         (
             Window::Hann,
             "hann",
@@ -36,12 +36,9 @@ impl Window {
             "No window (rectangular)",
         ),
     ];
+}
 
-    /// The window's name.
-    pub fn name(self) -> &'static str {
-        Self::ALL.iter().find(|w| w.0 == self).expect("listed").1
-    }
-
+impl Window {
     /// The `n` coefficients of the window.
     pub fn coefficients(self, n: usize) -> Vec<f32> {
         let tau = std::f64::consts::TAU;
@@ -55,17 +52,6 @@ impl Window {
                 }) as f32
             })
             .collect()
-    }
-}
-
-impl std::str::FromStr for Window {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL
-            .iter()
-            .find(|w| w.1 == s)
-            .map(|w| w.0)
-            .ok_or_else(|| format!("unknown window `{s}` (hann, hamming or rectangular)"))
     }
 }
 

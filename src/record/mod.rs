@@ -23,9 +23,8 @@ pub use metadata::{
 pub use read::{parse_detections, read_detections, ReadError};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 
-use std::fmt;
+use crate::Named;
 use std::io::{self, Write};
-use std::str::FromStr;
 
 /// Output formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -38,9 +37,8 @@ pub enum Format {
     Ndjson,
 }
 
-impl Format {
-    /// Every format, with its name and a one-line description.
-    pub const ALL: [(Format, &'static str, &'static str); 3] = [
+impl Named for Format {
+    const ALL: &'static [(Format, &'static str, &'static str)] = &[
         (
             Format::Csv,
             "csv",
@@ -57,12 +55,9 @@ impl Format {
             "One JSON object per detection per line",
         ),
     ];
+}
 
-    /// The format's name (`csv`, `json`, `ndjson`).
-    pub fn name(self) -> &'static str {
-        Self::ALL.iter().find(|f| f.0 == self).expect("listed").1
-    }
-
+impl Format {
     /// A writer of this format to `out`.
     pub fn exporter<W: Write + 'static>(self, out: W) -> Box<dyn Exporter<W>> {
         match self {
@@ -70,23 +65,6 @@ impl Format {
             Format::Json => Box::new(JsonExporter::new(out)),
             Format::Ndjson => Box::new(NdjsonExporter::new(out)),
         }
-    }
-}
-
-impl fmt::Display for Format {
-    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for Format {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL
-            .iter()
-            .find(|f| f.1 == s)
-            .map(|f| f.0)
-            .ok_or_else(|| format!("unknown format `{s}` (csv, json or ndjson)"))
     }
 }
 
