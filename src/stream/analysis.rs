@@ -16,6 +16,10 @@ use std::ops::ControlFlow;
 /// Every entry point (a WAV path, WAV bytes from a reader, channels in memory) ends in
 /// the same [`Analysis::run`], and gives the same detections for the same samples on any
 /// number of threads.
+///
+/// The analysis runs on the threads of the current rayon pool (choose them with
+/// `rayon::ThreadPool::install`); create it in the pool it will run in, since that sizes
+/// its per-thread buffers.
 pub struct Analysis<S> {
     source: S,
     framer: Framer,
