@@ -35,6 +35,7 @@
 //!     truth.rs        a simulation's truth
 //!     csv.rs json.rs  one exporter per format behind one trait
 //!     read.rs         reading results and truth files back
+//!   named.rs        the Named trait: closed sets of named values
 //!   evaluate/       scoring results against a truth (`ssl evaluate`)
 //!   sim/            the simulator (feature `simulate`): scene, room, signals, noise
 //!   cli/            the command line (binary only): one file per subcommand
