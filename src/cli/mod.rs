@@ -26,6 +26,7 @@ pub fn main() -> i32 {
             return code;
         }
     };
+    sink::remove_temporaries_on_interrupt();
     let result = match cli.command {
         Command::Analyze(args) => rayon::ThreadPoolBuilder::new()
             .num_threads(args.threads)
@@ -54,11 +55,24 @@ fn one_line(e: &anyhow::Error) -> String {
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|c| {
-        c.downcast_ref::<std::io::Error>()
-            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
-            || c.downcast_ref::<OutputError>()
-                .is_some_and(OutputError::is_broken_pipe)
+        c.is::<BrokenPipe>()
+            || c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
+}
+
+/// The reader of standard output went away: the run ends quietly.
+#[derive(Debug, thiserror::Error)]
+#[error("the reader of the output went away")]
+struct BrokenPipe;
+
+/// An output failure as one line naming the destination (`cannot write out.csv: No space
+/// left on device`); a closed pipe ends the run quietly.
+fn output_error(shown: &str, e: OutputError) -> anyhow::Error {
+    if e.is_broken_pipe() {
+        return BrokenPipe.into();
+    }
+    anyhow::anyhow!("cannot write {shown}: {}", e.reason())
 }
 
 fn error(msg: &str) {

@@ -1,40 +1,42 @@
-//! `ssl simulate`: render a scene to a WAV file and its truth, both atomically.
+//! `ssl simulate`: render a scene to a WAV file and its truth, both or neither.
 
 use super::args::SimulateArgs;
 use super::sink::Sink;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use ssl::sim::{simulate_file, write_wav};
 use std::io::Write;
+use std::path::Path;
 
 /// Runs `ssl simulate`.
 pub fn run(args: &SimulateArgs) -> Result<()> {
-    let sim = simulate_file(&args.scene)?;
     let truth_path = args
         .truth
         .clone()
         .unwrap_or_else(|| args.output.with_extension("truth.json"));
-    // A WAV writer must seek back to finish its header: only regular files will do.
-    let wav = Sink::open(Some(&args.output))?;
-    let Sink::Atomic(tmp, _) = &wav else {
+    // Both outputs are checked against the inputs (and each other) before anything runs.
+    let wav = Sink::open(Some(&args.output), &[&args.scene, &truth_path])?;
+    let mut truth_sink = Sink::open(Some(&truth_path), &[&args.scene, &args.output])?;
+    if truth_path == args.output || truth_path == Path::new("-") && args.output == Path::new("-") {
         bail!(
-            "{}: the WAV output must be a regular file (not a device or pipe)",
+            "{}: the WAV file and the truth need two outputs",
+            args.output.display()
+        );
+    }
+    // A WAV writer must seek back to finish its header: only regular files will do.
+    let Some(tmp) = wav.temporary_path() else {
+        bail!(
+            "{}: the WAV output must be a regular file (not standard output, a device or a pipe)",
             args.output.display()
         );
     };
-    write_wav(
-        tmp.path(),
-        &sim.channels,
-        sim.sample_rate,
-        sim.format.into(),
-    )
-    .with_context(|| format!("{}: cannot write", args.output.display()))?;
+    let sim = simulate_file(&args.scene)?;
+    write_wav(tmp, &sim.channels, sim.sample_rate, sim.format.into())
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", wav.shown()))?;
     let mut truth = sim.truth;
     truth.recording = Some(args.output.display().to_string());
     let text = serde_json::to_string_pretty(&truth)? + "\n";
-    let mut truth_sink = Sink::open(Some(&truth_path))?;
-    wav.commit(&args.output)?;
     truth_sink
         .write_all(text.as_bytes())
-        .with_context(|| format!("{}: cannot write", truth_path.display()))?;
-    truth_sink.commit(&truth_path)
+        .map_err(|e| truth_sink.write_error(&e))?;
+    wav.commit_both(truth_sink)
 }

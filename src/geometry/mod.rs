@@ -13,7 +13,7 @@ mod shape;
 pub use shape::Shape;
 use shape::{classify, orient};
 
-use crate::stream::io_reason;
+use crate::stream::{io_reason, read_text};
 use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -64,6 +64,8 @@ pub const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
 pub const MAX_MICS: usize = 64;
 /// A spread along an axis below this fraction of the largest spread counts as flat.
 pub const FLATNESS: f64 = 0.02;
+/// The largest geometry file read (a file of 64 microphones takes a few kilobytes).
+pub const MAX_FILE_BYTES: u64 = 1 << 20;
 /// Two microphones closer than this (metres) are taken as the same position.
 const MIN_SPACING_M: f64 = 1e-4;
 /// An aperture larger than this (metres) draws a "were millimetres given as metres?" warning.
@@ -121,7 +123,7 @@ pub struct Geometry {
 impl Geometry {
     /// Reads and validates a geometry TOML file. Errors name the file.
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|error| GeometryError::Read {
+        let text = read_text(path, MAX_FILE_BYTES).map_err(|error| GeometryError::Read {
             path: path.to_path_buf(),
             error,
         })?;

@@ -20,7 +20,7 @@ pub use detection::DetectionRecord;
 pub use metadata::{
     ambiguity_note, FileEntry, GeometryInfo, MicInfo, ParametersInfo, RunMetadata, Tool,
 };
-pub use read::{parse_detections, read_detections, ReadError};
+pub use read::{parse_detections, read_detections, ReadError, MAX_RESULT_BYTES, MAX_TRUTH_BYTES};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 
 use crate::Named;
@@ -107,6 +107,23 @@ pub enum OutputError {
 }
 
 impl OutputError {
+    /// Why, in a few words: the operating system's reason for a failed write (`No space
+    /// left on device`), without the error number.
+    pub fn reason(&self) -> String {
+        let text = match self {
+            OutputError::Io(e) => return crate::stream::io_reason(e),
+            OutputError::Csv(e) => match e.kind() {
+                ::csv::ErrorKind::Io(e) => return crate::stream::io_reason(e),
+                _ => e.to_string(),
+            },
+            other => other.to_string(),
+        };
+        match text.find(" (os error") {
+            Some(i) => text[..i].to_string(),
+            None => text,
+        }
+    }
+
     /// Whether the reader at the other end went away (`ssl ... | head`).
     pub fn is_broken_pipe(&self) -> bool {
         let kind = match self {

@@ -1,7 +1,7 @@
 //! Reading records back: detections in any of the three formats, and truth files.
 
 use super::{DetectionRecord, Truth};
-use crate::stream::io_reason;
+use crate::stream::{io_reason, read_text};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -43,8 +43,13 @@ fn in_file(path: &Path, e: ReadError) -> ReadError {
     }
 }
 
-fn read_text(path: &Path) -> Result<String, ReadError> {
-    std::fs::read_to_string(path).map_err(|error| ReadError::Io {
+/// The largest result file read (about ten million detections).
+pub const MAX_RESULT_BYTES: u64 = 1 << 30;
+/// The largest truth file read.
+pub const MAX_TRUTH_BYTES: u64 = 64 << 20;
+
+fn read_file(path: &Path, limit: u64) -> Result<String, ReadError> {
+    read_text(path, limit).map_err(|error| ReadError::Io {
         path: path.to_path_buf(),
         error,
     })
@@ -52,7 +57,7 @@ fn read_text(path: &Path) -> Result<String, ReadError> {
 
 /// Reads the detections of a CSV, NDJSON or JSON result of `ssl analyze`.
 pub fn read_detections(path: &Path) -> Result<Vec<DetectionRecord>, ReadError> {
-    parse_detections(&read_text(path)?).map_err(|e| in_file(path, e))
+    parse_detections(&read_file(path, MAX_RESULT_BYTES)?).map_err(|e| in_file(path, e))
 }
 
 /// Parses detections from the text of a CSV, NDJSON or JSON result.
@@ -85,9 +90,11 @@ pub fn parse_detections(text: &str) -> Result<Vec<DetectionRecord>, ReadError> {
 impl Truth {
     /// Reads a truth file written by `ssl simulate`.
     pub fn from_file(path: &Path) -> Result<Self, ReadError> {
-        serde_json::from_str(&read_text(path)?).map_err(|e| ReadError::Format {
-            path: Some(path.to_path_buf()),
-            message: format!("not a truth file: {e}"),
-        })
+        Self::from_json(&read_file(path, MAX_TRUTH_BYTES)?).map_err(|e| in_file(path, e))
+    }
+
+    /// Parses a truth file's text.
+    pub fn from_json(text: &str) -> Result<Self, ReadError> {
+        serde_json::from_str(text).map_err(|e| format_error(format!("not a truth file: {e}")))
     }
 }

@@ -7,6 +7,10 @@
 
 use super::SceneError;
 use crate::geometry::toml_line;
+use crate::stream::read_text;
+
+/// The largest scene file read.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -186,7 +190,7 @@ pub struct DiffuseSpec {
 impl SceneFile {
     /// Reads a scene file.
     pub fn from_file(path: &Path) -> Result<Self, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Read {
+        let text = read_text(path, MAX_SCENE_BYTES).map_err(|error| SceneError::Read {
             path: path.to_path_buf(),
             error,
         })?;
