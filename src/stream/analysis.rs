@@ -90,6 +90,8 @@ pub enum Warning {
         /// Frames analysed.
         of: u64,
     },
+    /// Something about the input itself (a WAV whose sizes wrapped at 4 GiB).
+    Input(String),
     /// The consistency search stopped at its node budget in some frames.
     SearchBudget {
         /// Frames where it did.
@@ -100,6 +102,7 @@ pub enum Warning {
 impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
         match self {
+            Warning::Input(note) => f.write_str(note),
             Warning::Silence => write!(f, "every channel is constant (digital silence): no detections"),
             Warning::DeadMic { mic, channel, frames, of } => write!(
                 f,
@@ -290,7 +293,12 @@ impl<S: SampleSource> Analysis<S> {
 
     fn summary(&self) -> Summary {
         let stats = self.analyzer.stats().clone();
-        let mut warnings = Vec::new();
+        let mut warnings: Vec<Warning> = self
+            .source
+            .notes()
+            .into_iter()
+            .map(Warning::Input)
+            .collect();
         if stats.frames > 0 && stats.silent_frames == stats.frames {
             warnings.push(Warning::Silence);
         }

@@ -22,6 +22,10 @@ pub trait SampleSource {
     /// Reads up to `out.len() / channels` sample frames into `out`, interleaved, and
     /// returns how many were read; 0 at the end. Samples must be finite.
     fn read(&mut self, out: &mut [f32]) -> Result<usize, InputError>;
+    /// Remarks for the user about the source (a WAV whose sizes wrapped at 4 GiB).
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
+    }
     /// The sample format in words, for reports.
     fn describe(&self) -> String {
         format!(
@@ -119,8 +123,9 @@ pub(crate) struct Framer {
     pub samples_read: u64,
 }
 
-/// Sample frames read at a time.
-const CHUNK: usize = 4096;
+/// Samples (of all channels) read at a time: 4096 sample frames of 8 channels, fewer
+/// frames of more channels.
+const CHUNK_SAMPLES: usize = 1 << 15;
 
 impl Framer {
     /// `channels[m]` is the source channel of mic `m`; `source_channels` the source's count.
@@ -129,7 +134,7 @@ impl Framer {
         Framer {
             n,
             hop: n / 2,
-            interleaved: vec![0.0; CHUNK * source_channels],
+            interleaved: vec![0.0; chunk_frames(source_channels) * source_channels],
             carry: vec![0.0; mics * (n - n / 2)],
             channels,
             source_channels,
@@ -171,7 +176,7 @@ impl Framer {
             filled = keep;
         }
         while filled < stride {
-            let want = (stride - filled).min(CHUNK);
+            let want = (stride - filled).min(self.interleaved.len() / ch);
             let got = match source.read(&mut self.interleaved[..want * ch]) {
                 Ok(0) => break,
                 Ok(got) => got,
@@ -202,6 +207,11 @@ impl Framer {
         self.next_index += block.count as u64;
         error
     }
+}
+
+/// Sample frames read at a time from a source of `channels` channels.
+fn chunk_frames(channels: usize) -> usize {
+    (CHUNK_SAMPLES / channels).clamp(64, 4096)
 }
 
 /// `out[i] = interleaved[i * channels + channel]`.

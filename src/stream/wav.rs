@@ -16,6 +16,14 @@ use multiversion::multiversion;
 use std::fs::File;
 use std::io::{self, BufReader, Read};
 
+/// The most channels a WAV file may have (larger headers are refused before anything is
+/// allocated for them).
+pub const MAX_CHANNELS: usize = 1024;
+/// The lowest sample rate read (Hz).
+pub const MIN_RATE: u32 = 1000;
+/// The highest sample rate read (Hz).
+pub const MAX_RATE: u32 = 768_000;
+
 /// What the header says about the samples.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WavFormat {
@@ -55,6 +63,10 @@ pub struct WavStream {
     raw: Vec<u8>,
     frames_read: u64,
     done: bool,
+    /// An error to report on the next read, after the frames before it were delivered.
+    pending: Option<InputError>,
+    /// Remarks about the file (sizes that wrapped at 4 GiB).
+    notes: Vec<String>,
 }
 
 impl WavStream {
@@ -72,10 +84,12 @@ impl WavStream {
         if meta.is_dir() {
             return Err(InputError::Directory);
         }
+        // A named pipe or a device (`/dev/stdin`) has no length: read it to its end, as `-`.
+        let size = meta.is_file().then_some(meta.len());
         Self::from_reader(
             path,
             Box::new(BufReader::with_capacity(1 << 16, file)),
-            Some(meta.len()),
+            size,
         )
     }
 
@@ -87,21 +101,15 @@ impl WavStream {
     ) -> Result<Self, InputError> {
         let mut riff = [0u8; 12];
         let got = read_full(&mut input, &mut riff).map_err(InputError::Io)?;
-        if got == 0 {
-            return Err(InputError::NotWav("empty file, not a WAV recording".into()));
-        }
-        if got < 12 || &riff[8..12] != b"WAVE" || &riff[0..4] != b"RIFF" {
-            let unsupported = InputError::Unsupported;
-            return Err(match &riff[0..4] {
-                b"RF64" | b"BW64" => unsupported("RF64/BW64 WAV (for files over 4 GB) is not supported: split it into WAV files under 4 GB, e.g. `sox in.wav out.wav trim 0 3600 : newfile : restart`".into()),
-                b"RIFX" => unsupported("big-endian WAV (RIFX) is not supported: convert it, e.g. `sox in.wav -L out.wav`".into()),
-                b"fLaC" => InputError::NotWav("this is a FLAC file, not WAV: convert it, e.g. `sox in.flac out.wav` or `ffmpeg -i in.flac out.wav`".into()),
-                b"OggS" => InputError::NotWav("this is an Ogg file, not WAV: convert it, e.g. `ffmpeg -i in.ogg out.wav`".into()),
-                _ => InputError::NotWav("not a WAV file (no RIFF/WAVE header)".into()),
-            });
-        }
+        let rf64 = match (&riff[0..4], &riff[8..12]) {
+            _ if got < 12 => return Err(not_wav(&riff[..got])),
+            (b"RIFF", b"WAVE") => false,
+            (b"RF64" | b"BW64", b"WAVE") => true,
+            _ => return Err(not_wav(&riff)),
+        };
         let mut consumed: u64 = 12;
         let mut fmt: Option<Vec<u8>> = None;
+        let mut ds64_data: Option<u64> = None;
         let declared = loop {
             let mut head = [0u8; 8];
             if read_full(&mut input, &mut head).map_err(InputError::Io)? < 8 {
@@ -114,25 +122,35 @@ impl WavStream {
             consumed += 8;
             let len = u32::from_le_bytes([head[4], head[5], head[6], head[7]]) as u64;
             match &head[0..4] {
-                b"fmt " => {
+                b"fmt " | b"ds64" => {
                     if !(16..=1024).contains(&len) {
                         return Err(InputError::Corrupt(format!(
-                            "corrupt WAV: format chunk of {len} bytes"
+                            "corrupt WAV: {} chunk of {len} bytes",
+                            String::from_utf8_lossy(&head[0..4]).trim()
                         )));
                     }
-                    let mut body = vec![0u8; len as usize];
+                    let mut body = vec![0u8; len as usize + (len % 2) as usize];
                     if read_full(&mut input, &mut body).map_err(InputError::Io)? < body.len() {
                         return Err(InputError::Corrupt(
-                            "truncated WAV: the file ends in the format chunk".into(),
+                            "truncated WAV: the file ends in the header".into(),
                         ));
                     }
-                    consumed += len;
-                    if len % 2 == 1 {
-                        let mut pad = [0u8; 1];
-                        read_full(&mut input, &mut pad).map_err(InputError::Io)?;
-                        consumed += 1;
+                    consumed += body.len() as u64;
+                    body.truncate(len as usize);
+                    if &head[0..4] == b"fmt " {
+                        fmt = Some(body);
+                    } else if len >= 16 {
+                        // ds64: the 64-bit RIFF size, then the 64-bit data size.
+                        ds64_data =
+                            Some(u64::from_le_bytes(body[8..16].try_into().expect("8 bytes")));
                     }
-                    fmt = Some(body);
+                }
+                b"data" if rf64 && len == 0xFFFF_FFFF => {
+                    break ds64_data.ok_or_else(|| {
+                        InputError::Corrupt(
+                            "corrupt RF64: the data chunk's size is in a ds64 chunk, and there is none".into(),
+                        )
+                    })?;
                 }
                 b"data" => break len,
                 _ => {
@@ -152,12 +170,21 @@ impl WavStream {
             InputError::Corrupt("corrupt WAV: the data chunk comes before any format chunk".into())
         })?;
         let (mut format, block_align) = parse_fmt(&fmt)?;
-        let available = size.map(|s| s.saturating_sub(consumed) / block_align);
-        // 0 and 0xFFFFFFFF are the placeholders streaming writers leave.
-        format.frames = if declared == 0 || declared == 0xFFFF_FFFF {
-            available
-        } else {
-            Some(declared / block_align)
+        let available = size.map(|s| s.saturating_sub(consumed));
+        let mut notes = Vec::new();
+        format.frames = match (declared, available) {
+            // 0 and 0xFFFFFFFF are the placeholders streaming writers leave: read to the end.
+            (0 | 0xFFFF_FFFF, _) if !rf64 => available.map(|a| a / block_align),
+            // 32-bit sizes wrap at 4 GiB: a regular file holding more than 4 GiB of data
+            // beyond what the header says is read to its end.
+            (d, Some(a)) if !rf64 && a >= 1 << 32 && a > d => {
+                let frames = a / block_align;
+                notes.push(format!(
+                    "the header's 32-bit data size ({d} bytes) wrapped past 4 GiB: read to the end of the file ({frames} sample frames)"
+                ));
+                Some(frames)
+            }
+            (d, _) => Some(d / block_align),
         };
         Ok(WavStream {
             name: name.to_string(),
@@ -167,6 +194,8 @@ impl WavStream {
             raw: Vec::new(),
             frames_read: 0,
             done: false,
+            pending: None,
+            notes,
         })
     }
 
@@ -188,6 +217,9 @@ impl WavStream {
         let mut want = out.len() / ch;
         if let Some(total) = self.format.frames {
             want = want.min((total - self.frames_read.min(total)) as usize);
+        }
+        if let Some(e) = self.pending.take() {
+            return Err(e);
         }
         if self.done || want == 0 {
             return Ok(0);
@@ -217,19 +249,36 @@ impl WavStream {
         }
         self.frames_read += frames as u64;
         if got < bytes {
-            // The input ended before the request was met.
+            // The input ended before the request was met: the frames read are delivered,
+            // and the truncation is reported on the next read.
             self.done = true;
-            if let Some(promised) = self.format.frames {
-                if self.frames_read < promised {
-                    return Err(InputError::Truncated {
-                        promised,
-                        read: self.frames_read,
-                        sample_rate: self.format.sample_rate,
-                    });
-                }
+            if let Some(promised) = self.format.frames.filter(|&p| self.frames_read < p) {
+                self.pending = Some(InputError::Truncated {
+                    promised,
+                    read: self.frames_read,
+                    sample_rate: self.format.sample_rate,
+                });
             }
+        } else if self.format.frames == Some(self.frames_read) {
+            self.done = true;
+            self.pending = self.check_after_data();
         }
         Ok(frames)
+    }
+
+    /// After the last sample the header promised: a second data chunk would hold samples
+    /// this reader does not analyse, so it is refused rather than silently left out.
+    fn check_after_data(&mut self) -> Option<InputError> {
+        let data_bytes = self.frames_read * self.block_align as u64;
+        let mut head = [0u8; 9];
+        let want = if data_bytes % 2 == 1 { 9 } else { 8 };
+        let got = read_full(&mut self.input, &mut head[..want]).ok()?;
+        let id = &head[want - 8..want - 4];
+        (got == want && id == b"data").then(|| {
+            InputError::Unsupported(
+                "a second data chunk follows the first: WAV files with several data chunks are not supported; rewrite the file, e.g. `sox in.wav out.wav`".into(),
+            )
+        })
     }
 }
 
@@ -256,6 +305,48 @@ impl SampleSource for WavStream {
 
     fn describe(&self) -> String {
         self.format.describe()
+    }
+
+    fn notes(&self) -> Vec<String> {
+        self.notes.clone()
+    }
+}
+
+/// Why bytes that do not start a WAV file are refused: what they are, when recognised,
+/// and how to convert them.
+fn not_wav(start: &[u8]) -> InputError {
+    let convert = |what: &str, ext: &str| {
+        InputError::NotWav(format!(
+            "this is {what}, not WAV: convert it, e.g. `sox in.{ext} out.wav` or `ffmpeg -i in.{ext} out.wav`"
+        ))
+    };
+    if start.is_empty() {
+        return InputError::NotWav("empty file, not a WAV recording".into());
+    }
+    let at = |i: usize, tag: &[u8]| start.len() >= i + tag.len() && &start[i..i + tag.len()] == tag;
+    if at(0, b"RIFX") {
+        InputError::Unsupported(
+            "big-endian WAV (RIFX) is not supported: convert it, e.g. `sox in.wav -L out.wav`"
+                .into(),
+        )
+    } else if at(0, b"fLaC") {
+        convert("a FLAC file", "flac")
+    } else if at(0, b"OggS") {
+        convert("an Ogg file", "ogg")
+    } else if at(0, b"riff") {
+        convert("a Sony Wave64 (W64) file", "w64")
+    } else if at(0, b"ID3") || (start.len() >= 2 && start[0] == 0xFF && start[1] & 0xE0 == 0xE0) {
+        convert("an MP3 file", "mp3")
+    } else if at(0, b"FORM") && (at(8, b"AIFF") || at(8, b"AIFC")) {
+        convert("an AIFF file", "aiff")
+    } else if at(0, b"caff") {
+        convert("a Core Audio (CAF) file", "caf")
+    } else if at(4, b"ftyp") {
+        convert("an MP4/M4A file", "m4a")
+    } else if at(0, b"RIFF") {
+        InputError::NotWav("a RIFF file that is not WAVE audio".into())
+    } else {
+        InputError::NotWav("not a WAV file (no RIFF/WAVE header)".into())
     }
 }
 
@@ -295,6 +386,7 @@ fn decode(raw: &[u8], width: usize, float: bool, out: &mut [f32]) {
 
 /// Parses a `fmt ` chunk body; returns the format and the block alignment in bytes.
 fn parse_fmt(b: &[u8]) -> Result<(WavFormat, u64), InputError> {
+    let corrupt = |msg: String| Err(InputError::Corrupt(format!("corrupt WAV: {msg}")));
     let u16_at = |i: usize| u16::from_le_bytes([b[i], b[i + 1]]);
     let u32_at = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
     let mut tag = u16_at(0);
@@ -302,51 +394,64 @@ fn parse_fmt(b: &[u8]) -> Result<(WavFormat, u64), InputError> {
     let sample_rate = u32_at(4);
     let block_align = u16_at(12) as u64;
     let container_bits = u16_at(14);
-    let mut bits = container_bits;
+    let mut valid_bits = container_bits;
     if tag == 0xFFFE {
         if b.len() < 40 {
-            return Err(InputError::Corrupt(
-                "corrupt WAV: WAVE_FORMAT_EXTENSIBLE header is too short".into(),
-            ));
+            return corrupt("WAVE_FORMAT_EXTENSIBLE header is too short".into());
         }
-        let valid = u16_at(18);
-        if valid > 0 {
-            bits = valid;
+        if u16_at(18) > 0 {
+            valid_bits = u16_at(18);
         }
         tag = u16_at(24);
     }
     if channels == 0 {
-        return Err(InputError::Corrupt(
-            "corrupt WAV: the header says 0 channels".into(),
-        ));
+        return corrupt("the header says 0 channels".into());
+    }
+    if channels > MAX_CHANNELS {
+        return Err(InputError::Unsupported(format!(
+            "the header says {channels} channels; at most {MAX_CHANNELS} are supported"
+        )));
     }
     if sample_rate == 0 {
-        return Err(InputError::Corrupt(
-            "corrupt WAV: the header says a sample rate of 0 Hz".into(),
+        return corrupt("the header says a sample rate of 0 Hz".into());
+    }
+    if !(MIN_RATE..=MAX_RATE).contains(&sample_rate) {
+        return Err(InputError::Unsupported(format!(
+            "a sample rate of {sample_rate} Hz; {MIN_RATE} to {MAX_RATE} Hz are supported"
+        )));
+    }
+    // Every sample fills a container of whole bytes: the block holds one per channel.
+    let width = (container_bits as u64).div_ceil(8);
+    if container_bits == 0 || block_align != width * channels as u64 {
+        return corrupt(format!(
+            "the block size {block_align} disagrees with {channels} channel(s) of {container_bits}-bit samples ({} bytes)",
+            width * channels as u64
         ));
     }
-    if block_align == 0
-        || block_align % channels as u64 != 0
-        || block_align / channels as u64 * 8 < container_bits as u64
-    {
-        return Err(InputError::Corrupt(format!("corrupt WAV: inconsistent block size {block_align} for {channels} channels of {container_bits} bits")));
+    if valid_bits > container_bits {
+        return corrupt(format!(
+            "{valid_bits} valid bits in {container_bits}-bit containers"
+        ));
     }
-    let width = block_align / channels as u64;
     let float = match tag {
         1 => {
-            if !matches!(bits, 8 | 16 | 24 | 32) || !(1..=4).contains(&width) || (width == 1 && bits != 8) {
+            // Valid bits narrower than the container (20 in 24, 12 in 16) are left-justified:
+            // decoding by the container is exact.
+            if !matches!(container_bits, 8 | 16 | 24 | 32) {
                 return Err(InputError::Unsupported(format!(
-                    "{bits}-bit integer PCM in {width}-byte containers is not supported (8, 16, 24 or 32 bits are)"
+                    "{container_bits}-bit integer PCM containers are not supported (8, 16, 24 or 32 bits are)"
                 )));
             }
             false
         }
         3 => {
-            if bits == 64 {
+            if container_bits == 64 {
                 return Err(InputError::Unsupported("64-bit float WAV is not supported: convert it to 32-bit float, e.g. `sox in.wav -e floating-point -b 32 out.wav` or `ffmpeg -i in.wav -c:a pcm_f32le out.wav`".into()));
             }
-            if bits != 32 || width != 4 {
-                return Err(InputError::Unsupported(format!("{bits}-bit float WAV is not supported (32-bit float is)")));
+            if container_bits != 32 || valid_bits != 32 {
+                return Err(InputError::Unsupported(format!(
+                    "{valid_bits}-bit float WAV is not supported (32-bit float is)"
+                )));
             }
             true
         }
@@ -360,7 +465,7 @@ fn parse_fmt(b: &[u8]) -> Result<(WavFormat, u64), InputError> {
         WavFormat {
             channels,
             sample_rate,
-            bits_per_sample: bits,
+            bits_per_sample: valid_bits,
             float,
             frames: None,
         },

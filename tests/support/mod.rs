@@ -234,14 +234,15 @@ pub fn raw_wav(riff: &[u8; 4], fmt: &[u8], data: &[u8], data_len: Option<u32>) -
     v
 }
 
-/// A plain `fmt ` body (16 bytes).
+/// A plain `fmt ` body (16 bytes); the block size wraps at 16 bits, as in a header
+/// written for more channels than it can describe.
 pub fn fmt_body(tag: u16, channels: u16, rate: u32, bits: u16) -> Vec<u8> {
-    let block = channels * bits / 8;
+    let block = channels.wrapping_mul(bits) / 8;
     let mut v = Vec::new();
     v.extend_from_slice(&tag.to_le_bytes());
     v.extend_from_slice(&channels.to_le_bytes());
     v.extend_from_slice(&rate.to_le_bytes());
-    v.extend_from_slice(&(rate * block as u32).to_le_bytes());
+    v.extend_from_slice(&rate.wrapping_mul(block as u32).to_le_bytes());
     v.extend_from_slice(&block.to_le_bytes());
     v.extend_from_slice(&bits.to_le_bytes());
     v
