@@ -29,6 +29,59 @@ pub enum EvaluateError {
     /// The result holds detections of several recordings.
     #[error("results for {0} files; evaluate one recording at a time")]
     SeveralFiles(usize),
+    /// The truth holds a value that cannot be meant (NaN, a zero vector, a reversed
+    /// interval, an absurd duration).
+    #[error("the truth: {0}")]
+    Truth(String),
+    /// A detection holds a value that cannot be meant.
+    #[error("{0}")]
+    Result(String),
+}
+
+/// The longest recording scored (seconds): a week.
+pub const MAX_DURATION_S: f64 = 7.0 * 86400.0;
+/// The shortest analysis hop accepted (seconds): 16 samples at 768 kHz.
+const MIN_HOP_S: f64 = 16.0 / 768_000.0 / 2.0;
+
+/// A unit vector from finite components, or `None` (NaN, infinite or zero).
+fn unit(x: f64, y: f64, z: f64) -> Option<Vector3<f64>> {
+    let v = Vector3::new(x, y, z);
+    let n = v.norm();
+    (n.is_finite() && n > 1e-9).then(|| v / n)
+}
+
+/// Refuses truth values that cannot be meant.
+fn check_truth(truth: &Truth) -> Result<(), EvaluateError> {
+    let bad = |m: String| Err(EvaluateError::Truth(m));
+    if !(1000..=768_000).contains(&truth.sample_rate) {
+        return bad(format!(
+            "sample_rate {} Hz is outside 1000-768000",
+            truth.sample_rate
+        ));
+    }
+    let d = truth.duration_s;
+    if !(d.is_finite() && d > 0.0 && d <= MAX_DURATION_S) {
+        return bad(format!(
+            "duration_s {d} is not between 0 and {MAX_DURATION_S} s"
+        ));
+    }
+    for s in &truth.sources {
+        if unit(s.x, s.y, s.z).is_none() {
+            return bad(format!(
+                "source {}: its direction is not a finite non-zero vector",
+                s.index
+            ));
+        }
+        for &[a, b] in &s.active {
+            if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b && b <= d + 1.0) {
+                return bad(format!(
+                    "source {}: the active interval [{a}, {b}] is not within [0, {d}] s or is reversed",
+                    s.index
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A detection as scored: its time, direction and frame.
@@ -110,19 +163,37 @@ pub fn evaluate(
     if files.len() > 1 {
         return Err(EvaluateError::SeveralFiles(files.len()));
     }
-    let dets: Vec<Det> = records
+    check_truth(truth)?;
+    let dets = records
         .iter()
-        .map(|r| Det {
-            time_s: r.time_s,
-            direction: Vector3::new(r.x, r.y, r.z).normalize(),
-            frame: r.frame,
+        .enumerate()
+        .map(|(i, r)| match unit(r.x, r.y, r.z) {
+            Some(direction) if r.time_s.is_finite() && r.time_s >= 0.0 => Ok(Det {
+                time_s: r.time_s,
+                direction,
+                frame: r.frame,
+            }),
+            _ => Err(EvaluateError::Result(format!(
+                "detection {}: its time or direction is not finite (or the vector is zero)",
+                i + 1
+            ))),
         })
-        .collect();
+        .collect::<Result<Vec<Det>, _>>()?;
+    if let Some(d) = dets.iter().find(|d| {
+        d.frame
+            .is_some_and(|f| d.time_s / (f as f64 + 1.0) < MIN_HOP_S)
+    }) {
+        return Err(EvaluateError::Result(format!(
+            "the detection at {} s in frame {} implies an analysis hop under {MIN_HOP_S:.1e} s",
+            d.time_s,
+            d.frame.unwrap_or(0)
+        )));
+    }
     let sources: Vec<Source> = truth
         .sources
         .iter()
         .map(|s| Source {
-            direction: s.direction(),
+            direction: unit(s.x, s.y, s.z).expect("checked"),
             intervals: s.active.iter().map(|&[a, b]| (a, b)).collect(),
         })
         .collect();

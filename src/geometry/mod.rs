@@ -68,8 +68,9 @@ pub const FLATNESS: f64 = 0.02;
 pub const MAX_FILE_BYTES: u64 = 1 << 20;
 /// Two microphones closer than this (metres) are taken as the same position.
 const MIN_SPACING_M: f64 = 1e-4;
-/// An aperture larger than this (metres) draws a "were millimetres given as metres?" warning.
-const SUSPICIOUS_APERTURE_M: f64 = 5.0;
+/// The widest array accepted (metres). Wider is almost always millimetres given as
+/// metres, and beyond the method's far-field model anyway.
+pub const MAX_APERTURE_M: f64 = 5.0;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -250,10 +251,11 @@ impl Geometry {
                 aperture = aperture.max(d);
             }
         }
-        if aperture > SUSPICIOUS_APERTURE_M {
-            warnings.push(format!(
-                "microphones are up to {aperture:.1} m apart: positions are in metres; were millimetres given as metres?"
-            ));
+        if aperture > MAX_APERTURE_M {
+            fail!(
+                GeometryError::Invalid,
+                "microphones are up to {aperture:.3e} m apart, but positions are in metres and arrays up to {MAX_APERTURE_M} m wide are supported: did you mean millimetres? (divide the positions by 1000)"
+            );
         }
         let positions: Vec<Vector3<f64>> = mics.iter().map(|m| m.position).collect();
         let centre = positions.iter().sum::<Vector3<f64>>() / positions.len() as f64;
@@ -434,19 +436,19 @@ position = [-0.25, -0.20, -0.18]
     }
 
     #[test]
-    fn millimetres_as_metres_warns() {
-        let g = Geometry::from_positions(&[
-            [250.0, 200.0, 180.0],
-            [-250.0, 200.0, 180.0],
-            [0.0, -200.0, 0.0],
-            [0.0, 0.0, -180.0],
-        ])
-        .unwrap();
-        assert!(
-            g.warnings.iter().any(|w| w.contains("millimetres")),
-            "{:?}",
-            g.warnings
-        );
+    fn millimetres_as_metres_and_absurd_sizes_are_errors() {
+        for scale in [1000.0, 1e150] {
+            let p = |x: f64, y: f64, z: f64| [x * scale, y * scale, z * scale];
+            let err = Geometry::from_positions(&[
+                p(0.25, 0.2, 0.18),
+                p(-0.25, 0.2, 0.18),
+                p(0.0, -0.2, 0.0),
+                p(0.0, 0.0, -0.18),
+            ])
+            .unwrap_err()
+            .to_string();
+            assert!(err.contains("did you mean millimetres?"), "{err}");
+        }
     }
 
     #[test]

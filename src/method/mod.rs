@@ -35,7 +35,7 @@ pub(crate) use analyzer::Analyzer;
 pub use outcome::{Detection, FrameStats, StageTimes};
 pub use params::{
     default_frame_size, Params, ParamsError, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_TOLERANCE,
-    PRIMING_S,
+    MAX_FRAME_SIZE, PRIMING_S,
 };
 pub use peaks::Interpolation;
 pub use spectrum::Window;

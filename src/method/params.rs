@@ -60,6 +60,9 @@ impl Default for Params {
 /// (seconds, at most one block of frames; see the `analyzer` module).
 pub const PRIMING_S: f64 = 0.25;
 
+/// The largest frame size (samples): 1.4 s at 48 kHz, 0.34 s at 192 kHz.
+pub const MAX_FRAME_SIZE: usize = 1 << 16;
+
 /// Default consistency tolerance in samples (see the README for how it was chosen).
 pub const DEFAULT_TOLERANCE: f32 = 2.0;
 
@@ -81,8 +84,10 @@ pub fn default_frame_size(sample_rate: u32) -> usize {
 /// Parameters that cannot be used with this array at this sample rate.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamsError {
-    /// The frame size is odd or under 16 samples.
-    #[error("the frame size must be an even number of at least 16 samples, got {0}")]
+    /// The frame size is odd, under 16 samples, or over [`MAX_FRAME_SIZE`].
+    #[error(
+        "the frame size must be an even number of samples from 16 to {MAX_FRAME_SIZE}, got {0}"
+    )]
     FrameSize(usize),
     /// The frame cannot hold the array's largest delay on both sides of lag 0.
     #[error("the array's largest delay ({delay} samples at {sample_rate} Hz) does not fit in a frame of {frame_size} samples: a frame of {needed} samples or more is needed")]
@@ -134,7 +139,7 @@ impl Setup {
         let n = params
             .frame_size
             .unwrap_or_else(|| default_frame_size(sample_rate));
-        if n < 16 || n % 2 != 0 {
+        if !(16..=MAX_FRAME_SIZE).contains(&n) || n % 2 != 0 {
             return Err(ParamsError::FrameSize(n));
         }
         if params.peaks == 0 || params.peaks > MAX_PEAKS {

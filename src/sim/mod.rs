@@ -10,6 +10,7 @@
 //! - [`wav`]: writing channels to WAV files.
 
 pub mod freefield;
+pub mod limits;
 mod noise;
 pub mod render;
 pub mod room;

@@ -2,6 +2,7 @@
 //! room's impulse responses ([`room`](super::room)), add the noise, and write down the
 //! truth. Same scene and seed, same samples.
 
+use super::limits::{check_cost, check_scene, MAX_DISTANCE_M};
 use super::noise::{add_normalised, colour_noise, diffuse_noise, mean_power};
 use super::room::{add_tap, Room, SINC_HALF_WIDTH};
 use super::scene::{NoiseSpec, SampleFormat, SceneFile, SignalKind, SourceSpec};
@@ -42,8 +43,14 @@ pub fn simulate_file(path: &Path) -> Result<Simulation, SceneError> {
 
 /// Renders a scene; `dir` resolves relative paths.
 pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError> {
-    check(scene)?;
+    check_scene(scene)?;
     let placed = Placed::new(scene, dir)?;
+    check_cost(
+        scene,
+        placed.mics.len(),
+        placed.room.map(|r| r.dims.x * r.dims.y * r.dims.z),
+        placed.c * placed.tail_s + placed.farthest(scene)?,
+    )?;
     let len = (scene.duration * scene.sample_rate as f64).round() as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(scene.seed);
     let mut out = vec![vec![0.0f64; len]; placed.mics.len()];
@@ -62,6 +69,12 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
         None => None,
     };
     let peak = out.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !(peak as f32).is_finite() {
+        fail!(
+            SceneError::Invalid,
+            "the scene's levels overflow 32-bit floats (peak {peak:.3e}): lower them"
+        );
+    }
     if scene.format != SampleFormat::Float32 && peak >= 1.0 {
         fail!(SceneError::Invalid, "the scene clips (peak {peak:.2} of full scale): lower the levels or use format = \"float32\"");
     }
@@ -96,32 +109,6 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
             .collect(),
         truth,
     })
-}
-
-/// The scene-wide numbers.
-fn check(scene: &SceneFile) -> Result<(), SceneError> {
-    if !(1000..=768_000).contains(&scene.sample_rate) {
-        fail!(
-            SceneError::Invalid,
-            "sample_rate must be between 1000 and 768000 Hz, got {}",
-            scene.sample_rate
-        );
-    }
-    if !(scene.duration.is_finite() && scene.duration > 0.0 && scene.duration <= 3600.0) {
-        fail!(
-            SceneError::Invalid,
-            "duration must be between 0 and 3600 seconds, got {}",
-            scene.duration
-        );
-    }
-    let c = scene.speed_of_sound.unwrap_or(343.0);
-    if !(c.is_finite() && c > 0.0) {
-        fail!(
-            SceneError::Invalid,
-            "speed_of_sound must be positive, got {c}"
-        );
-    }
-    Ok(())
 }
 
 /// The array in the room: the room, the microphones in room coordinates, the pose.
@@ -179,6 +166,35 @@ impl Placed {
             placed.check_inside(&format!("mic {}", i + 1), m)?;
         }
         Ok(placed)
+    }
+
+    /// How far the farthest source or fan, and the farthest microphone, are from the
+    /// array centre (metres); each at most [`MAX_DISTANCE_M`].
+    fn farthest(&self, scene: &SceneFile) -> Result<f64, SceneError> {
+        let mut far = 0.0f64;
+        let fans = scene
+            .noise
+            .iter()
+            .flat_map(|n| &n.fan)
+            .map(|f| Ok(Vector3::from(f.position)));
+        let sources = scene.source.iter().map(|s| source_position(s, self));
+        for (i, p) in sources.chain(fans).enumerate() {
+            let d = (p? - self.centre).norm();
+            if d > MAX_DISTANCE_M {
+                fail!(
+                    SceneError::Invalid,
+                    "a source or fan (number {} in the scene) is {d:.3e} m from the array; at most {MAX_DISTANCE_M} m is supported",
+                    i + 1
+                );
+            }
+            far = far.max(d);
+        }
+        let aperture = self
+            .mics
+            .iter()
+            .map(|m| (m - self.centre).norm())
+            .fold(0.0, f64::max);
+        Ok(far + aperture)
     }
 
     fn check_inside(&self, what: &str, p: &Vector3<f64>) -> Result<(), SceneError> {

@@ -35,6 +35,9 @@ pub struct Room {
     pub beta: f64,
 }
 
+/// Image sources one calibration response may hold.
+const MAX_CALIBRATION_IMAGES: f64 = 1e8;
+
 /// Sample rate of the reference responses used to calibrate and measure rooms.
 const REFERENCE_RATE: f64 = 8000.0;
 
@@ -50,6 +53,15 @@ impl Room {
         }
         if rt60 == 0.0 {
             return Ok(Room { dims, beta: 0.0 });
+        }
+        // Calibrating renders responses of 1.5 rt60: refuse what would take hours.
+        let images = super::limits::image_count(343.0 * 1.5 * rt60, dims.x * dims.y * dims.z);
+        if images > MAX_CALIBRATION_IMAGES {
+            fail!(
+                SceneError::Invalid,
+                "rt60 {rt60} s in a {:.0} m^3 room needs about {images:.1e} image sources per response; at most {MAX_CALIBRATION_IMAGES:.0e} are supported (a shorter rt60 or a larger room)",
+                dims.x * dims.y * dims.z
+            );
         }
         // The decay time is close to proportional to 1 / ln(1 / beta): start from Eyring's
         // beta and correct ln(1 / beta) by measured / requested until they agree.

@@ -1,0 +1,184 @@
+//! What a scene may ask for: every number checked before anything is rendered, and the
+//! rendering's cost estimated up front, so that no scene can make `ssl simulate` panic,
+//! hang for hours or run out of memory. Each refusal names the limit.
+
+use super::scene::{SceneFile, SignalKind};
+use super::SceneError;
+
+/// The longest scene (seconds).
+pub const MAX_DURATION_S: f64 = 3600.0;
+/// Samples of all channels together a scene may hold: 87 s of 8 channels at 48 kHz, 17
+/// minutes of 2 channels at 16 kHz. The simulator keeps the whole recording, and the
+/// FFT convolutions of whole sources, in memory: up to about 80 bytes per sample and
+/// channel (2.7 GB measured for a reverberant scene with a fan and diffuse noise at this
+/// limit).
+pub const MAX_CHANNEL_SAMPLES: f64 = (1u64 << 25) as f64;
+/// Sources in one scene.
+pub const MAX_SOURCES: usize = 1000;
+/// The farthest a source or fan may be from the array (metres).
+pub const MAX_DISTANCE_M: f64 = 1000.0;
+/// The largest room dimension (metres).
+pub const MAX_ROOM_M: f64 = 1000.0;
+/// Image sources one scene may render, over all responses (about a minute of work).
+pub const MAX_IMAGES: f64 = 2e9;
+/// The speed of sound accepted (m/s).
+pub const SPEED_RANGE: (f64, f64) = (50.0, 5000.0);
+
+macro_rules! require {
+    ($ok:expr, $($arg:tt)*) => {
+        let ok: bool = $ok;
+        if !ok {
+            fail!(SceneError::Invalid, $($arg)*);
+        }
+    };
+}
+
+fn finite3(p: &[f64; 3]) -> bool {
+    p.iter().all(|v| v.is_finite())
+}
+
+/// Checks every number of the scene that does not need the geometry.
+pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
+    let fs = scene.sample_rate as f64;
+    require!(
+        (1000..=768_000).contains(&scene.sample_rate),
+        "sample_rate must be between 1000 and 768000 Hz, got {}",
+        scene.sample_rate
+    );
+    require!(
+        scene.duration.is_finite() && scene.duration > 0.0 && scene.duration <= MAX_DURATION_S,
+        "duration must be between 0 and {MAX_DURATION_S} seconds, got {}",
+        scene.duration
+    );
+    require!(
+        (scene.duration * fs).round() >= 1.0,
+        "duration {} s is less than one sample at {} Hz",
+        scene.duration,
+        scene.sample_rate
+    );
+    let c = scene.speed_of_sound.unwrap_or(343.0);
+    require!(
+        c.is_finite() && (SPEED_RANGE.0..=SPEED_RANGE.1).contains(&c),
+        "speed_of_sound must be between {} and {} m/s, got {c}",
+        SPEED_RANGE.0,
+        SPEED_RANGE.1
+    );
+    if let Some(room) = &scene.room {
+        require!(
+            room.dimensions
+                .iter()
+                .all(|d| d.is_finite() && *d > 0.0 && *d <= MAX_ROOM_M),
+            "room dimensions must be between 0 and {MAX_ROOM_M} m, got {:?}",
+            room.dimensions
+        );
+    }
+    require!(
+        finite3(&scene.array.position) && scene.array.yaw_deg.is_finite(),
+        "the array's position and yaw_deg must be finite numbers"
+    );
+    require!(
+        scene.source.len() <= MAX_SOURCES,
+        "{} sources; at most {MAX_SOURCES} are supported",
+        scene.source.len()
+    );
+    for (i, s) in scene.source.iter().enumerate() {
+        let what = format!("source {}", i + 1);
+        let numbers = [
+            s.azimuth_deg,
+            s.elevation_deg,
+            s.distance,
+            s.rate,
+            s.frequency,
+        ];
+        require!(
+            s.position.is_none_or(|p| finite3(&p))
+                && numbers.iter().flatten().all(|v| v.is_finite()),
+            "{what}: every number must be finite"
+        );
+        require!(
+            s.level_db.is_finite() && (-200.0..=40.0).contains(&s.level_db),
+            "{what}: level_db must be between -200 and 40 dBFS, got {}",
+            s.level_db
+        );
+        if let Some(d) = s.distance {
+            require!(
+                d > 0.0 && d <= MAX_DISTANCE_M,
+                "{what}: distance must be between 0 and {MAX_DISTANCE_M} m, got {d}"
+            );
+        }
+        if s.signal == SignalKind::Clicks {
+            let rate = s.rate.unwrap_or(10.0);
+            require!(
+                rate > 0.0 && rate <= 1000.0,
+                "{what}: rate must be between 0 and 1000 clicks per second, got {rate}"
+            );
+        }
+        if s.signal == SignalKind::Tone {
+            let f = s.frequency.unwrap_or(1000.0);
+            require!(
+                f > 0.0 && f < fs / 2.0,
+                "{what}: frequency must be between 0 and {} Hz (half the sample rate), got {f}",
+                fs / 2.0
+            );
+        }
+    }
+    if let Some(noise) = &scene.noise {
+        require!(
+            noise.snr_db.is_finite() && (-100.0..=100.0).contains(&noise.snr_db),
+            "[noise] snr_db must be between -100 and 100 dB, got {}",
+            noise.snr_db
+        );
+        require!(
+            noise
+                .sensor_db
+                .is_none_or(|d| d.is_finite() && (-200.0..=40.0).contains(&d)),
+            "[noise] sensor_db must be between -200 and 40 dBFS, got {:?}",
+            noise.sensor_db
+        );
+        require!(
+            noise
+                .fan
+                .iter()
+                .all(|f| finite3(&f.position) && f.weight_db.is_finite())
+                && noise
+                    .diffuse
+                    .as_ref()
+                    .is_none_or(|d| d.weight_db.is_finite()),
+            "[noise] positions and weight_db must be finite numbers"
+        );
+    }
+    Ok(())
+}
+
+/// The cost of rendering: the memory of the recording, and the image sources of every
+/// response (source or fan to microphone).
+pub(crate) fn check_cost(
+    scene: &SceneFile,
+    mics: usize,
+    room_volume: Option<f64>,
+    reach_m: f64,
+) -> Result<(), SceneError> {
+    let samples = scene.duration * scene.sample_rate as f64 * mics as f64;
+    require!(
+        samples <= MAX_CHANNEL_SAMPLES,
+        "{mics} channels of {} s at {} Hz is {samples:.3e} samples; at most {MAX_CHANNEL_SAMPLES:.3e} are rendered (the simulator holds the recording in memory): shorten the scene",
+        scene.duration,
+        scene.sample_rate
+    );
+    if let Some(volume) = room_volume {
+        let responses =
+            mics * (scene.source.len() + scene.noise.as_ref().map_or(0, |n| n.fan.len()));
+        let images = image_count(reach_m, volume) * responses as f64;
+        require!(
+            images <= MAX_IMAGES,
+            "rendering needs about {images:.1e} image sources ({responses} responses reaching {reach_m:.0} m in a {volume:.0} m^3 room); at most {MAX_IMAGES:.0e} are supported: a shorter rt60, a larger room or fewer sources"
+        );
+    }
+    Ok(())
+}
+
+/// Image sources within `reach` metres of a point in a shoebox of `volume` cubic metres
+/// (one per `volume` of space, in a sphere).
+pub(crate) fn image_count(reach: f64, volume: f64) -> f64 {
+    4.0 / 3.0 * std::f64::consts::PI * reach.powi(3) / volume
+}

@@ -1,0 +1,303 @@
+//! Bounded work for any input: nothing the user gives can make `ssl` allocate without
+//! bound, run for hours, panic, or print NaN; what cannot be meant is refused with the
+//! limit in the message.
+
+mod support;
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+use support::*;
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Runs `ssl args` in `dir`, expecting a one-line error containing `needle`, promptly.
+fn refused(dir: &Path, args: &[&str], needle: &str) {
+    let start = Instant::now();
+    let out = ssl().current_dir(dir).args(args).output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+    assert!(err.contains(needle), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    assert!(
+        start.elapsed() < Duration::from_secs(10),
+        "{args:?} took {:?}",
+        start.elapsed()
+    );
+}
+
+const ARRAY: &str = "[[mic]]\nposition = [0.1, 0.0, 0.0]\n[[mic]]\nposition = [-0.1, 0.0, 0.0]\n[[mic]]\nposition = [0.0, 0.1, 0.05]\n[[mic]]\nposition = [0.0, -0.1, -0.05]\n";
+
+/// A scene file around `body` (a free-field 4-mic array at 16 kHz unless `body` says
+/// otherwise), written as `scene.toml`.
+fn scene_file(dir: &Path, head: &str, body: &str) -> String {
+    write(dir, "array.toml", ARRAY);
+    let text = format!(
+        "sample_rate = 16000\nduration = 1.0\n{head}\n[array]\ngeometry = \"array.toml\"\nposition = [2.0, 2.0, 1.0]\n{body}"
+    );
+    write(dir, "scene.toml", text);
+    "scene.toml".into()
+}
+
+const SOURCE: &str = "[[source]]\nazimuth_deg = 30.0\ndistance = 1.0\nsignal = \"white\"\n";
+
+#[test]
+fn endless_and_absurd_inputs_are_refused_promptly() {
+    let dir = tempdir();
+    let d = dir.path();
+    let sc = scene(
+        prism(),
+        48000,
+        &[(30.0, 10.0, ssl::sim::signals::Signal::WhiteNoise)],
+        0.3,
+        0.005,
+        1,
+    );
+    let wav = render_wav(d, "rec.wav", &sc, ssl::sim::Encoding::Int16);
+    let geo = write(d, "prism.toml", geometry_toml(&prism(), ""));
+    // /dev/zero as geometry, scene, truth and result: read up to a limit, then refused.
+    refused(
+        d,
+        &["analyze", s(&wav), "-g", "/dev/zero"],
+        "longer than 1048576 bytes",
+    );
+    refused(d, &["simulate", "/dev/zero", "-o", "x.wav"], "longer than");
+    let sim = scene_file(d, "", SOURCE);
+    let made = ssl()
+        .current_dir(d)
+        .args(["simulate", &sim, "-o", "sim.wav"])
+        .output()
+        .unwrap();
+    assert!(made.status.success(), "{}", stderr(&made));
+    let result = ssl()
+        .current_dir(d)
+        .args(["analyze", "sim.wav", "-g", "array.toml", "-o", "r.csv"])
+        .output()
+        .unwrap();
+    assert!(result.status.success(), "{}", stderr(&result));
+    refused(
+        d,
+        &["evaluate", "--truth", "/dev/zero", "r.csv"],
+        "longer than",
+    );
+    refused(
+        d,
+        &["evaluate", "--truth", "sim.truth.json", "/dev/zero"],
+        "longer than",
+    );
+    // A frame size that cannot be meant.
+    refused(
+        d,
+        &[
+            "analyze",
+            s(&wav),
+            "-g",
+            s(&geo),
+            "-n",
+            "18446744073709551614",
+        ],
+        "from 16 to 65536",
+    );
+    // Microphones 1e150 m apart, or in millimetres.
+    let far = write(
+        d,
+        "far.toml",
+        "[[mic]]\nposition = [1e150, 0, 0]\n[[mic]]\nposition = [-1e150, 0, 0]\n",
+    );
+    refused(
+        d,
+        &["analyze", s(&wav), "-g", s(&far)],
+        "did you mean millimetres?",
+    );
+    let mm: Vec<_> = prism().iter().map(|p| p * 1000.0).collect();
+    let mm = write(d, "mm.toml", geometry_toml(&mm, ""));
+    refused(
+        d,
+        &["analyze", s(&wav), "-g", s(&mm)],
+        "did you mean millimetres?",
+    );
+    refused(d, &["geometry", s(&mm)], "did you mean millimetres?");
+}
+
+#[test]
+fn simulate_validates_its_scene_and_its_cost_before_rendering() {
+    let dir = tempdir();
+    let d = dir.path();
+    let room = "[room]\ndimensions = [5.0, 4.0, 3.0]\nrt60 = 0.3\n";
+    let cases: Vec<(String, String, &str)> = vec![
+        // Numbers that cannot be meant.
+        ("".into(), SOURCE.replace("30.0", "nan"), "must be finite"),
+        (
+            "".into(),
+            format!("{SOURCE}level_db = inf\n"),
+            "level_db must be between",
+        ),
+        (
+            "".into(),
+            format!("{SOURCE}level_db = 1000\n"),
+            "level_db must be between",
+        ),
+        (
+            "".into(),
+            SOURCE.replace("\"white\"", "\"clicks\"\nrate = 0"),
+            "rate must be between",
+        ),
+        (
+            "".into(),
+            SOURCE.replace("\"white\"", "\"clicks\"\nrate = nan"),
+            "must be finite",
+        ),
+        (
+            "".into(),
+            SOURCE.replace("\"white\"", "\"tone\"\nfrequency = 9000"),
+            "frequency must be between",
+        ),
+        (
+            "".into(),
+            "[[source]]\nposition = [nan, 1.0, 1.0]\nsignal = \"white\"\n".into(),
+            "must be finite",
+        ),
+        (
+            "".into(),
+            SOURCE.replace("distance = 1.0", "distance = 1e7"),
+            "distance must be between",
+        ),
+        (
+            "".into(),
+            "[[source]]\nposition = [1e7, 1.0, 1.0]\nsignal = \"white\"\n".into(),
+            "at most 1000 m",
+        ),
+        (
+            "duration = 0.00001".into(),
+            SOURCE.into(),
+            "less than one sample",
+        ),
+        (
+            "speed_of_sound = 1e12".into(),
+            SOURCE.into(),
+            "speed_of_sound must be between",
+        ),
+        // Costs: a long recording, an absurd reverberation, a room too small for its echoes.
+        (
+            "duration = 3600\nsample_rate = 48000".into(),
+            SOURCE.into(),
+            "samples; at most",
+        ),
+        (
+            room.replace("0.3", "100"),
+            SOURCE.into(),
+            "image sources per response",
+        ),
+        (
+            "[room]\ndimensions = [0.3, 0.3, 0.3]\nrt60 = 0.5".into(),
+            SOURCE.into(),
+            "image sources",
+        ),
+        ("".into(), SOURCE.repeat(1001), "at most 1000 are supported"),
+    ];
+    for (head, body, needle) in cases {
+        // A head that sets sample_rate or duration replaces the default lines.
+        write(d, "array.toml", ARRAY);
+        let mut text = String::new();
+        if !head.contains("sample_rate") {
+            text += "sample_rate = 16000\n";
+        }
+        if !head.contains("duration") {
+            text += "duration = 1.0\n";
+        }
+        let (top, room_part) = match head.find("[room]") {
+            Some(i) => (&head[..i], &head[i..]),
+            None => (&head[..], ""),
+        };
+        text += &format!(
+            "{top}\n[array]\ngeometry = \"array.toml\"\nposition = [2.0, 2.0, 1.0]\n{room_part}\n{body}"
+        );
+        write(d, "scene.toml", text);
+        refused(d, &["simulate", "scene.toml", "-o", "out.wav"], needle);
+        assert!(!d.join("out.wav").exists());
+    }
+}
+
+#[test]
+fn evaluate_refuses_values_that_cannot_be_meant() {
+    let dir = tempdir();
+    let d = dir.path();
+    let sim = scene_file(d, "", SOURCE);
+    let made = ssl()
+        .current_dir(d)
+        .args(["simulate", &sim, "-o", "sim.wav"])
+        .output()
+        .unwrap();
+    assert!(made.status.success(), "{}", stderr(&made));
+    let result = ssl()
+        .current_dir(d)
+        .args(["analyze", "sim.wav", "-g", "array.toml", "-o", "r.csv"])
+        .output()
+        .unwrap();
+    assert!(result.status.success());
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("sim.truth.json")).unwrap()).unwrap();
+    let edit = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut t = truth.clone();
+        f(&mut t);
+        write(d, "t.json", serde_json::to_string(&t).unwrap());
+    };
+    type Change<'a> = &'a dyn Fn(&mut serde_json::Value);
+    let cases: [(Change, &str); 5] = [
+        (&|t| t["duration_s"] = 1e12.into(), "duration_s"),
+        (&|t| t["duration_s"] = (-1.0).into(), "duration_s"),
+        (
+            &|t| t["sources"][0]["active"] = serde_json::json!([[0.8, 0.2]]),
+            "reversed",
+        ),
+        (&|t| t["sample_rate"] = 0.into(), "sample_rate"),
+        (
+            &|t| {
+                t["sources"][0]["x"] = 0.0.into();
+                t["sources"][0]["y"] = 0.0.into();
+                t["sources"][0]["z"] = 0.0.into();
+            },
+            "not a finite non-zero vector",
+        ),
+    ];
+    for (change, needle) in cases {
+        edit(change);
+        refused(d, &["evaluate", "--truth", "t.json", "r.csv"], needle);
+    }
+    // NaN in a result (as text: JSON has no NaN), and a zero vector.
+    let csv = std::fs::read_to_string(d.join("r.csv")).unwrap();
+    let mut lines: Vec<String> = csv.lines().map(String::from).collect();
+    let mut fields: Vec<String> = lines[1].split(',').map(String::from).collect();
+    fields[3] = "NaN".into();
+    lines[1] = fields.join(",");
+    write(d, "nan.csv", lines.join("\n") + "\n");
+    refused(
+        d,
+        &["evaluate", "--truth", "sim.truth.json", "nan.csv"],
+        "not finite",
+    );
+    fields[3] = "0".into();
+    fields[4] = "0".into();
+    fields[5] = "0".into();
+    lines[1] = fields.join(",");
+    write(d, "zero.csv", lines.join("\n") + "\n");
+    refused(
+        d,
+        &["evaluate", "--truth", "sim.truth.json", "zero.csv"],
+        "vector is zero",
+    );
+    // The truth file the project ships is read.
+    let example = ssl()
+        .args(["evaluate", "--truth"])
+        .arg(testdata("example.truth.json"))
+        .arg(write(
+            d,
+            "none.csv",
+            "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics\n",
+        ))
+        .output()
+        .unwrap();
+    assert!(example.status.success(), "{}", stderr(&example));
+}
