@@ -263,21 +263,21 @@ fn main() {
         (
             "threshold 0.4 per pair",
             Params {
-                min_score: Some(0.4 * 28.0),
+                min_score_per_pair: 0.4,
                 ..base.clone()
             },
         ),
         (
             "threshold 0.6 per pair",
             Params {
-                min_score: Some(0.6 * 28.0),
+                min_score_per_pair: 0.6,
                 ..base.clone()
             },
         ),
         (
             "no threshold",
             Params {
-                min_score: Some(f64::NEG_INFINITY),
+                min_score_per_pair: f64::NEG_INFINITY,
                 ..base.clone()
             },
         ),
@@ -294,7 +294,7 @@ fn main() {
     if std::env::args().any(|a| a == "--scores") {
         // Score distributions without a threshold, to choose the default threshold.
         let open = Params {
-            min_score: Some(f64::NEG_INFINITY),
+            min_score_per_pair: f64::NEG_INFINITY,
             ..Params::default()
         };
         let pct = |v: &mut Vec<f64>, p: f64| {

@@ -188,7 +188,7 @@ fn stages(c: &mut Criterion) {
     }
     // --min-score 0: no correlation can be skipped.
     let every_pair = Params {
-        min_score: Some(0.0),
+        min_score_per_pair: 0.0,
         ..Params::default()
     };
     let g = geometry(&pos);

@@ -10,8 +10,18 @@ use std::path::Path;
 
 fn render(cmd: clap::Command) -> String {
     let mut buf = Vec::new();
-    clap_mangen::Man::new(cmd).render(&mut buf).unwrap();
-    String::from_utf8(buf).unwrap()
+    clap_mangen::Man::new(cmd.clone()).render(&mut buf).unwrap();
+    let mut page = String::from_utf8(buf).unwrap();
+    // clap_mangen writes a positional that takes several values as `<FILE>`; the
+    // synopsis says `<FILE>...`, as `--help` does.
+    for arg in cmd.get_positionals() {
+        if arg.get_num_args().is_some_and(|n| n.max_values() > 1) {
+            let name = arg.get_value_names().unwrap()[0].as_str();
+            let single = format!("<\\fI{name}\\fR>");
+            page = page.replacen(&single, &format!("{single}..."), 1);
+        }
+    }
+    page
 }
 
 fn pages() -> Vec<(String, String)> {
@@ -45,6 +55,65 @@ fn man_pages_match_the_command_line() {
         assert!(
             current == text,
             "man/{file} is stale: regenerate with `SSL_UPDATE_MAN=1 cargo test --test man`"
+        );
+    }
+}
+
+/// The help and the man pages state only what is true: every page they refer to exists,
+/// `-V` works wherever it is listed, variadic arguments say so, the score is not said
+/// to be at most 1 per pair, and `ssl analyze --help` has examples.
+#[test]
+fn help_and_man_pages_say_only_what_is_true() {
+    let pages = pages();
+    let names: Vec<&str> = pages
+        .iter()
+        .map(|(f, _)| f.trim_end_matches(".1"))
+        .collect();
+    for (file, text) in &pages {
+        for (i, _) in text.match_indices("(1)") {
+            let start = text[..i]
+                .rfind(|c: char| c.is_whitespace())
+                .map_or(0, |s| s + 1);
+            let page = text[start..i].replace("\\-", "-");
+            assert!(
+                names.contains(&page.as_str()),
+                "{file} refers to a missing {page}(1)"
+            );
+        }
+        assert!(!text.contains("at most 1 per microphone pair"), "{file}");
+    }
+    let analyze = &pages.iter().find(|(f, _)| f == "ssl-analyze.1").unwrap().1;
+    assert!(analyze.contains("<\\fIFILE\\fR>..."), "variadic FILE");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ssl"))
+        .args(["analyze", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        help.contains("Examples:") && help.contains("<FILE>..."),
+        "{help}"
+    );
+    for sub in ["analyze", "geometry", "simulate", "evaluate", "completions"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_ssl"))
+            .args([sub, "-V"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "ssl {sub} -V");
+    }
+}
+
+#[test]
+fn completions_for_every_shell() {
+    for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_ssl"))
+            .args(["completions", shell])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{shell}");
+        let script = String::from_utf8(out.stdout).unwrap();
+        assert!(
+            script.contains("analyze") && script.contains("min-score"),
+            "{shell}"
         );
     }
 }

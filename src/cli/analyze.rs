@@ -10,10 +10,12 @@ use super::{error, output_error, warn, warning_with_hint, with_hint};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use ssl::record::FileEntry;
+use ssl::stream::SampleSource;
 use ssl::{Analysis, DetectionRecord, Exporter, Format, Geometry, OutputError, RunMetadata};
 use std::io::{self, BufWriter, IsTerminal};
 use std::ops::ControlFlow;
 use std::path::Path;
+use std::time::Instant;
 
 type Out = BufWriter<Sink>;
 
@@ -86,13 +88,11 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
                 continue;
             }
         };
-        let bar = progress_bar(show_progress, path, analysis.total_frames());
+        let progress = Progress::new(show_progress, &analysis);
         let name = analysis.name().to_string();
         let mut output_failure = None;
         let (summary, result) = analysis.run(|index, detection| {
-            if index % 64 == 0 {
-                bar.set_position(index);
-            }
+            progress.frame(index);
             let written = out.exporter().and_then(|exporter| match detection {
                 Some(d) => exporter.detection(&DetectionRecord::new(&name, d)?),
                 None => Ok(()),
@@ -105,7 +105,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
                 }
             }
         });
-        bar.finish_and_clear();
+        progress.finish(&summary);
         if let Some(e) = output_failure {
             return Err(out.failed(e));
         }
@@ -146,21 +146,103 @@ fn warn_about_repeats(args: &AnalyzeArgs) {
     }
 }
 
-fn progress_bar(show: bool, name: &str, total: Option<u64>) -> ProgressBar {
-    if !show {
-        return ProgressBar::hidden();
+/// The progress of one file on a terminal: audio time done and total, speed, ETA; then
+/// one summary line.
+struct Progress {
+    bar: ProgressBar,
+    show: bool,
+    name: String,
+    hop_s: f64,
+    frame_s: f64,
+    total_s: Option<f64>,
+    started: Instant,
+}
+
+impl Progress {
+    fn new<S: SampleSource>(show: bool, analysis: &Analysis<S>) -> Self {
+        let rate = analysis.sample_rate() as f64;
+        let n = analysis.frame_size() as f64;
+        let name = analysis.name().to_string();
+        let bar = if show {
+            let bar = match analysis.total_frames() {
+                Some(t) => ProgressBar::with_draw_target(Some(t), ProgressDrawTarget::stderr())
+                    .with_style(
+                        ProgressStyle::with_template("{prefix} [{bar:25}] {msg}")
+                            .expect("valid template")
+                            .progress_chars("=> "),
+                    ),
+                None => ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr())
+                    .with_style(
+                        ProgressStyle::with_template("{prefix} {spinner} {msg}")
+                            .expect("valid template"),
+                    ),
+            };
+            bar.set_prefix(name.clone());
+            bar
+        } else {
+            ProgressBar::hidden()
+        };
+        Progress {
+            bar,
+            show,
+            name,
+            hop_s: n / 2.0 / rate,
+            frame_s: n / rate,
+            total_s: analysis.duration_s(),
+            started: Instant::now(),
+        }
     }
-    let bar = match total {
-        Some(t) => ProgressBar::with_draw_target(Some(t), ProgressDrawTarget::stderr()).with_style(
-            ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames ({eta})")
-                .expect("valid template")
-                .progress_chars("=> "),
-        ),
-        None => ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr()).with_style(
-            ProgressStyle::with_template("{prefix} {spinner} {pos} frames")
-                .expect("valid template"),
-        ),
-    };
-    bar.set_prefix(name.to_string());
-    bar
+
+    /// Shows frame `index` done.
+    fn frame(&self, index: u64) {
+        if !self.show || index % 64 != 0 {
+            return;
+        }
+        self.bar.set_position(index);
+        let done = index as f64 * self.hop_s + self.frame_s;
+        let wall = self.started.elapsed().as_secs_f64().max(1e-6);
+        let speed = done / wall;
+        let mut msg = match self.total_s {
+            Some(total) => format!("{} of {}", clock(done.min(total)), clock(total)),
+            None => clock(done),
+        };
+        msg += &format!(", {speed:.0}x real time");
+        if let Some(total) = self.total_s {
+            msg += &format!(", ETA {}", clock(((total - done) / speed).max(0.0)));
+        }
+        self.bar.set_message(msg);
+    }
+
+    /// Clears the bar and, on a terminal, prints what the file gave.
+    fn finish(self, summary: &ssl::Summary) {
+        self.bar.finish_and_clear();
+        if self.show {
+            let frames = summary.stats.frames;
+            let audio = if frames == 0 {
+                0.0
+            } else {
+                (frames - 1) as f64 * self.hop_s + self.frame_s
+            };
+            let wall = self.started.elapsed().as_secs_f64().max(1e-6);
+            eprintln!(
+                "{}: {} of audio in {:.1} s ({:.0}x real time), {} detections",
+                self.name,
+                clock(audio),
+                wall,
+                audio / wall,
+                summary.stats.detections
+            );
+        }
+    }
+}
+
+/// Seconds as `m:ss.s` (or `h:mm:ss`).
+fn clock(s: f64) -> String {
+    let s = s.max(0.0);
+    if s >= 3600.0 {
+        let t = s.round() as u64;
+        format!("{}:{:02}:{:02}", t / 3600, t / 60 % 60, t % 60)
+    } else {
+        format!("{}:{:04.1}", (s / 60.0).floor() as u64, s % 60.0)
+    }
 }

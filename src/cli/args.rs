@@ -3,7 +3,7 @@
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
-use ssl::method::{Interpolation, Params, Window, DEFAULT_TOLERANCE};
+use ssl::method::{Interpolation, Params, Window, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_TOLERANCE};
 use ssl::{Format, Named};
 use std::path::PathBuf;
 
@@ -12,13 +12,18 @@ use std::path::PathBuf;
 #[command(
     name = "ssl",
     version,
+    propagate_version = true,
+    disable_help_subcommand = true,
     about = "Find where sounds come from in multichannel microphone-array recordings",
     long_about = "Find where sounds come from in multichannel microphone-array recordings.\n\n\
         ssl implements the time-delay method of Valin, Michaud, Rouat and Letourneau (IROS 2003): \
         weighted PHAT cross-correlation of every microphone pair, a consistency-checked search over \
         the M highest peaks of each, and a far-field least-squares direction. It writes timestamped \
         directions (azimuth, elevation, unit vector) as CSV, JSON or NDJSON.",
-    after_help = "Example: ssl analyze testdata/example.wav --geometry testdata/prism.toml"
+    after_help = "Examples:\n  \
+        ssl analyze testdata/example.wav --geometry testdata/prism.toml\n  \
+        ssl simulate testdata/scene.toml -o scene.wav && ssl analyze scene.wav -g testdata/prism.toml | ssl evaluate --truth scene.truth.json -\n  \
+        ssl completions bash > ~/.local/share/bash-completion/completions/ssl"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -32,10 +37,17 @@ pub enum Command {
         long_about = "Localize sound sources in WAV recordings.\n\n\
         Writes one record per detected source per analysis frame (frames of N samples, hop N/2): \
         time_s (frame centre), azimuth_deg, elevation_deg, x, y, z (unit vector from the array centre), \
-        score (summed weighted correlation of the chosen delays, at most 1 per microphone pair), then \
-        file, frame and mics. Frames with no consistent set of delays give no record. Files are analysed \
-        in argument order; a file that fails is reported on stderr and the others still run (exit status 1).\n\n\
-        Exit status: 0 success, 1 a file or the geometry could not be analysed, 2 a usage error."
+        score (summed weighted correlation of the chosen delays, one term per microphone pair: at most 1 each \
+        with --no-weighting, several for a source that stands out of the noise with the weighting), then \
+        file, frame and mics. Frames with no consistent set of delays, or scoring under --min-score per pair, \
+        give no record. Files are analysed in argument order; a file that fails is reported on stderr and the \
+        others still run (exit status 1). When every file fails, nothing is written.\n\n\
+        Exit status: 0 success, 1 a file or the geometry could not be analysed, 2 a usage error.",
+        after_help = "Examples:\n  \
+        ssl analyze rec.wav -g array.toml                     CSV on standard output\n  \
+        ssl analyze rec.wav -g array.toml -f json -o rec.json  one JSON document\n  \
+        sox in.flac -t wav - | ssl analyze - -g array.toml    from a pipe\n  \
+        ssl analyze *.wav -g array.toml --min-score 0.3      a lower threshold per microphone pair"
     )]
     Analyze(AnalyzeArgs),
     /// Show what ssl understood of an array geometry file
@@ -62,6 +74,19 @@ pub enum Command {
         reverberation tail)."
     )]
     Evaluate(EvaluateArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish or powershell)
+    #[command(after_help = "Examples:\n  \
+        ssl completions bash > ~/.local/share/bash-completion/completions/ssl\n  \
+        ssl completions zsh > ~/.zfunc/_ssl\n  \
+        ssl completions fish > ~/.config/fish/completions/ssl.fish")]
+    Completions(CompletionsArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct CompletionsArgs {
+    /// The shell
+    #[arg(value_enum, value_name = "SHELL")]
+    pub shell: clap_complete::Shell,
 }
 
 #[derive(Debug, Args)]
@@ -110,9 +135,9 @@ pub struct AnalyzeArgs {
     #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
     pub speed_of_sound: Option<f64>,
 
-    /// Drop detections whose score is below this [default: 0.5 per microphone pair, 14 for 8 mics]
-    #[arg(long, value_name = "SCORE", allow_negative_numbers = true, value_parser = parse_f64)]
-    pub min_score: Option<f64>,
+    /// Drop detections scoring below this per microphone pair (a frame with P pairs needs P times it; 0 keeps every consistent set)
+    #[arg(long, value_name = "SCORE", default_value_t = DEFAULT_MIN_SCORE_PER_PAIR, allow_negative_numbers = true, value_parser = parse_f64)]
+    pub min_score: f64,
 
     /// Analysis window
     #[arg(long, default_value = "hann", value_parser = choice::<Window>())]
@@ -222,7 +247,7 @@ impl AnalyzeArgs {
             peaks: self.peaks as usize,
             tolerance: self.tolerance,
             speed_of_sound: self.speed_of_sound,
-            min_score: self.min_score,
+            min_score_per_pair: self.min_score,
             window: self.window,
             interpolation: self.interpolation,
             ..Params::default()

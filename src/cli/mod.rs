@@ -36,6 +36,11 @@ pub fn main() -> i32 {
         Command::Geometry(args) => geometry::run(&args).map(|()| true),
         Command::Simulate(args) => simulate::run(&args).map(|()| true),
         Command::Evaluate(args) => evaluate::run(&args).map(|()| true),
+        Command::Completions(args) => {
+            let mut cmd = <Cli as clap::CommandFactory>::command();
+            clap_complete::generate(args.shell, &mut cmd, "ssl", &mut std::io::stdout());
+            Ok(true)
+        }
     };
     match result {
         Ok(true) => 0,
@@ -102,6 +107,10 @@ fn with_hint(e: &AnalysisError) -> String {
 fn warning_with_hint(name: &str, w: &Warning) -> String {
     let hint = match w {
         Warning::SearchBudget { .. } => " (--tolerance, --peaks)",
+        Warning::FewDetections { steady: true, .. } => {
+            "; --no-weighting localizes such steady sources"
+        }
+        Warning::FewDetections { .. } => "; --min-score sets the threshold per pair",
         _ => "",
     };
     format!("{name}: {w}{hint}")

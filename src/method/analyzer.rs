@@ -76,6 +76,11 @@ impl Analyzer {
         self.setup.hop
     }
 
+    /// The parameters, as checked.
+    pub fn params(&self) -> &Params {
+        &self.setup.params
+    }
+
     /// An empty block of frames for this analysis.
     pub fn block(&self) -> FrameBlock {
         FrameBlock::new(self.setup.n, self.setup.mics(), BLOCK)
@@ -205,6 +210,11 @@ impl Sequential {
                 self.stats.silent_frames += 1;
                 continue;
             }
+            let power = state.power.iter().map(|&p| p as f64).sum::<f64>();
+            self.stats.power_range = Some(match self.stats.power_range {
+                Some((lo, hi)) => (lo.min(power), hi.max(power)),
+                None => (power, power),
+            });
             for (m, dead) in self.stats.dead_frames.iter_mut().enumerate() {
                 if !state.live.contains(&m) {
                     *dead += 1;

@@ -17,7 +17,9 @@ pub struct Detection {
     pub elevation_deg: f64,
     /// Unit vector from the array centre toward the source.
     pub direction: Vector3<f64>,
-    /// Summed weighted correlation of the chosen delay set (at most 1 per pair).
+    /// Summed weighted correlation of the chosen delay set, one term per pair (at most 1
+    /// each with plain PHAT; the SNR weighting gives bins that stand out of the noise
+    /// more, so a strong source scores several per pair).
     pub score: f64,
     /// Microphones that took part (dead channels are left out).
     pub mics: usize,
@@ -34,7 +36,9 @@ pub(crate) enum Outcome {
     Inconsistent(bool),
     /// The best set scored under the threshold, or no set could reach it (the frame was
     /// decided by the weights' ceiling, see [`peak_ceiling`](super::correlation::peak_ceiling)).
-    BelowThreshold(bool),
+    /// `true`: the search hit its node budget; then the best set's score per pair when the
+    /// frame was searched (`true`), else the most it could have scored per pair.
+    BelowThreshold(bool, f64, bool),
     /// A detection (`true`: the search hit its node budget).
     Detected(Detection, bool),
 }
@@ -59,6 +63,15 @@ pub struct FrameStats {
     /// showed could not reach it before every pair was correlated (those are not
     /// searched, so whether they held a consistent set is not known).
     pub below_threshold_frames: u64,
+    /// The highest score per microphone pair of any consistent set that was searched
+    /// (`None` when the weights ruled out every frame before its search).
+    pub best_score_per_pair: Option<f64>,
+    /// For frames decided by the weights' ceiling before their search: the most any of
+    /// them could have scored per microphone pair.
+    pub best_bound_per_pair: Option<f64>,
+    /// The lowest and highest mean power of a frame with signal, over the recording:
+    /// close together when the recording is steady from start to end.
+    pub power_range: Option<(f64, f64)>,
 }
 
 impl FrameStats {
@@ -69,12 +82,20 @@ impl FrameStats {
                 self.inconsistent_frames += 1;
                 b
             }
-            Outcome::BelowThreshold(b) => {
+            Outcome::BelowThreshold(b, per_pair, searched) => {
                 self.below_threshold_frames += 1;
+                let best = if searched {
+                    &mut self.best_score_per_pair
+                } else {
+                    &mut self.best_bound_per_pair
+                };
+                *best = Some(best.map_or(per_pair, |b| b.max(per_pair)));
                 b
             }
-            Outcome::Detected(_, b) => {
+            Outcome::Detected(d, b) => {
                 self.detections += 1;
+                let p = d.score / crate::method::pairs::pair_count(d.mics) as f64;
+                self.best_score_per_pair = Some(self.best_score_per_pair.map_or(p, |b| b.max(p)));
                 b
             }
             Outcome::Silent | Outcome::Unsolved => false,

@@ -24,9 +24,9 @@ pub struct Params {
     pub tolerance: f32,
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
-    /// Detections with a lower score are dropped (`None`: [`DEFAULT_MIN_SCORE_PER_PAIR`]
-    /// times the number of microphone pairs in the frame).
-    pub min_score: Option<f64>,
+    /// Detection threshold per microphone pair: a frame whose best set scores below this
+    /// times its number of pairs gives no detection (the same number suits any array).
+    pub min_score_per_pair: f64,
     /// The analysis window.
     pub window: Window,
     /// Sub-sample refinement of the correlation peaks.
@@ -47,7 +47,7 @@ impl Default for Params {
             peaks: 8,
             tolerance: DEFAULT_TOLERANCE,
             speed_of_sound: None,
-            min_score: None,
+            min_score_per_pair: DEFAULT_MIN_SCORE_PER_PAIR,
             window: Window::Hann,
             interpolation: Interpolation::Parabolic,
             max_nodes: 1_000_000,
@@ -107,6 +107,9 @@ pub enum ParamsError {
     /// The tolerance is negative or not a number.
     #[error("the consistency tolerance must be a non-negative number of samples, got {0}")]
     Tolerance(f32),
+    /// The threshold is not a number.
+    #[error("the detection threshold must be a number, got {0}")]
+    MinScore(f64),
     /// The speed of sound is not a positive number.
     #[error("the speed of sound must be positive, got {0}")]
     SpeedOfSound(f64),
@@ -147,6 +150,9 @@ impl Setup {
         }
         if !(params.tolerance.is_finite() && params.tolerance >= 0.0) {
             return Err(ParamsError::Tolerance(params.tolerance));
+        }
+        if params.min_score_per_pair.is_nan() {
+            return Err(ParamsError::MinScore(params.min_score_per_pair));
         }
         let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
         if !(speed.is_finite() && speed > 0.0) {

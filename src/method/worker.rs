@@ -9,7 +9,7 @@ use super::correlation::{peak_ceiling, whiten, Correlator};
 use super::direction::{angles_deg, DirectionSolver};
 use super::outcome::{Clock, Detection, Outcome, StageTimes};
 use super::pairs::{pair_count, pair_index};
-use super::params::{Setup, DEFAULT_MIN_SCORE_PER_PAIR};
+use super::params::Setup;
 use super::peaks::{find_peaks, Peak};
 use super::search::{Searcher, Solution};
 use super::spectrum::{frame_spectra, ForwardFft};
@@ -122,25 +122,23 @@ impl Worker {
                 &mut self.weights,
             );
         }
-        let threshold = setup
-            .params
-            .min_score
-            .unwrap_or(DEFAULT_MIN_SCORE_PER_PAIR * pair_count(k) as f64);
+        let threshold = setup.params.min_score_per_pair * pair_count(k) as f64;
         let ceiling = peak_ceiling(&self.weights, setup.n, setup.params.interpolation);
         let cut = Cut {
             prune: self.prune,
             threshold,
             ceiling,
         };
+        let pairs = pair_count(k) as f64;
         if cut.skip(&mut clock, pair_count(k), 0.0) {
-            return Outcome::BelowThreshold(false);
+            return Outcome::BelowThreshold(false, ceiling, false);
         }
         for &m in &state.live {
             whiten(&state.spectra[m], &self.weights, &mut self.whitened[m]);
         }
         clock.lap(|t| &mut t.weighting);
-        if !self.correlate_pairs(setup, state, &cut, &mut clock) {
-            return Outcome::BelowThreshold(false);
+        if let Err(bound) = self.correlate_pairs(setup, state, &cut, &mut clock) {
+            return Outcome::BelowThreshold(false, bound / pairs, false);
         }
         self.searcher.search(k, &self.peaks);
         clock.lap(|t| &mut t.search);
@@ -149,7 +147,7 @@ impl Worker {
             return Outcome::Inconsistent(budget);
         };
         if solution.score < threshold {
-            return Outcome::BelowThreshold(budget);
+            return Outcome::BelowThreshold(budget, solution.score / pairs, true);
         }
         let outcome = match direction(&mut self.solvers, setup, state, index, solution) {
             Some(detection) => Outcome::Detected(detection, budget),
@@ -161,15 +159,15 @@ impl Worker {
 
     /// Eq. (6) divided by N (see [`correlation`](super::correlation) on the scale) for
     /// every live pair, two pairs per inverse FFT in the order of [`pair_index`], and the
-    /// M peaks of each (eq. 7). Returns `false` as soon as the frame is shown unable to
-    /// reach the threshold.
+    /// M peaks of each (eq. 7). Stops as soon as the frame is shown unable to reach the
+    /// threshold, with the most it could still have scored.
     fn correlate_pairs(
         &mut self,
         setup: &Setup,
         state: &FrameState,
         cut: &Cut,
         clock: &mut Clock,
-    ) -> bool {
+    ) -> Result<(), f64> {
         let (k, mics) = (state.live.len(), setup.mics());
         let norm = setup.n as f32;
         self.pairs.clear();
@@ -185,7 +183,7 @@ impl Worker {
         for (done, two) in self.pairs.chunks(2).enumerate() {
             let left = self.pairs.len() - 2 * done;
             if done > 0 && cut.skip(clock, left, best_possible) {
-                return false;
+                return Err(best_possible + left as f64 * cut.ceiling);
             }
             self.correlator
                 .correlate(spectra(two[0]), two.get(1).map(|&p| spectra(p)), norm);
@@ -206,7 +204,7 @@ impl Worker {
             }
             clock.lap(|t| &mut t.peaks);
         }
-        true
+        Ok(())
     }
 }
 

@@ -3,10 +3,10 @@
 
 use super::fixed;
 use crate::geometry::{Geometry, Shape};
-use crate::method::{Interpolation, Params, Window, DEFAULT_MIN_SCORE_PER_PAIR};
+use crate::method::pairs::pair_count;
+use crate::method::{Interpolation, Params, Window};
 use crate::stream::Summary;
 use serde::{Deserialize, Serialize};
-use serde_json::{json, Value};
 
 /// The run's metadata, in the order the JSON document carries it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -69,31 +69,41 @@ pub struct MicInfo {
     pub channel: usize,
 }
 
-/// The parameters as the JSON document records them.
+/// The parameters as the JSON document records them: numbers are numbers, written as
+/// given (`0.4`, not the nearest single-precision value).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParametersInfo {
-    /// Frame size N, or `"auto"` (about 21 ms at every rate).
-    pub frame_size: Value,
+    /// Frame size N given on the command line, or `null` for the default of each file's
+    /// rate (about 21 ms); each file's entry has the frame size used.
+    pub frame_size: Option<usize>,
     /// Always `"frame_size / 2"`.
     pub hop: String,
     /// The analysis window.
     pub window: Window,
     /// `alpha` of eq. (4).
-    pub alpha: f32,
+    pub alpha: f64,
     /// `gamma` of eq. (5).
-    pub gamma: f32,
+    pub gamma: f64,
     /// Spectral weighting on (else plain PHAT).
     pub weighting: bool,
     /// Peaks M per pair.
     pub peaks: usize,
     /// Consistency tolerance (samples).
-    pub tolerance_samples: f32,
+    pub tolerance_samples: f64,
     /// Sub-sample refinement of the peaks.
     pub interpolation: Interpolation,
     /// Speed of sound used (m/s).
     pub speed_of_sound: f64,
-    /// Detection threshold, or the default's rule.
-    pub min_score: Value,
+    /// Detection threshold per microphone pair.
+    pub min_score_per_pair: f64,
+    /// The threshold a frame with every microphone live needs: `min_score_per_pair`
+    /// times the array's pairs.
+    pub min_score: f64,
+}
+
+/// A single-precision parameter as it was written (`0.4`), not as its nearest double.
+fn as_given(v: f32) -> f64 {
+    v.to_string().parse().unwrap_or(v as f64)
 }
 
 impl RunMetadata {
@@ -103,20 +113,18 @@ impl RunMetadata {
             tool: Tool::default(),
             geometry: GeometryInfo::new(geometry, geometry_file),
             parameters: ParametersInfo {
-                frame_size: params.frame_size.map_or(json!("auto"), |n| json!(n)),
+                frame_size: params.frame_size,
                 hop: "frame_size / 2".into(),
                 window: params.window,
-                alpha: params.alpha,
-                gamma: params.gamma,
+                alpha: as_given(params.alpha),
+                gamma: as_given(params.gamma),
                 weighting: params.weighting,
                 peaks: params.peaks,
-                tolerance_samples: params.tolerance,
+                tolerance_samples: as_given(params.tolerance),
                 interpolation: params.interpolation,
                 speed_of_sound: params.speed_of_sound.unwrap_or(geometry.speed_of_sound),
-                min_score: params.min_score.map_or(
-                    json!(format!("{DEFAULT_MIN_SCORE_PER_PAIR} per microphone pair")),
-                    |s| json!(s),
-                ),
+                min_score_per_pair: params.min_score_per_pair,
+                min_score: params.min_score_per_pair * pair_count(geometry.mics.len()) as f64,
             },
         }
     }

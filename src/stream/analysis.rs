@@ -92,6 +92,22 @@ pub enum Warning {
     },
     /// Something about the input itself (a WAV whose sizes wrapped at 4 GiB).
     Input(String),
+    /// Hardly any frame (under 1%) gave a detection: why, as far as the run can tell.
+    FewDetections {
+        /// Frames with a detection.
+        detections: u64,
+        /// Frames analysed.
+        frames: u64,
+        /// The best score per microphone pair of any consistent set searched.
+        best_per_pair: Option<f64>,
+        /// The most any frame decided before its search could have scored per pair.
+        bound_per_pair: Option<f64>,
+        /// The threshold per pair.
+        threshold_per_pair: f64,
+        /// The recording's loudness stays within 6 dB from start to end, and the
+        /// spectral weighting is on: a source on from the first sample is background to it.
+        steady: bool,
+    },
     /// The consistency search stopped at its node budget in some frames.
     SearchBudget {
         /// Frames where it did.
@@ -109,6 +125,32 @@ impl fmt::Display for Warning {
                 "mic {} (channel {channel}) is constant (dead or disconnected?) in {frames} of {of} frames; it was left out of those frames' pairs",
                 mic + 1
             ),
+            Warning::FewDetections {
+                detections,
+                frames,
+                best_per_pair,
+                bound_per_pair,
+                threshold_per_pair,
+                steady,
+            } => {
+                write!(f, "{detections} detections in {frames} frames: ")?;
+                match (best_per_pair, bound_per_pair) {
+                    (Some(best), _) => write!(
+                        f,
+                        "the best consistent set of delays scored {best:.2} per microphone pair"
+                    )?,
+                    (None, Some(bound)) => write!(
+                        f,
+                        "no frame stood out of the noise estimate: none could score more than {bound:.2} per microphone pair"
+                    )?,
+                    (None, None) => write!(f, "no frame held a consistent set of delays")?,
+                }
+                write!(f, ", against a threshold of {threshold_per_pair} per pair")?;
+                if *steady {
+                    write!(f, "; the recording is steady from start to end (its loudness varies by less than 6 dB), and the spectral weighting takes a source that sounds from the first sample without a pause as background")?;
+                }
+                Ok(())
+            }
             Warning::SearchBudget { frames } => write!(
                 f,
                 "the consistency search hit its node budget in {frames} frames (best set found so far used); a smaller tolerance or fewer peaks per pair avoids this"
@@ -222,6 +264,18 @@ impl<S: SampleSource> Analysis<S> {
         self.analyzer.frame_size()
     }
 
+    /// The recording's sample rate (Hz).
+    pub fn sample_rate(&self) -> u32 {
+        self.source.sample_rate()
+    }
+
+    /// The recording's length in seconds, when known in advance.
+    pub fn duration_s(&self) -> Option<f64> {
+        self.source
+            .frames()
+            .map(|f| f as f64 / self.source.sample_rate() as f64)
+    }
+
     /// Measures the time spent in each stage (reported in the summary).
     pub fn enable_stage_timing(&mut self) {
         self.analyzer.enable_stage_timing();
@@ -311,6 +365,21 @@ impl<S: SampleSource> Analysis<S> {
                     of: stats.frames,
                 });
             }
+        }
+        let params = self.analyzer.params();
+        if stats.frames >= 10
+            && stats.silent_frames < stats.frames
+            && stats.detections * 100 < stats.frames
+        {
+            warnings.push(Warning::FewDetections {
+                detections: stats.detections,
+                frames: stats.frames,
+                best_per_pair: stats.best_score_per_pair,
+                bound_per_pair: stats.best_bound_per_pair,
+                threshold_per_pair: params.min_score_per_pair,
+                steady: params.weighting
+                    && stats.power_range.is_some_and(|(lo, hi)| hi <= 4.0 * lo),
+            });
         }
         if stats.budget_frames > 0 {
             warnings.push(Warning::SearchBudget {

@@ -1,0 +1,188 @@
+//! What the command line tells: metadata with stable types, a threshold per microphone
+//! pair, a progress bar in audio time with a summary per file, and a reason when a file
+//! gives (almost) no detections.
+
+mod support;
+
+use ssl::method::direction::{angle_between_deg, unit_from_angles};
+use ssl::sim::freefield::{Place, Scene, Source};
+use ssl::sim::signals::Signal;
+use ssl::sim::Encoding;
+use std::path::Path;
+use std::process::Command;
+use support::*;
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn example(args: &[&str]) -> std::process::Output {
+    let mut all = vec![
+        "analyze",
+        "testdata/example.wav",
+        "-g",
+        "testdata/prism.toml",
+    ];
+    all.extend_from_slice(args);
+    ssl()
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(all)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn the_json_metadata_has_stable_types_and_numbers_as_given() {
+    let out = example(&["-f", "json", "--alpha", "0.4", "-n", "1024"]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("\"alpha\":0.4,"), "{}", &text[..600]);
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let p = &doc["parameters"];
+    assert_eq!(p["frame_size"], 1024);
+    assert_eq!(p["min_score_per_pair"], 0.5);
+    assert_eq!(p["min_score"], 14.0);
+    assert_eq!(p["tolerance_samples"], 2.0);
+    // The default frame size: null in the parameters, the size used in the file's entry.
+    let out = example(&["-f", "json"]);
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(doc["parameters"]["frame_size"].is_null());
+    assert_eq!(doc["files"][0]["frame_size"], 1024);
+    for key in [
+        "alpha",
+        "gamma",
+        "min_score",
+        "min_score_per_pair",
+        "speed_of_sound",
+    ] {
+        assert!(doc["parameters"][key].is_number(), "{key}");
+    }
+}
+
+#[test]
+fn min_score_is_per_microphone_pair() {
+    let rows = |args: &[&str]| {
+        let out = example(args);
+        assert!(out.status.success());
+        parse_csv(&String::from_utf8(out.stdout).unwrap())
+    };
+    let default = rows(&[]);
+    assert_eq!(rows(&["--min-score", "0.5"]).len(), default.len());
+    let lower = rows(&["--min-score", "0.3"]);
+    assert!(
+        lower.len() > default.len(),
+        "{} vs {}",
+        lower.len(),
+        default.len()
+    );
+    assert!(lower.iter().all(|r| r.score >= 0.3 * 28.0 - 1e-3));
+    assert!(lower.iter().any(|r| r.score < 0.5 * 28.0));
+}
+
+/// Runs `ssl args` with stderr on a terminal (util-linux `script`); returns what it shows.
+fn on_terminal(dir: &Path, args: &str) -> String {
+    let cmd = format!(
+        "{} {args} -o {}",
+        env!("CARGO_BIN_EXE_ssl"),
+        s(&dir.join("out.csv"))
+    );
+    let out = Command::new("script")
+        .args(["-qec", &cmd, "/dev/null"])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    String::from_utf8_lossy(&out.stdout).replace('\r', "\n")
+}
+
+#[test]
+fn the_progress_bar_counts_audio_time_and_each_file_ends_with_a_summary() {
+    let dir = tempdir();
+    let sc = scene(
+        prism(),
+        48000,
+        &[(30.0, 10.0, Signal::WhiteNoise)],
+        20.0,
+        0.005,
+        1,
+    );
+    render_wav(dir.path(), "long.wav", &sc, Encoding::Int16);
+    write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
+    let shown = on_terminal(dir.path(), "analyze long.wav -g prism.toml -j 1");
+    assert!(
+        shown.contains("of 0:20.3"),
+        "audio time of the total: {shown}"
+    );
+    assert!(shown.contains("x real time"), "{shown}");
+    assert!(shown.contains("ETA"), "{shown}");
+    let summary = shown
+        .lines()
+        .find(|l| l.contains("of audio in"))
+        .unwrap_or_else(|| panic!("a summary line: {shown}"));
+    assert!(
+        summary.contains("long.wav: 0:20.3 of audio in"),
+        "{summary}"
+    );
+    assert!(summary.contains("detections"), "{summary}");
+}
+
+#[test]
+fn no_detections_come_with_a_reason() {
+    let dir = tempdir();
+    // A loudspeaker calibration: white noise from the first sample to the last.
+    let u = unit_from_angles(-40.0, 15.0);
+    let steady = Scene {
+        sample_rate: 48000,
+        duration_s: 3.0,
+        mics: prism(),
+        speed_of_sound: 343.0,
+        sources: vec![Source {
+            place: Place::Direction(u),
+            signal: Signal::WhiteNoise,
+            start_s: 0.0,
+            end_s: 3.0,
+            level: 0.05,
+        }],
+        sensor_noise: 0.002,
+        seed: 4,
+    };
+    let wav = render_wav(dir.path(), "calibration.wav", &steady, Encoding::Int16);
+    let geo = write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
+    let out = run(&["analyze", s(&wav), "-g", s(&geo), "-f", "json"]);
+    assert!(out.status.success());
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let err = stderr(&out);
+    assert!(
+        doc["detections"].as_array().unwrap().len() * 100
+            < doc["files"][0]["frames"].as_u64().unwrap() as usize,
+        "few detections"
+    );
+    assert!(
+        err.contains("steady from start to end") && err.contains("--no-weighting"),
+        "{err}"
+    );
+    let entry = doc["files"][0]["warnings"].to_string();
+    assert!(entry.contains("steady from start to end"), "{entry}");
+    // And --no-weighting localizes it, as the message says.
+    let out = run(&["analyze", s(&wav), "-g", s(&geo), "--no-weighting"]);
+    let rows = parse_csv(&String::from_utf8(out.stdout).unwrap());
+    assert!(rows.len() > 200, "{} detections", rows.len());
+    assert!(rows.iter().all(|r| angle_between_deg(&r.u, &u) < 2.0));
+    // Sources between pauses under a threshold too high for them: the best score and the
+    // threshold are named, and the recording is not called steady.
+    let out = example(&["--min-score", "50"]);
+    let err = stderr(&out);
+    assert!(out.stdout.len() < 100, "no detections");
+    assert!(
+        err.contains("per microphone pair, against a threshold of 50 per pair"),
+        "{err}"
+    );
+    assert!(
+        err.contains("--min-score") && !err.contains("steady"),
+        "{err}"
+    );
+}
