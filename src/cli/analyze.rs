@@ -40,7 +40,14 @@ impl Output<'_> {
                 .args
                 .format
                 .exporter(BufWriter::with_capacity(1 << 16, sink));
-            if live && self.args.format == Format::Ndjson {
+            // Records go out as they are made to a reader of standard output that waits
+            // for them: always as NDJSON, in every format when the input is live.
+            let live_input = self
+                .args
+                .files
+                .iter()
+                .any(|f| f == "-" || !std::fs::metadata(f).is_ok_and(|m| m.is_file()));
+            if live && (self.args.format == Format::Ndjson || live_input) {
                 exporter.flush_each_record();
             }
             exporter.begin(&self.meta)?;

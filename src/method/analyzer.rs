@@ -76,6 +76,12 @@ impl Analyzer {
         self.setup.hop
     }
 
+    /// Frames folded into the noise estimate before the first is weighed (all in the
+    /// first block).
+    pub fn priming_frames(&self) -> usize {
+        self.sequential.priming
+    }
+
     /// The parameters, as checked.
     pub fn params(&self) -> &Params {
         &self.setup.params
@@ -247,7 +253,7 @@ mod tests {
         let mics = channels.len();
         let mut source = Channels::new("t", channels.iter().map(|c| &c[..]).collect(), 48000)
             .expect("channels of one length");
-        let mut framer = Framer::new(analyzer.frame_size(), (0..mics).collect(), mics);
+        let mut framer = Framer::new(analyzer.frame_size(), (0..mics).collect(), mics, 1);
         let mut block = analyzer.block();
         let mut all = Vec::new();
         loop {

@@ -246,6 +246,7 @@ impl<S: SampleSource> Analysis<S> {
             n,
             geometry.mics.iter().map(|m| m.channel).collect(),
             channels,
+            analyzer.priming_frames(),
         );
         Ok(Analysis {
             source,
@@ -328,13 +329,21 @@ impl<S: SampleSource> Analysis<S> {
                 return error.map_or(Ok(()), Err);
             }
             let mut next_error = None;
+            // A live source is read after the frames at hand are handed on: reading ahead
+            // would hold them until more audio arrives.
+            let live = source.is_live();
             let detections = self.analyzer.analyse(&current, || {
-                next_error = framer.fill(source, &mut next);
+                if !live {
+                    next_error = framer.fill(source, &mut next);
+                }
             });
             for (detection, index) in detections.iter().zip(current.first..) {
                 if sink(index, detection.as_ref()).is_break() {
                     return Ok(());
                 }
+            }
+            if live && error.is_none() {
+                next_error = framer.fill(source, &mut next);
             }
             // A read error (a truncated file) ends the run after the frames read before it.
             if let Some(e) = error {

@@ -22,6 +22,11 @@ pub trait SampleSource {
     /// Reads up to `out.len() / channels` sample frames into `out`, interleaved, and
     /// returns how many were read; 0 at the end. Samples must be finite.
     fn read(&mut self, out: &mut [f32]) -> Result<usize, InputError>;
+    /// Whether samples arrive as they are recorded (a pipe, a device): the framer then
+    /// hands on each frame as soon as it is complete, instead of filling whole blocks.
+    fn is_live(&self) -> bool {
+        false
+    }
     /// Remarks for the user about the source (a WAV whose sizes wrapped at 4 GiB).
     fn notes(&self) -> Vec<String> {
         Vec::new()
@@ -115,12 +120,18 @@ pub(crate) struct Framer {
     source_channels: usize,
     /// Decoded interleaved samples, read a chunk at a time.
     interleaved: Vec<f32>,
-    /// Per mic, the samples the next block's first frame shares with the last one.
+    /// Per mic (`n` samples each), the samples read past the last frame handed on: the
+    /// part the next frame shares with it, and on a live source what has arrived of the
+    /// frames after it.
     carry: Vec<f32>,
+    /// Samples per mic in `carry`.
+    carried: usize,
     next_index: u64,
     started: bool,
     /// Sample frames read from the source so far.
     pub samples_read: u64,
+    /// Frames the first block of a live source waits for.
+    first_frames: usize,
 }
 
 /// Samples (of all channels) read at a time: 4096 sample frames of 8 channels, fewer
@@ -128,19 +139,27 @@ pub(crate) struct Framer {
 const CHUNK_SAMPLES: usize = 1 << 15;
 
 impl Framer {
-    /// `channels[m]` is the source channel of mic `m`; `source_channels` the source's count.
-    pub fn new(n: usize, channels: Vec<usize>, source_channels: usize) -> Self {
+    /// `channels[m]` is the source channel of mic `m`; `source_channels` the source's count;
+    /// the first block of a live source holds at least `first_frames` frames.
+    pub fn new(
+        n: usize,
+        channels: Vec<usize>,
+        source_channels: usize,
+        first_frames: usize,
+    ) -> Self {
         let mics = channels.len();
         Framer {
             n,
             hop: n / 2,
             interleaved: vec![0.0; chunk_frames(source_channels) * source_channels],
-            carry: vec![0.0; mics * (n - n / 2)],
+            carry: vec![0.0; mics * n],
+            carried: 0,
             channels,
             source_channels,
             next_index: 0,
             started: false,
             samples_read: 0,
+            first_frames,
         }
     }
 
@@ -159,22 +178,16 @@ impl Framer {
         block: &mut FrameBlock,
     ) -> Option<InputError> {
         assert!(block.n == self.n, "a block for another frame size");
-        let (n, keep, stride, ch) = (
-            self.n,
-            self.n - self.hop,
-            block.stride,
-            self.source_channels,
-        );
+        let (n, stride, ch) = (self.n, block.stride, self.source_channels);
         block.first = self.next_index;
         block.count = 0;
         let mut error = None;
-        let mut filled = 0;
-        if self.started {
-            for (m, carry) in self.carry.chunks_exact(keep).enumerate() {
-                block.data[m * stride..m * stride + keep].copy_from_slice(carry);
-            }
-            filled = keep;
+        let filled_before = self.carried;
+        for (m, carry) in self.carry.chunks_exact(n).enumerate() {
+            block.data[m * stride..m * stride + filled_before]
+                .copy_from_slice(&carry[..filled_before]);
         }
+        let mut filled = filled_before;
         while filled < stride {
             let want = (stride - filled).min(self.interleaved.len() / ch);
             let got = match source.read(&mut self.interleaved[..want * ch]) {
@@ -191,17 +204,27 @@ impl Framer {
             }
             filled += got;
             self.samples_read += got as u64;
+            // A live source: analyse the frames complete so far without waiting for more
+            // (the first block waits for the frames that prime the noise estimate).
+            let need = if self.started {
+                1
+            } else {
+                self.first_frames.max(1)
+            };
+            if source.is_live() && filled >= n + (need - 1) * self.hop {
+                break;
+            }
         }
         if filled < n {
             return error;
         }
         block.count = (filled - n) / self.hop + 1;
-        // The next frame starts `count` hops in; its first `keep` samples are here.
+        // The next frame starts `count` hops in: what was read from there on is carried.
         let start = block.count * self.hop;
-        if start + keep <= filled {
-            for (m, carry) in self.carry.chunks_exact_mut(keep).enumerate() {
-                carry.copy_from_slice(&block.data[m * stride + start..m * stride + start + keep]);
-            }
+        self.carried = filled - start;
+        for (m, carry) in self.carry.chunks_exact_mut(n).enumerate() {
+            carry[..self.carried]
+                .copy_from_slice(&block.data[m * stride + start..m * stride + filled]);
         }
         self.started = true;
         self.next_index += block.count as u64;
@@ -238,7 +261,7 @@ mod tests {
                 .collect();
             let mut source =
                 Channels::new("ramp", ch.iter().map(|c| &c[..]).collect(), 8000).unwrap();
-            let mut framer = Framer::new(n, vec![2, 0], 3);
+            let mut framer = Framer::new(n, vec![2, 0], 3, 1);
             let mut block = FrameBlock::new(n, 2, 3);
             let mut seen = 0u64;
             loop {

@@ -67,6 +67,11 @@ pub struct WavStream {
     pending: Option<InputError>,
     /// Remarks about the file (sizes that wrapped at 4 GiB).
     notes: Vec<String>,
+    /// A live input (a pipe, a device, standard input): reads return what has arrived,
+    /// so that frames are analysed as soon as they are complete.
+    live: bool,
+    /// Bytes of an incomplete sample frame at the start of `raw` (live inputs).
+    partial: usize,
 }
 
 impl WavStream {
@@ -196,6 +201,8 @@ impl WavStream {
             done: false,
             pending: None,
             notes,
+            live: size.is_none(),
+            partial: 0,
         })
     }
 
@@ -228,7 +235,13 @@ impl WavStream {
         if self.raw.len() < bytes {
             self.raw.resize(bytes, 0);
         }
-        let got = read_full(&mut self.input, &mut self.raw[..bytes]).map_err(InputError::Read)?;
+        let (got, ended) = if self.live {
+            self.read_available(bytes)?
+        } else {
+            let got =
+                read_full(&mut self.input, &mut self.raw[..bytes]).map_err(InputError::Read)?;
+            (got, got < bytes)
+        };
         let frames = got / self.block_align;
         decode(
             &self.raw[..frames * self.block_align],
@@ -248,7 +261,13 @@ impl WavStream {
             }
         }
         self.frames_read += frames as u64;
-        if got < bytes {
+        if self.live {
+            // Bytes of an incomplete sample frame wait for the rest.
+            let used = frames * self.block_align;
+            self.raw.copy_within(used..got, 0);
+            self.partial = got - used;
+        }
+        if ended {
             // The input ended before the request was met: the frames read are delivered,
             // and the truncation is reported on the next read.
             self.done = true;
@@ -264,6 +283,25 @@ impl WavStream {
             self.pending = self.check_after_data();
         }
         Ok(frames)
+    }
+
+    /// Reads what a live input has (at least one sample frame, unless it ends) into
+    /// `raw`, after the bytes of an incomplete frame kept from the last read. Returns the
+    /// bytes now in `raw` and whether the input ended.
+    fn read_available(&mut self, bytes: usize) -> Result<(usize, bool), InputError> {
+        let mut got = self.partial;
+        while got < self.block_align.min(bytes) || got == self.partial {
+            match self.input.read(&mut self.raw[got..bytes]) {
+                Ok(0) => return Ok((got, true)),
+                Ok(k) => got += k,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(InputError::Read(e)),
+            }
+            if got >= self.block_align {
+                break;
+            }
+        }
+        Ok((got, false))
     }
 
     /// After the last sample the header promised: a second data chunk would hold samples
@@ -309,6 +347,10 @@ impl SampleSource for WavStream {
 
     fn notes(&self) -> Vec<String> {
         self.notes.clone()
+    }
+
+    fn is_live(&self) -> bool {
+        self.live
     }
 }
 
