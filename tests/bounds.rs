@@ -8,10 +8,6 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 use support::*;
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 /// Runs `ssl args` in `dir`, expecting a one-line error containing `needle`, promptly.
 fn refused(dir: &Path, args: &[&str], needle: &str) {
     let start = Instant::now();
@@ -41,6 +37,19 @@ fn scene_file(dir: &Path, head: &str, body: &str) -> String {
     "scene.toml".into()
 }
 
+/// Simulates the default scene into `sim.wav` and `sim.truth.json`, analysed into
+/// `r.csv`.
+fn simulate_and_analyze(d: &Path) {
+    let sim = scene_file(d, "", SOURCE);
+    for args in [
+        vec!["simulate", &sim, "-o", "sim.wav"],
+        vec!["analyze", "sim.wav", "-g", "array.toml", "-o", "r.csv"],
+    ] {
+        let out = ssl().current_dir(d).args(&args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+    }
+}
+
 const SOURCE: &str = "[[source]]\nazimuth_deg = 30.0\ndistance = 1.0\nsignal = \"white\"\n";
 
 #[test]
@@ -64,19 +73,7 @@ fn endless_and_absurd_inputs_are_refused_promptly() {
         "longer than 1048576 bytes",
     );
     refused(d, &["simulate", "/dev/zero", "-o", "x.wav"], "longer than");
-    let sim = scene_file(d, "", SOURCE);
-    let made = ssl()
-        .current_dir(d)
-        .args(["simulate", &sim, "-o", "sim.wav"])
-        .output()
-        .unwrap();
-    assert!(made.status.success(), "{}", stderr(&made));
-    let result = ssl()
-        .current_dir(d)
-        .args(["analyze", "sim.wav", "-g", "array.toml", "-o", "r.csv"])
-        .output()
-        .unwrap();
-    assert!(result.status.success(), "{}", stderr(&result));
+    simulate_and_analyze(d);
     refused(
         d,
         &["evaluate", "--truth", "/dev/zero", "r.csv"],
@@ -224,19 +221,7 @@ fn simulate_validates_its_scene_and_its_cost_before_rendering() {
 fn evaluate_refuses_values_that_cannot_be_meant() {
     let dir = tempdir();
     let d = dir.path();
-    let sim = scene_file(d, "", SOURCE);
-    let made = ssl()
-        .current_dir(d)
-        .args(["simulate", &sim, "-o", "sim.wav"])
-        .output()
-        .unwrap();
-    assert!(made.status.success(), "{}", stderr(&made));
-    let result = ssl()
-        .current_dir(d)
-        .args(["analyze", "sim.wav", "-g", "array.toml", "-o", "r.csv"])
-        .output()
-        .unwrap();
-    assert!(result.status.success());
+    simulate_and_analyze(d);
     let truth: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("sim.truth.json")).unwrap()).unwrap();
     let edit = |f: &dyn Fn(&mut serde_json::Value)| {

@@ -12,10 +12,6 @@ use std::path::Path;
 use std::process::Command;
 use support::*;
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 fn example(args: &[&str]) -> std::process::Output {
     let mut all = vec![
         "analyze",

@@ -5,33 +5,11 @@
 
 mod support;
 
-use ssl::sim::signals::Signal;
-use ssl::sim::Encoding;
 use ssl::stream::{SampleSource, WavStream};
 use std::io::Cursor;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use support::*;
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// 1.3 s of 16-bit 8-channel audio with a source, the prism's geometry, in a fresh folder.
-fn setup() -> (tempfile::TempDir, PathBuf, PathBuf) {
-    let dir = tempdir();
-    let sc = scene(
-        prism(),
-        48000,
-        &[(30.0, 10.0, Signal::WhiteNoise)],
-        1.2,
-        0.005,
-        1,
-    );
-    let wav = render_wav(dir.path(), "rec.wav", &sc, Encoding::Int16);
-    let geo = write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
-    (dir, wav, geo)
-}
 
 /// Where the samples of a hound-written WAV start.
 fn data_start(bytes: &[u8]) -> usize {
@@ -67,7 +45,7 @@ fn analyze(input: &str, geo: &Path) -> (Vec<u64>, serde_json::Value, Option<i32>
 
 #[test]
 fn a_truncated_file_is_analysed_to_its_last_complete_sample_frame() {
-    let (dir, wav, geo) = setup();
+    let (dir, wav, geo) = recording(1.2);
     let bytes = std::fs::read(&wav).unwrap();
     let header = data_start(&bytes);
     // Cut mid-way through a sample frame, 50,000 frames and a bit in.
@@ -93,7 +71,7 @@ fn a_truncated_file_is_analysed_to_its_last_complete_sample_frame() {
 
 #[test]
 fn rf64_and_bw64_are_read_like_wav() {
-    let (dir, wav, geo) = setup();
+    let (dir, wav, geo) = recording(1.2);
     let bytes = std::fs::read(&wav).unwrap();
     let (want, whole, code, err) = analyze(s(&wav), &geo);
     assert_eq!(code, Some(0), "{err}");
@@ -132,7 +110,7 @@ fn a_size_that_wrapped_past_4_gib_is_read_to_the_end_of_a_regular_file() {
     // The header says 1,000 bytes of data, but the file holds 4 GiB + 1,000 bytes more
     // (the 32-bit size wrapped). WavStream is told the file's size, as for a real file;
     // the reader gives 2,000 sample frames and then ends, as if the file were cut there.
-    let (_dir, wav, _) = setup();
+    let (_dir, wav, _) = recording(1.2);
     let bytes = std::fs::read(&wav).unwrap();
     let fmt = fmt_of(&bytes);
     let data = &bytes[data_start(&bytes)..][..32_000];
@@ -166,7 +144,7 @@ fn a_size_that_wrapped_past_4_gib_is_read_to_the_end_of_a_regular_file() {
 
 #[test]
 fn a_named_pipe_or_dev_stdin_with_placeholder_lengths_is_read_like_dash() {
-    let (dir, wav, geo) = setup();
+    let (dir, wav, geo) = recording(1.2);
     let (want, whole, _, _) = analyze(s(&wav), &geo);
     // The header's sizes set to the placeholder 0xFFFFFFFF, as sox writes into a pipe.
     let mut bytes = std::fs::read(&wav).unwrap();
@@ -209,7 +187,7 @@ fn a_named_pipe_or_dev_stdin_with_placeholder_lengths_is_read_like_dash() {
 
 #[test]
 fn odd_headers_are_handled_or_refused_never_decoded_as_garbage() {
-    let (dir, wav, geo) = setup();
+    let (dir, wav, geo) = recording(1.2);
     let bytes = std::fs::read(&wav).unwrap();
     let (want, _, _, _) = analyze(s(&wav), &geo);
     let data = &bytes[data_start(&bytes)..];
@@ -274,7 +252,7 @@ fn odd_headers_are_handled_or_refused_never_decoded_as_garbage() {
 
 #[test]
 fn other_audio_formats_are_named_with_a_conversion() {
-    let (dir, _, geo) = setup();
+    let (dir, _, geo) = recording(1.2);
     let cases: [(&str, &[u8], &str); 6] = [
         (
             "w64",

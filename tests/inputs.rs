@@ -30,10 +30,6 @@ fn setup() -> (tempfile::TempDir, PathBuf, PathBuf) {
     (dir, wav, geo)
 }
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 /// Runs `ssl analyze FILE --geometry GEO`, expects exit 1 and one stderr error line that
 /// names `name` and contains every needle.
 fn expect_error(file: &str, geo: &Path, name: &str, needles: &[&str]) -> String {

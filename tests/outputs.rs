@@ -7,29 +7,9 @@ mod support;
 use ssl::sim::signals::Signal;
 use ssl::sim::Encoding;
 use std::os::unix::fs::PermissionsExt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use support::*;
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// A short recording and the prism's geometry in a fresh folder.
-fn setup() -> (tempfile::TempDir, PathBuf, PathBuf) {
-    let dir = tempdir();
-    let sc = scene(
-        prism(),
-        48000,
-        &[(30.0, 10.0, Signal::WhiteNoise)],
-        0.5,
-        0.005,
-        1,
-    );
-    let wav = render_wav(dir.path(), "rec.wav", &sc, Encoding::Int16);
-    let geo = write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
-    (dir, wav, geo)
-}
 
 /// The files in `dir` whose names end in `.tmp`.
 fn temporaries(dir: &Path) -> Vec<String> {
@@ -45,7 +25,7 @@ const SCENE: &str = "sample_rate = 16000\nduration = 1.0\n[array]\ngeometry = \"
 
 #[test]
 fn an_output_that_is_an_input_is_refused() {
-    let (dir, wav, geo) = setup();
+    let (dir, wav, geo) = recording(0.5);
     let before = std::fs::read(&wav).unwrap();
     // The recording, the same file through another spelling, a hard link, and the geometry.
     let other_spelling = dir.path().join(".").join("rec.wav");
@@ -86,7 +66,7 @@ fn an_output_that_is_an_input_is_refused() {
 
 #[test]
 fn a_run_that_analysed_nothing_replaces_nothing() {
-    let (dir, _, geo) = setup();
+    let (dir, _, geo) = recording(0.5);
     let out_path = write(dir.path(), "results.csv", "good results\n");
     let missing = dir.path().join("missing.wav");
     let out = run(&["analyze", s(&missing), "-g", s(&geo), "-o", s(&out_path)]);
@@ -106,7 +86,7 @@ fn a_run_that_analysed_nothing_replaces_nothing() {
 
 #[test]
 fn outputs_keep_the_umask_and_a_replaced_file_keeps_its_mode() {
-    let (dir, wav, geo) = setup();
+    let (dir, wav, geo) = recording(0.5);
     let analyze = |output: &Path, umask: &str| {
         let cmd = format!(
             "umask {umask} && exec {} analyze {} -g {} -o {}",
@@ -245,7 +225,7 @@ fn simulate_writes_the_wav_and_its_truth_both_or_neither() {
 
 #[test]
 fn write_errors_name_the_destination_and_a_closed_stdout_is_an_error() {
-    let (_dir, wav, geo) = setup();
+    let (_dir, wav, geo) = recording(0.5);
     let out = run(&["analyze", s(&wav), "-g", s(&geo), "-o", "/dev/full"]);
     assert_eq!(out.status.code(), Some(1));
     let err = stderr(&out);
@@ -268,7 +248,7 @@ fn write_errors_name_the_destination_and_a_closed_stdout_is_an_error() {
 
 #[test]
 fn dash_is_standard_output_and_standard_input() {
-    let (dir, wav, geo) = setup();
+    let (dir, wav, geo) = recording(0.5);
     let out = ssl()
         .current_dir(dir.path())
         .args(["analyze", s(&wav), "-g", s(&geo), "-o", "-"])
@@ -311,7 +291,7 @@ fn dash_is_standard_output_and_standard_input() {
 
 #[test]
 fn the_same_file_twice_draws_a_warning() {
-    let (dir, wav, geo) = setup();
+    let (dir, wav, geo) = recording(0.5);
     let again = dir.path().join(".").join("rec.wav");
     let out = run(&["analyze", s(&wav), s(&again), "-g", s(&geo)]);
     assert!(out.status.success());

@@ -6,10 +6,6 @@ mod support;
 use std::path::Path;
 use support::*;
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 fn prism_file(dir: &Path) {
     write(dir, "prism.toml", geometry_toml(&prism(), ""));
 }

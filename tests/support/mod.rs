@@ -70,6 +70,28 @@ pub fn geometry_toml_with_channels(positions: &[Vector3<f64>], channels: &[usize
         .collect()
 }
 
+/// A path as a command-line argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A fresh folder with a recording of one white-noise source (azimuth 30, elevation 10)
+/// on for `seconds`, 16-bit, 48 kHz, and the prism's geometry: `(folder, wav, geometry)`.
+pub fn recording(seconds: f64) -> (tempfile::TempDir, PathBuf, PathBuf) {
+    let dir = tempdir();
+    let sc = scene(
+        prism(),
+        48000,
+        &[(30.0, 10.0, Signal::WhiteNoise)],
+        seconds,
+        0.005,
+        1,
+    );
+    let wav = render_wav(dir.path(), "rec.wav", &sc, Encoding::Int16);
+    let geo = write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
+    (dir, wav, geo)
+}
+
 pub fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, contents).unwrap();
