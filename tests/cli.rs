@@ -182,3 +182,36 @@ fn no_detections_come_with_a_reason() {
         "{err}"
     );
 }
+
+#[test]
+fn an_array_whose_delays_are_a_few_samples_draws_a_warning() {
+    let dir = tempdir();
+    // A 4-mic square of 45.7 mm side at 16 kHz: the diagonal is 3.0 samples.
+    let h = 0.0457 / 2.0;
+    let square = [
+        nalgebra::Vector3::new(h, h, 0.0),
+        nalgebra::Vector3::new(-h, h, 0.0),
+        nalgebra::Vector3::new(-h, -h, 0.0),
+        nalgebra::Vector3::new(h, -h, 0.0),
+    ];
+    let sc = scene(
+        square.to_vec(),
+        16000,
+        &[(40.0, 20.0, Signal::WhiteNoise)],
+        0.5,
+        0.005,
+        1,
+    );
+    let wav = render_wav(dir.path(), "small.wav", &sc, Encoding::Int16);
+    let geo = write(dir.path(), "square.toml", geometry_toml(&square, ""));
+    let out = run(&["analyze", s(&wav), "-g", s(&geo)]);
+    assert!(out.status.success());
+    assert!(
+        stderr(&out).contains("largest delay is only 3.0 samples at 16000 Hz"),
+        "{}",
+        stderr(&out)
+    );
+    // The prism at 48 kHz (107 samples) draws none.
+    let out = example(&[]);
+    assert!(!stderr(&out).contains("largest delay"), "{}", stderr(&out));
+}

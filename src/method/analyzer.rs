@@ -82,6 +82,12 @@ impl Analyzer {
         self.sequential.priming
     }
 
+    /// The largest delay between two microphones of the array, in samples.
+    pub fn largest_delay_samples(&self) -> f64 {
+        let s = &self.setup;
+        s.geometry.aperture().0 * s.rate / s.speed
+    }
+
     /// The parameters, as checked.
     pub fn params(&self) -> &Params {
         &self.setup.params

@@ -5,13 +5,15 @@
 //! - [`render`]: a scene through a shoebox room, as named steps: place the array, render
 //!   each source, add the noise, write down the truth.
 //! - [`room`]: the image-source room with fractional-delay taps and RT60 by measurement.
-//! - [`signals`] and [`noise`](self): what sources and noise emit.
+//! - [`signals`], `noise.rs` and `recorded.rs`: what sources and noise emit (a mono WAV
+//!   file at any rate is resampled to the scene's).
 //! - [`freefield`]: a quick free-field renderer for tests and measurements.
 //! - [`wav`]: writing channels to WAV files.
 
 pub mod freefield;
 pub mod limits;
 mod noise;
+mod recorded;
 pub mod render;
 pub mod room;
 pub mod scene;

@@ -4,6 +4,7 @@
 
 use super::limits::{check_cost, check_scene, MAX_DISTANCE_M};
 use super::noise::{add_normalised, colour_noise, diffuse_noise, mean_power};
+use super::recorded::read_mono;
 use super::room::{add_tap, Room, SINC_HALF_WIDTH};
 use super::scene::{NoiseSpec, SampleFormat, SceneFile, SignalKind, SourceSpec};
 use super::signals::{generate, Signal};
@@ -11,7 +12,6 @@ use super::SceneError;
 use crate::geometry::Geometry;
 use crate::method::direction::{angles_deg, unit_from_angles};
 use crate::record::{fixed, Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
-use crate::stream::WavStream;
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -438,37 +438,6 @@ SceneError::Invalid,
         )
         }
     }
-}
-
-/// Reads a mono WAV at the given rate as f64 samples.
-fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
-    let name = path.display().to_string();
-    let input = |error| SceneError::Input {
-        path: path.to_path_buf(),
-        error,
-    };
-    let mut stream = WavStream::open(&name).map_err(input)?;
-    if stream.format.channels != 1 || stream.format.sample_rate != rate {
-        fail!(
-SceneError::Invalid,
-            "{name}: a source file must be mono at the scene's rate ({rate} Hz); it has {} channel(s) at {} Hz",
-            stream.format.channels,
-            stream.format.sample_rate
-        );
-    }
-    let mut all = Vec::new();
-    let mut buf = vec![0.0f32; 65536];
-    loop {
-        let n = stream.read(&mut buf).map_err(input)?;
-        if n == 0 {
-            break;
-        }
-        all.extend(buf[..n].iter().map(|&v| v as f64));
-    }
-    if all.is_empty() {
-        fail!(SceneError::Invalid, "{name}: no samples");
-    }
-    Ok(all)
 }
 
 /// Convolves `x` with each response by FFT; outputs have `x.len() + h.len() - 1` samples.

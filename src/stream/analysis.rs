@@ -11,6 +11,9 @@ use std::fmt;
 use std::io::Read;
 use std::ops::ControlFlow;
 
+/// Below this largest delay (samples), the array's delays are called coarse.
+pub const COARSE_DELAY_SAMPLES: f64 = 10.0;
+
 /// A recording opened for analysis with one geometry and set of parameters.
 ///
 /// Every entry point (a WAV path, WAV bytes from a reader, channels in memory) ends in
@@ -92,6 +95,14 @@ pub enum Warning {
     },
     /// Something about the input itself (a WAV whose sizes wrapped at 4 GiB).
     Input(String),
+    /// The array's largest delay is only a few samples at the recording's rate: delays,
+    /// and so directions, are coarse.
+    CoarseDelays {
+        /// The largest delay between two microphones (samples).
+        samples: f64,
+        /// The sample rate (Hz).
+        sample_rate: u32,
+    },
     /// Hardly any frame (under 1%) gave a detection: why, as far as the run can tell.
     FewDetections {
         /// Frames with a detection.
@@ -119,6 +130,10 @@ impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
         match self {
             Warning::Input(note) => f.write_str(note),
+            Warning::CoarseDelays { samples, sample_rate } => write!(
+                f,
+                "the array's largest delay is only {samples:.1} samples at {sample_rate} Hz: delays, and so directions, are coarse (a higher sample rate or a wider array helps)"
+            ),
             Warning::Silence => write!(f, "every channel is constant (digital silence): no detections"),
             Warning::DeadMic { mic, channel, frames, of } => write!(
                 f,
@@ -374,6 +389,13 @@ impl<S: SampleSource> Analysis<S> {
                     of: stats.frames,
                 });
             }
+        }
+        let largest = self.analyzer.largest_delay_samples();
+        if largest < COARSE_DELAY_SAMPLES {
+            warnings.push(Warning::CoarseDelays {
+                samples: largest,
+                sample_rate: self.source.sample_rate(),
+            });
         }
         let params = self.analyzer.params();
         if stats.frames >= 10
