@@ -28,7 +28,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let bench = Bench::new()?;
     let az = azimuths(8);
     let lab = Lab::default();
-    let params = Params::default();
+    // Optional: a tolerance and a residual gate in microseconds, to compare with the
+    // defaults (docs/field.md).
+    let args = support::harness::args();
+    let number = |i: usize| args.get(i).and_then(|a| a.parse::<f64>().ok());
+    let params = Params {
+        tolerance_us: number(0),
+        residual_gate_us: number(1),
+        ..Params::default()
+    };
 
     println!("# Accuracy benchmark\n");
     println!("Made by `cargo bench --bench accuracy > docs/accuracy.md` (scenes in `tests/support/bench.rs`).\n");

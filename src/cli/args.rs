@@ -131,6 +131,14 @@ pub struct AnalyzeArgs {
     #[arg(short, long, default_value_t = DEFAULT_TOLERANCE, value_parser = non_negative)]
     pub tolerance: f32,
 
+    /// Consistency tolerance in microseconds, the same time at every sample rate; replaces --tolerance
+    #[arg(long, value_name = "US", value_parser = non_negative_f64, conflicts_with = "tolerance")]
+    pub tolerance_us: Option<f64>,
+
+    /// Drop detections whose delays the far-field model fits with an RMS residual above this many microseconds [default: no gate]
+    #[arg(long, value_name = "US", value_parser = positive)]
+    pub residual_gate_us: Option<f64>,
+
     /// Speed of sound in m/s [default: the geometry's, else 343]
     #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
     pub speed_of_sound: Option<f64>,
@@ -229,6 +237,14 @@ fn non_negative(s: &str) -> std::result::Result<f32, String> {
     Ok(v as f32)
 }
 
+fn non_negative_f64(s: &str) -> std::result::Result<f64, String> {
+    let v = parse_f64(s)?;
+    if v < 0.0 {
+        return Err(format!("{v} is negative"));
+    }
+    Ok(v)
+}
+
 fn positive(s: &str) -> std::result::Result<f64, String> {
     let v = parse_f64(s)?;
     if v <= 0.0 {
@@ -246,6 +262,8 @@ impl AnalyzeArgs {
             weighting: !self.no_weighting,
             peaks: self.peaks as usize,
             tolerance: self.tolerance,
+            tolerance_us: self.tolerance_us,
+            residual_gate_us: self.residual_gate_us,
             speed_of_sound: self.speed_of_sound,
             min_score_per_pair: self.min_score,
             window: self.window,

@@ -42,6 +42,8 @@ pub struct DirectionSolver {
     solver: Solver,
     /// Converts a lag in samples to metres: `c / fs`.
     metres_per_sample: f64,
+    /// Per pair, in the order of the lags, `x_ab = p_b - p_a` (metres).
+    diffs: Vec<Vector3<f64>>,
 }
 
 impl DirectionSolver {
@@ -66,6 +68,9 @@ impl DirectionSolver {
                 }
             }
         }
+        let diffs = (0..p)
+            .map(|r| Vector3::new(d[(r, 0)], d[(r, 1)], d[(r, 2)]))
+            .collect();
         let shape = geometry.subset_shape(mask).ok()?;
         let solver = match shape {
             Shape::Volumetric => {
@@ -118,6 +123,7 @@ impl DirectionSolver {
         Some(DirectionSolver {
             solver,
             metres_per_sample: speed / sample_rate,
+            diffs,
         })
     }
 
@@ -160,6 +166,38 @@ impl DirectionSolver {
             }
         };
         u.iter().all(|v| v.is_finite()).then_some(u)
+    }
+}
+
+impl DirectionSolver {
+    /// How well the far-field model explains the lags: the RMS over pairs of the
+    /// difference between each measured path difference (`lag * c / fs`) and the one the
+    /// least-squares solution of eq. (13) implies (`u . x_ab`, before normalisation), in
+    /// metres. Delays of one plane wave fit to within the peaks' precision; a set that
+    /// mixes a source's delays with a reflection's does not.
+    pub fn residual_m(&self, lags: &[f64]) -> f64 {
+        let s = self.metres_per_sample;
+        let u: Vector3<f64> = match &self.solver {
+            Solver::Volumetric { cols } => cols.iter().zip(lags).map(|(c, l)| c * (l * s)).sum(),
+            Solver::Planar { cols, e1, e2, .. } => {
+                let v: Vector2<f64> = cols.iter().zip(lags).map(|(c, l)| c * (l * s)).sum();
+                e1 * v.x + e2 * v.y
+            }
+            Solver::Linear { weights, axis, .. } => {
+                axis * weights
+                    .iter()
+                    .zip(lags)
+                    .map(|(w, l)| w * l * s)
+                    .sum::<f64>()
+            }
+        };
+        let sum: f64 = self
+            .diffs
+            .iter()
+            .zip(lags)
+            .map(|(x, l)| (l * s - u.dot(x)).powi(2))
+            .sum();
+        (sum / self.diffs.len().max(1) as f64).sqrt()
     }
 }
 

@@ -22,6 +22,12 @@ pub struct Params {
     pub peaks: usize,
     /// Consistency tolerance of eq. (8), in samples.
     pub tolerance: f32,
+    /// Consistency tolerance in microseconds; when given, it replaces `tolerance` (the
+    /// same time at every sample rate).
+    pub tolerance_us: Option<f64>,
+    /// Drop a detection whose delays the far-field model fits with an RMS residual above
+    /// this many microseconds (`None`: no gate).
+    pub residual_gate_us: Option<f64>,
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
     /// Detection threshold per microphone pair: a frame whose best set scores below this
@@ -46,6 +52,8 @@ impl Default for Params {
             weighting: true,
             peaks: 8,
             tolerance: DEFAULT_TOLERANCE,
+            tolerance_us: None,
+            residual_gate_us: None,
             speed_of_sound: None,
             min_score_per_pair: DEFAULT_MIN_SCORE_PER_PAIR,
             window: Window::Hann,
@@ -107,6 +115,9 @@ pub enum ParamsError {
     /// The tolerance is negative or not a number.
     #[error("the consistency tolerance must be a non-negative number of samples, got {0}")]
     Tolerance(f32),
+    /// The residual gate is not a positive number of microseconds.
+    #[error("the residual gate must be a positive number of microseconds, got {0}")]
+    ResidualGate(f64),
     /// The threshold is not a number.
     #[error("the detection threshold must be a number, got {0}")]
     MinScore(f64),
@@ -148,8 +159,15 @@ impl Setup {
         if params.peaks == 0 || params.peaks > MAX_PEAKS {
             return Err(ParamsError::Peaks(params.peaks));
         }
+        let mut params = params.clone();
+        if let Some(us) = params.tolerance_us {
+            params.tolerance = (us * sample_rate as f64 / 1e6) as f32;
+        }
         if !(params.tolerance.is_finite() && params.tolerance >= 0.0) {
             return Err(ParamsError::Tolerance(params.tolerance));
+        }
+        if let Some(g) = params.residual_gate_us.filter(|g| g.is_nan() || *g <= 0.0) {
+            return Err(ParamsError::ResidualGate(g));
         }
         if params.min_score_per_pair.is_nan() {
             return Err(ParamsError::MinScore(params.min_score_per_pair));
@@ -179,7 +197,7 @@ impl Setup {
         }
         Ok(Setup {
             geometry: geometry.clone(),
-            params: params.clone(),
+            params,
             n,
             hop: n / 2,
             rate,

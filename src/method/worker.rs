@@ -240,7 +240,13 @@ fn direction(
     let solver = solvers
         .entry(mask)
         .or_insert_with(|| DirectionSolver::new(&setup.geometry, mask, setup.rate, setup.speed));
-    let u = solver.as_ref()?.solve(&solution.lags)?;
+    let solver = solver.as_ref()?;
+    if let Some(gate) = setup.params.residual_gate_us {
+        if solver.residual_m(&solution.lags) / setup.speed * 1e6 > gate {
+            return None;
+        }
+    }
+    let u = solver.solve(&solution.lags)?;
     let (azimuth_deg, elevation_deg) = angles_deg(&u);
     Some(Detection {
         frame: index,

@@ -99,6 +99,11 @@ pub struct ParametersInfo {
     /// The threshold a frame with every microphone live needs: `min_score_per_pair`
     /// times the array's pairs.
     pub min_score: f64,
+    /// The consistency tolerance in microseconds, when given so (it then replaces
+    /// `tolerance_samples` at each file's rate).
+    pub tolerance_us: Option<f64>,
+    /// The residual gate in microseconds, or null for none.
+    pub residual_gate_us: Option<f64>,
 }
 
 /// A single-precision parameter as it was written (`0.4`), not as its nearest double.
@@ -125,6 +130,8 @@ impl RunMetadata {
                 speed_of_sound: params.speed_of_sound.unwrap_or(geometry.speed_of_sound),
                 min_score_per_pair: params.min_score_per_pair,
                 min_score: params.min_score_per_pair * pair_count(geometry.mics.len()) as f64,
+                tolerance_us: params.tolerance_us,
+                residual_gate_us: params.residual_gate_us,
             },
         }
     }
