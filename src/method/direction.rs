@@ -44,7 +44,14 @@ pub struct DirectionSolver {
     metres_per_sample: f64,
     /// Per pair, in the order of the lags, `x_ab = p_b - p_a` (metres).
     diffs: Vec<Vector3<f64>>,
+    /// Per pair, `(p_a, p_b)` from the array centre (metres).
+    ends: Vec<(Vector3<f64>, Vector3<f64>)>,
 }
+
+/// Source distances (metres) at which a spherical wave is fitted too, so that the fit's
+/// residual does not mistake the wavefront curvature of a near source for a bad set of
+/// delays.
+const NEAR_DISTANCES_M: [f64; 8] = [0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0];
 
 impl DirectionSolver {
     /// `mask` selects the live microphones (bit `i` = mic `i` of `geometry`). `None`
@@ -71,6 +78,13 @@ impl DirectionSolver {
         let diffs = (0..p)
             .map(|r| Vector3::new(d[(r, 0)], d[(r, 1)], d[(r, 2)]))
             .collect();
+        let at = |i: usize| geometry.mics[live[i]].position - geometry.centre;
+        let mut ends = vec![(Vector3::zeros(), Vector3::zeros()); p];
+        for a in 0..k {
+            for b in a + 1..k {
+                ends[pair_index(a, b, k)] = (at(a), at(b));
+            }
+        }
         let shape = geometry.subset_shape(mask).ok()?;
         let solver = match shape {
             Shape::Volumetric => {
@@ -124,6 +138,7 @@ impl DirectionSolver {
             solver,
             metres_per_sample: speed / sample_rate,
             diffs,
+            ends,
         })
     }
 
@@ -170,12 +185,39 @@ impl DirectionSolver {
 }
 
 impl DirectionSolver {
-    /// How well the far-field model explains the lags: the RMS over pairs of the
-    /// difference between each measured path difference (`lag * c / fs`) and the one the
-    /// least-squares solution of eq. (13) implies (`u . x_ab`, before normalisation), in
-    /// metres. Delays of one plane wave fit to within the peaks' precision; a set that
-    /// mixes a source's delays with a reflection's does not.
+    /// How well one source explains the lags: the RMS over pairs of the difference
+    /// between each measured path difference (`lag * c / fs`) and the one the model
+    /// implies, in metres, for the best of the far-field model (the least-squares
+    /// solution of eq. (13), `u . x_ab`, before normalisation) and spherical waves from
+    /// a few distances along the solved direction. Delays of one source fit to within
+    /// the peaks' precision; a set that mixes a source's delays with a reflection's does
+    /// not.
     pub fn residual_m(&self, lags: &[f64]) -> f64 {
+        let far = self.far_field_residual_m(lags);
+        let Some(u) = self.solve(lags) else {
+            return far;
+        };
+        let s = self.metres_per_sample;
+        NEAR_DISTANCES_M
+            .iter()
+            .map(|&r| {
+                let source = u * r;
+                let sum: f64 = self
+                    .ends
+                    .iter()
+                    .zip(lags)
+                    .map(|((a, b), l)| {
+                        let predicted = (source - a).norm() - (source - b).norm();
+                        (l * s - predicted).powi(2)
+                    })
+                    .sum();
+                (sum / self.ends.len().max(1) as f64).sqrt()
+            })
+            .fold(far, f64::min)
+    }
+
+    /// The far-field part of [`DirectionSolver::residual_m`].
+    fn far_field_residual_m(&self, lags: &[f64]) -> f64 {
         let s = self.metres_per_sample;
         let u: Vector3<f64> = match &self.solver {
             Solver::Volumetric { cols } => cols.iter().zip(lags).map(|(c, l)| c * (l * s)).sum(),
