@@ -28,15 +28,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let bench = Bench::new()?;
     let az = azimuths(8);
     let lab = Lab::default();
-    // Optional: a tolerance and a residual gate in microseconds, to compare with the
-    // defaults (docs/field.md).
+    // Optional: `paper`, or a tolerance and a residual gate in microseconds, to compare
+    // with the defaults (docs/field.md).
     let args = support::harness::args();
-    let number = |i: usize| args.get(i).and_then(|a| a.parse::<f64>().ok());
-    let params = Params {
-        tolerance_us: number(0),
-        residual_gate_us: number(1),
-        ..Params::default()
-    };
+    let params = support::harness::params_from(&args);
 
     println!("# Accuracy benchmark\n");
     println!("Made by `cargo bench --bench accuracy > docs/accuracy.md` (scenes in `tests/support/bench.rs`).\n");
@@ -176,19 +171,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
         ),
         (
-            "tolerance 1 sample",
+            "tolerance 20 us",
             Params {
-                tolerance: 1.0,
+                tolerance_us: Some(20.0),
                 ..params.clone()
             },
         ),
         (
-            "tolerance 4 samples",
+            "tolerance 80 us",
             Params {
-                tolerance: 4.0,
+                tolerance_us: Some(80.0),
                 ..params.clone()
             },
         ),
+        (
+            "no residual gate",
+            Params {
+                residual_gate_us: None,
+                ..params.clone()
+            },
+        ),
+        ("the paper's check (2 samples, no gate)", Params::paper()),
     ];
     for (label, v) in &variants {
         print!("| {label} |");

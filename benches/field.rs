@@ -201,12 +201,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     }
     // Optional: a tolerance in microseconds and a residual gate in microseconds.
     let args = support::harness::args();
-    let number = |i: usize| args.get(i).and_then(|a| a.parse::<f64>().ok());
-    let params = Params {
-        tolerance_us: number(0),
-        residual_gate_us: number(1),
-        ..Params::default()
-    };
+    let params = support::harness::params_from(&args);
     eprintln!(
         "tolerance {:?} us, residual gate {:?} us",
         params.tolerance_us, params.residual_gate_us

@@ -187,7 +187,7 @@ fn main() {
     let base = Params::default();
     let variants: Vec<(&str, Params)> = vec![
         (
-            "default (Hann, parabolic, tol 2, weighted, M 8, threshold 0.5/pair)",
+            "default (Hann, parabolic, tol 40 us, gate 100 us, weighted, M 8, threshold 0.5/pair)",
             base.clone(),
         ),
         (
@@ -215,6 +215,7 @@ fn main() {
             "tolerance 0.5",
             Params {
                 tolerance: 0.5,
+                tolerance_us: None,
                 ..base.clone()
             },
         ),
@@ -222,6 +223,7 @@ fn main() {
             "tolerance 1",
             Params {
                 tolerance: 1.0,
+                tolerance_us: None,
                 ..base.clone()
             },
         ),
@@ -229,6 +231,7 @@ fn main() {
             "tolerance 3",
             Params {
                 tolerance: 3.0,
+                tolerance_us: None,
                 ..base.clone()
             },
         ),
@@ -236,6 +239,7 @@ fn main() {
             "tolerance 4",
             Params {
                 tolerance: 4.0,
+                tolerance_us: None,
                 ..base.clone()
             },
         ),

@@ -3,7 +3,10 @@
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
-use ssl::method::{Interpolation, Params, Window, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_TOLERANCE};
+use ssl::method::{
+    Interpolation, Params, Window, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US,
+    DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
+};
 use ssl::{Format, Named};
 use std::path::PathBuf;
 
@@ -127,17 +130,21 @@ pub struct AnalyzeArgs {
     #[arg(short = 'm', long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=MAX_PEAKS as i64))]
     pub peaks: u16,
 
-    /// Consistency tolerance in samples: how far a pair's peak may be from the delay the reference pairs imply
-    #[arg(short, long, default_value_t = DEFAULT_TOLERANCE, value_parser = non_negative)]
-    pub tolerance: f32,
+    /// Consistency tolerance in samples: how far a pair's peak may be from the delay the reference pairs imply [default: --tolerance-us]
+    #[arg(short, long, value_parser = non_negative)]
+    pub tolerance: Option<f32>,
 
-    /// Consistency tolerance in microseconds, the same time at every sample rate; replaces --tolerance
-    #[arg(long, value_name = "US", value_parser = non_negative_f64, conflicts_with = "tolerance")]
-    pub tolerance_us: Option<f64>,
+    /// Consistency tolerance in microseconds, the same time at every sample rate
+    #[arg(long, value_name = "US", default_value_t = DEFAULT_TOLERANCE_US, value_parser = non_negative_f64, conflicts_with = "tolerance")]
+    pub tolerance_us: f64,
 
-    /// Drop detections whose delays the far-field model fits with an RMS residual above this many microseconds [default: no gate]
-    #[arg(long, value_name = "US", value_parser = positive)]
-    pub residual_gate_us: Option<f64>,
+    /// Drop detections whose delays no single source fits (plane wave, or spherical wave from 0.25-3 m) with an RMS residual under this many microseconds; 0 turns the gate off
+    #[arg(long, value_name = "US", default_value_t = DEFAULT_RESIDUAL_GATE_US, value_parser = non_negative_f64)]
+    pub residual_gate_us: f64,
+
+    /// The paper's consistency check as published: a tolerance of 2 samples and no residual gate
+    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us"])]
+    pub paper: bool,
 
     /// Speed of sound in m/s [default: the geometry's, else 343]
     #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
@@ -261,9 +268,10 @@ impl AnalyzeArgs {
             gamma: self.gamma,
             weighting: !self.no_weighting,
             peaks: self.peaks as usize,
-            tolerance: self.tolerance,
-            tolerance_us: self.tolerance_us,
-            residual_gate_us: self.residual_gate_us,
+            tolerance: self.tolerance.unwrap_or(DEFAULT_TOLERANCE),
+            tolerance_us: (!self.paper && self.tolerance.is_none()).then_some(self.tolerance_us),
+            residual_gate_us: (!self.paper && self.residual_gate_us > 0.0)
+                .then_some(self.residual_gate_us),
             speed_of_sound: self.speed_of_sound,
             min_score_per_pair: self.min_score,
             window: self.window,

@@ -22,11 +22,12 @@ pub struct Params {
     pub peaks: usize,
     /// Consistency tolerance of eq. (8), in samples.
     pub tolerance: f32,
-    /// Consistency tolerance in microseconds; when given, it replaces `tolerance` (the
-    /// same time at every sample rate).
+    /// Consistency tolerance in microseconds, the same time at every sample rate; when
+    /// given (the default, [`DEFAULT_TOLERANCE_US`]) it replaces `tolerance`.
     pub tolerance_us: Option<f64>,
-    /// Drop a detection whose delays the far-field model fits with an RMS residual above
-    /// this many microseconds (`None`: no gate).
+    /// Drop a detection whose delays no single source fits (a plane wave, or a spherical
+    /// wave from 0.25 to 3 m) with an RMS residual under this many microseconds (`None`:
+    /// no gate, as in the paper; default [`DEFAULT_RESIDUAL_GATE_US`]).
     pub residual_gate_us: Option<f64>,
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
@@ -43,6 +44,19 @@ pub struct Params {
     pub noise: NoiseSettings,
 }
 
+impl Params {
+    /// The paper's consistency check as published: a tolerance of 2 samples and no
+    /// residual gate (everything else as the defaults).
+    pub fn paper() -> Self {
+        Params {
+            tolerance: DEFAULT_TOLERANCE,
+            tolerance_us: None,
+            residual_gate_us: None,
+            ..Params::default()
+        }
+    }
+}
+
 impl Default for Params {
     fn default() -> Self {
         Params {
@@ -52,8 +66,8 @@ impl Default for Params {
             weighting: true,
             peaks: 8,
             tolerance: DEFAULT_TOLERANCE,
-            tolerance_us: None,
-            residual_gate_us: None,
+            tolerance_us: Some(DEFAULT_TOLERANCE_US),
+            residual_gate_us: Some(DEFAULT_RESIDUAL_GATE_US),
             speed_of_sound: None,
             min_score_per_pair: DEFAULT_MIN_SCORE_PER_PAIR,
             window: Window::Hann,
@@ -71,8 +85,16 @@ pub const PRIMING_S: f64 = 0.25;
 /// The largest frame size (samples): 1.4 s at 48 kHz, 0.34 s at 192 kHz.
 pub const MAX_FRAME_SIZE: usize = 1 << 16;
 
-/// Default consistency tolerance in samples (see the README for how it was chosen).
+/// The paper-method consistency tolerance in samples (used when `tolerance_us` is
+/// `None`, as with `--paper`).
 pub const DEFAULT_TOLERANCE: f32 = 2.0;
+
+/// Default consistency tolerance in microseconds: 1.9 samples at 48 kHz, 0.64 at 16 kHz
+/// (docs/field.md for how it was chosen).
+pub const DEFAULT_TOLERANCE_US: f64 = 40.0;
+
+/// Default residual gate in microseconds (docs/field.md).
+pub const DEFAULT_RESIDUAL_GATE_US: f64 = 100.0;
 
 /// Default detection threshold per microphone pair. Stationary background alone gives
 /// weights near 0.6 and so correlation peaks near 0.36 or below per pair; a source that
@@ -161,7 +183,8 @@ impl Setup {
         }
         let mut params = params.clone();
         if let Some(us) = params.tolerance_us {
-            params.tolerance = (us * sample_rate as f64 / 1e6) as f32;
+            // Not under one sample: at low rates the peaks' own error is that large.
+            params.tolerance = (us * sample_rate as f64 / 1e6).max(1.0) as f32;
         }
         if !(params.tolerance.is_finite() && params.tolerance >= 0.0) {
             return Err(ParamsError::Tolerance(params.tolerance));

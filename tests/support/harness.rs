@@ -56,3 +56,23 @@ pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std
     }
     Ok((start.elapsed().as_secs_f64(), peak_kb as f64 / 1024.0))
 }
+
+/// The method's parameters a harness runs with: the defaults; `paper` for the paper's
+/// consistency check (2 samples, no residual gate); or a tolerance and a residual gate
+/// in microseconds (`0` turns the gate off).
+pub fn params_from(args: &[String]) -> ssl::Params {
+    if args.first().is_some_and(|a| a == "paper") {
+        return ssl::Params::paper();
+    }
+    let number = |i: usize| args.get(i).and_then(|a| a.parse::<f64>().ok());
+    let defaults = ssl::Params::default();
+    ssl::Params {
+        tolerance_us: number(0).or(defaults.tolerance_us),
+        residual_gate_us: match number(1) {
+            Some(g) if g > 0.0 => Some(g),
+            Some(_) => None,
+            None => defaults.residual_gate_us,
+        },
+        ..defaults
+    }
+}
