@@ -27,6 +27,7 @@
 //!     analyzer.rs     a recording's frames in blocks, on several threads, with priming
 //!   stream/         samples in, detections out, memory flat
 //!     wav.rs          WAV files and readers (pipes), decoded a block at a time
+//!     header.rs       the fmt chunk, checked; other formats named
 //!     source.rs       the SampleSource trait, channels in memory, the framer
 //!     analysis.rs     one recording through the analyzer: the one entry point
 //!   record/         records and output formats (docs/interface.md)

@@ -8,7 +8,7 @@ mod support;
 use ssl::stream::{SampleSource, WavStream};
 use std::io::Cursor;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 use support::*;
 
 /// Where the samples of a hound-written WAV start.
@@ -166,20 +166,10 @@ fn a_named_pipe_or_dev_stdin_with_placeholder_lengths_is_read_like_dash() {
     assert_eq!(got, want);
     assert_eq!(entry["frames"], whole["frames"]);
     // /dev/stdin, a device.
-    let mut child = ssl()
-        .args(["analyze", "/dev/stdin", "-g", s(&geo), "-f", "json"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stdin = child.stdin.take().unwrap();
-    let writer = std::thread::spawn(move || {
-        use std::io::Write;
-        stdin.write_all(&bytes).unwrap();
-    });
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap();
+    let out = run_with_stdin(
+        &["analyze", "/dev/stdin", "-g", s(&geo), "-f", "json"],
+        bytes,
+    );
     assert!(out.status.success(), "{}", stderr(&out));
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(doc["files"][0]["frames"], whole["frames"]);

@@ -6,7 +6,7 @@ mod support;
 use ssl::sim::freefield as synth;
 use ssl::sim::signals::Signal;
 use ssl::sim::{write_wav, Encoding};
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use support::*;
@@ -265,17 +265,7 @@ fn stdin_with_placeholder_lengths_matches_the_file() {
         let mut piped = bytes.clone();
         piped[4..8].copy_from_slice(&placeholder.to_le_bytes());
         piped[data_at + 4..data_at + 8].copy_from_slice(&placeholder.to_le_bytes());
-        let mut child = ssl()
-            .args(["analyze", "-", "--geometry", s(&geo)])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let mut stdin = child.stdin.take().unwrap();
-        let writer = std::thread::spawn(move || stdin.write_all(&piped));
-        let out = child.wait_with_output().unwrap();
-        writer.join().unwrap().unwrap();
+        let out = run_with_stdin(&["analyze", "-", "--geometry", s(&geo)], piped);
         assert!(out.status.success(), "{}", stderr(&out));
         let text = String::from_utf8(out.stdout).unwrap();
         let expect = String::from_utf8(from_file.stdout.clone())

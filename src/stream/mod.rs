@@ -9,6 +9,7 @@
 //!   of the current rayon pool.
 
 pub mod analysis;
+mod header;
 pub mod source;
 pub mod wav;
 

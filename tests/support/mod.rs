@@ -167,6 +167,27 @@ pub fn ssl() -> Command {
     Command::new(env!("CARGO_BIN_EXE_ssl"))
 }
 
+/// Runs `ssl args` with `input` written to its standard input (from another thread, so
+/// that a large input cannot block against the output).
+pub fn run_with_stdin(args: &[&str], input: Vec<u8>) -> Output {
+    let mut child = ssl()
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let writer = std::thread::spawn(move || {
+        use std::io::Write;
+        // The reader may stop early (an error); that is for the caller to check.
+        let _ = stdin.write_all(&input);
+    });
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    out
+}
+
 pub fn run(args: &[&str]) -> Output {
     ssl().args(args).stdin(Stdio::null()).output().unwrap()
 }
