@@ -189,14 +189,11 @@ impl DirectionSolver {
     /// between each measured path difference (`lag * c / fs`) and the one the model
     /// implies, in metres, for the best of the far-field model (the least-squares
     /// solution of eq. (13), `u . x_ab`, before normalisation) and spherical waves from
-    /// a few distances along the solved direction. Delays of one source fit to within
-    /// the peaks' precision; a set that mixes a source's delays with a reflection's does
-    /// not.
-    pub fn residual_m(&self, lags: &[f64]) -> f64 {
+    /// a few distances along `u`, the direction [`DirectionSolver::solve`] gave for these
+    /// lags. Delays of one source fit to within the peaks' precision; a set that mixes a
+    /// source's delays with a reflection's does not.
+    pub fn residual_m(&self, lags: &[f64], u: &Vector3<f64>) -> f64 {
         let far = self.far_field_residual_m(lags);
-        let Some(u) = self.solve(lags) else {
-            return far;
-        };
         let s = self.metres_per_sample;
         NEAR_DISTANCES_M
             .iter()

@@ -150,8 +150,10 @@ impl Worker {
             return Outcome::BelowThreshold(budget, solution.score / pairs, true);
         }
         let outcome = match direction(&mut self.solvers, setup, state, index, solution) {
-            Some(detection) => Outcome::Detected(detection, budget),
-            None => Outcome::Unsolved,
+            Direction::Found(detection) => Outcome::Detected(detection, budget),
+            // A set no single source explains is no more consistent than none.
+            Direction::Gated => Outcome::Inconsistent(budget),
+            Direction::None => Outcome::Unsolved,
         };
         clock.lap(|t| &mut t.direction);
         outcome
@@ -229,26 +231,36 @@ impl Cut {
 
 /// The direction of eq. (13) for the frame's set of live microphones (the solver is
 /// made once per set), as a detection.
+/// What the direction stage makes of a consistent set.
+enum Direction {
+    Found(Detection),
+    /// No single source explains the delays (the residual gate).
+    Gated,
+    /// The system gives no direction.
+    None,
+}
+
 fn direction(
     solvers: &mut HashMap<u64, Option<DirectionSolver>>,
     setup: &Setup,
     state: &FrameState,
     index: u64,
     solution: &Solution,
-) -> Option<Detection> {
+) -> Direction {
     let mask = state.live.iter().fold(0u64, |acc, &m| acc | (1u64 << m));
     let solver = solvers
         .entry(mask)
         .or_insert_with(|| DirectionSolver::new(&setup.geometry, mask, setup.rate, setup.speed));
-    let solver = solver.as_ref()?;
-    if let Some(gate) = setup.params.residual_gate_us {
-        if solver.residual_m(&solution.lags) / setup.speed * 1e6 > gate {
-            return None;
+    let Some(u) = solver.as_ref().and_then(|s| s.solve(&solution.lags)) else {
+        return Direction::None;
+    };
+    if let (Some(gate), Some(solver)) = (setup.params.residual_gate_us, solver.as_ref()) {
+        if solver.residual_m(&solution.lags, &u) / setup.speed * 1e6 > gate {
+            return Direction::Gated;
         }
     }
-    let u = solver.solve(&solution.lags)?;
     let (azimuth_deg, elevation_deg) = angles_deg(&u);
-    Some(Detection {
+    Direction::Found(Detection {
         frame: index,
         time_s: (index as f64 * setup.hop as f64 + setup.n as f64 / 2.0) / setup.rate,
         azimuth_deg,
