@@ -4,8 +4,8 @@ use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
 use ssl::method::{
-    Interpolation, Params, Window, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US,
-    DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
+    Interpolation, Params, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_MIN_SCORE_PER_PAIR,
+    DEFAULT_RESIDUAL_GATE_US, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
 };
 use ssl::{Format, Named};
 use std::path::PathBuf;
@@ -142,8 +142,12 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "US", default_value_t = DEFAULT_RESIDUAL_GATE_US, value_parser = non_negative_f64)]
     pub residual_gate_us: f64,
 
-    /// The paper's consistency check as published: a tolerance of 2 samples and no residual gate
-    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us"])]
+    /// Average each pair's correlation over this many frames: the frame's own and the ones before it (1: none, as in the paper)
+    #[arg(long, value_name = "FRAMES", default_value_t = DEFAULT_AVERAGE_FRAMES as u16, value_parser = clap::value_parser!(u16).range(1..=MAX_AVERAGE_FRAMES as i64))]
+    pub average_frames: u16,
+
+    /// The paper's method as published: a tolerance of 2 samples, no residual gate, no averaging over frames
+    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames"])]
     pub paper: bool,
 
     /// Speed of sound in m/s [default: the geometry's, else 343]
@@ -276,6 +280,11 @@ impl AnalyzeArgs {
             min_score_per_pair: self.min_score,
             window: self.window,
             interpolation: self.interpolation,
+            average_frames: if self.paper {
+                1
+            } else {
+                self.average_frames as usize
+            },
             ..Params::default()
         }
     }

@@ -15,6 +15,7 @@
 
 use super::frames::{FrameBlock, BLOCK};
 use super::outcome::{Detection, FrameStats, Outcome, StageTimes};
+use super::pairs::pair_count;
 use super::params::{Params, ParamsError, Setup, PRIMING_S};
 use super::weighting::NoiseEstimator;
 use super::worker::{FrameState, Worker};
@@ -29,8 +30,13 @@ pub(crate) struct Analyzer {
     setup: Setup,
     workers: Vec<Mutex<(Worker, StageTimes)>>,
     sequential: Sequential,
+    /// The last `average_frames - 1` frames of the previous block, then this block's.
     states: Vec<FrameState>,
     live: Vec<bool>,
+    /// Per frame (as `states`), whether its own weights rule out a detection.
+    hopeless: Vec<bool>,
+    /// Per frame of the block, whether its correlations can be left out.
+    skip: Vec<bool>,
     outcomes: Vec<Outcome>,
     detections: Vec<Option<Detection>>,
     times: Option<StageTimes>,
@@ -57,8 +63,12 @@ impl Analyzer {
                 },
                 priming: ((PRIMING_S / hop_s).ceil() as usize).min(BLOCK),
             },
-            states: (0..BLOCK).map(|_| FrameState::new(&setup)).collect(),
-            live: vec![false; BLOCK],
+            states: (0..BLOCK + setup.params.average_frames - 1)
+                .map(|_| FrameState::new(&setup))
+                .collect(),
+            live: vec![false; BLOCK + setup.params.average_frames - 1],
+            hopeless: vec![false; BLOCK + setup.params.average_frames - 1],
+            skip: vec![false; BLOCK],
             outcomes: vec![Outcome::Silent; BLOCK],
             detections: vec![None; BLOCK],
             times: None,
@@ -153,39 +163,82 @@ impl Analyzer {
             let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
             workers[i].lock().expect("a worker panicked")
         };
+        // The frames before this block that the first frames average with.
+        let carried = setup.params.average_frames - 1;
+        let (states, live) = (
+            &mut self.states[..carried + count],
+            &mut self.live[..carried + count],
+        );
         // Spectra, in parallel.
         let clock = Instant::now();
-        self.states[..count]
+        states[carried..]
             .par_iter_mut()
-            .zip(self.live[..count].par_iter_mut())
+            .zip(live[carried..].par_iter_mut())
             .enumerate()
             .for_each(|(i, (state, live))| {
                 *live = worker().0.spectra(setup, block.frame(i), state);
             });
         let spectra = clock.elapsed();
-        // The noise estimate, in frame order.
+        // The noise estimate, in frame order, then the weights.
         self.sequential.estimate_noise(
             setup.params.weighting,
-            &mut self.states[..count],
-            &self.live[..count],
+            &mut states[carried..],
+            &live[carried..],
         );
+        states[carried..]
+            .par_iter_mut()
+            .zip(live[carried..].par_iter())
+            .filter(|(_, &live)| live)
+            .for_each(|(state, _)| Worker::weigh(setup, state));
         if let Some(times) = self.times.as_mut() {
             times.spectra += spectra;
             times.weighting += clock.elapsed() - spectra;
         }
-        // Weights, correlations, peaks, search, direction, in parallel.
+        // Which frames' correlations no detection can need.
+        let prune = workers[0].lock().expect("a worker panicked").0.prune;
+        let hopeless = &mut self.hopeless[..carried + count];
+        for (c, hopeless) in hopeless.iter_mut().enumerate() {
+            let state = &states[c];
+            let pairs = pair_count(state.live.len()) as f64;
+            // A frame its own weights rule out has no detection (`Worker::decide`).
+            *hopeless = c < carried
+                || !live[c]
+                || state.ceiling * pairs < setup.params.min_score_per_pair * pairs;
+        }
+        for (i, skip) in self.skip[..count].iter_mut().enumerate() {
+            let c = carried + i;
+            *skip = prune
+                && c + carried < carried + count
+                && hopeless[c..=c + carried].iter().all(|&h| h);
+        }
+        // Correlations, in parallel.
         let timing = self.times.is_some();
+        states[carried..]
+            .par_iter_mut()
+            .zip(live[carried..].par_iter())
+            .zip(self.skip[..count].par_iter())
+            .for_each(|((state, &live), &skip)| {
+                if live {
+                    let mut guard = worker();
+                    let (worker, stage_times) = &mut *guard;
+                    worker.correlate(setup, state, skip, timing.then_some(stage_times));
+                } else {
+                    state.correlated = super::worker::Correlated::No;
+                }
+            });
+        // Averages, peaks, search, direction, in parallel.
+        let states = &*states;
         self.outcomes[..count]
             .par_iter_mut()
-            .zip(self.states[..count].par_iter())
-            .zip(self.live[..count].par_iter())
+            .zip(live[carried..].par_iter())
             .enumerate()
-            .for_each(|(i, ((outcome, state), &live))| {
+            .for_each(|(i, (outcome, &live))| {
                 let index = block.first + i as u64;
                 *outcome = if live {
                     let mut guard = worker();
                     let (worker, stage_times) = &mut *guard;
-                    worker.localize(setup, state, index, timing.then_some(stage_times))
+                    let span = &states[i..=i + carried];
+                    worker.decide(setup, span, index, timing.then_some(stage_times))
                 } else {
                     Outcome::Silent
                 };
@@ -195,6 +248,9 @@ impl Analyzer {
                 times.add(&std::mem::take(&mut w.lock().expect("a worker panicked").1));
             }
         }
+        // The last frames go before the next block's.
+        self.states[..carried + count].rotate_left(count);
+        self.live[..carried + count].rotate_left(count);
     }
 }
 
@@ -274,7 +330,7 @@ mod tests {
     /// Leaving out the correlations that the weights' ceiling rules out changes no
     /// frame's detection: a scene whose sources sit below, near and above the threshold
     /// (a fan throughout, speech-like and noise sources at -12 to +6 dB against it),
-    /// analysed with and without pruning, with and without sub-sample refinement.
+    /// analysed with and without pruning, with and without sub-sample refinement and averaging.
     #[test]
     fn pruning_changes_no_detection() {
         let geometry = Geometry::from_file(
@@ -310,9 +366,15 @@ mod tests {
             sensor_noise: 0.001,
             seed: 3,
         });
-        for interpolation in [Interpolation::Parabolic, Interpolation::None] {
+        let cases = [
+            (Interpolation::Parabolic, 1),
+            (Interpolation::None, 1),
+            (Interpolation::Parabolic, Params::default().average_frames),
+        ];
+        for (interpolation, average_frames) in cases {
             let params = Params {
                 interpolation,
+                average_frames,
                 ..Params::default()
             };
             let mut pruned = Analyzer::new(&geometry, 48000, &params).unwrap();
@@ -326,7 +388,7 @@ mod tests {
             let detections = want.iter().flatten().count();
             let (p, f) = (pruned.stage_times().unwrap(), full.stage_times().unwrap());
             eprintln!(
-                "{interpolation:?}: {detections} of {frames} frames, {} of {} pairs skipped",
+                "{interpolation:?}, {average_frames} frames averaged: {detections} of {frames} frames, {} of {} pairs skipped",
                 p.skipped_pairs, f.correlated_pairs
             );
             assert_eq!(f.skipped_pairs, 0);
@@ -336,8 +398,10 @@ mod tests {
                 detections > 30 && detections < frames - 30,
                 "{detections} of {frames}"
             );
+            // Averaged frames need their neighbours' correlations, so fewer are left out.
+            let share = if average_frames == 1 { 5 } else { 100 };
             assert!(
-                p.skipped_pairs * 5 > f.correlated_pairs,
+                p.skipped_pairs * share > f.correlated_pairs,
                 "{} of {} skipped",
                 p.skipped_pairs,
                 f.correlated_pairs

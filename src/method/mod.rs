@@ -34,8 +34,9 @@ mod worker;
 pub(crate) use analyzer::Analyzer;
 pub use outcome::{Detection, FrameStats, StageTimes};
 pub use params::{
-    default_frame_size, Params, ParamsError, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US,
-    DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US, MAX_FRAME_SIZE, PRIMING_S,
+    default_frame_size, Params, ParamsError, DEFAULT_AVERAGE_FRAMES, DEFAULT_MIN_SCORE_PER_PAIR,
+    DEFAULT_RESIDUAL_GATE_US, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
+    MAX_FRAME_SIZE, PRIMING_S,
 };
 pub use peaks::Interpolation;
 pub use spectrum::Window;

@@ -42,6 +42,9 @@ pub struct Params {
     pub max_nodes: u64,
     /// The noise estimator behind `X_n(k)`.
     pub noise: NoiseSettings,
+    /// Each pair's correlation is averaged over this many frames, the frame's own and
+    /// the ones before it (1: none, as in the paper; default [`DEFAULT_AVERAGE_FRAMES`]).
+    pub average_frames: usize,
 }
 
 impl Params {
@@ -52,6 +55,7 @@ impl Params {
             tolerance: DEFAULT_TOLERANCE,
             tolerance_us: None,
             residual_gate_us: None,
+            average_frames: 1,
             ..Params::default()
         }
     }
@@ -74,6 +78,7 @@ impl Default for Params {
             interpolation: Interpolation::Parabolic,
             max_nodes: 1_000_000,
             noise: NoiseSettings::default(),
+            average_frames: DEFAULT_AVERAGE_FRAMES,
         }
     }
 }
@@ -92,6 +97,13 @@ pub const DEFAULT_TOLERANCE: f32 = 2.0;
 /// Default consistency tolerance in microseconds: 1.9 samples at 48 kHz, 0.64 at 16 kHz
 /// (docs/field.md for how it was chosen).
 pub const DEFAULT_TOLERANCE_US: f64 = 40.0;
+
+/// Default number of frames each correlation is averaged over: the frame and the five
+/// before it, 75 ms at the default frame size (docs/field.md for how it was chosen).
+pub const DEFAULT_AVERAGE_FRAMES: usize = 6;
+
+/// The most frames a correlation can be averaged over.
+pub const MAX_AVERAGE_FRAMES: usize = 64;
 
 /// Default residual gate in microseconds (docs/field.md).
 pub const DEFAULT_RESIDUAL_GATE_US: f64 = 100.0;
@@ -140,6 +152,9 @@ pub enum ParamsError {
     /// The residual gate is not a positive number of microseconds.
     #[error("the residual gate must be a positive number of microseconds, got {0}")]
     ResidualGate(f64),
+    /// The number of frames averaged is 0 or more than [`MAX_AVERAGE_FRAMES`].
+    #[error("the number of frames to average must be between 1 and {MAX_AVERAGE_FRAMES}, got {0}")]
+    AverageFrames(usize),
     /// The threshold is not a number.
     #[error("the detection threshold must be a number, got {0}")]
     MinScore(f64),
@@ -180,6 +195,9 @@ impl Setup {
         }
         if params.peaks == 0 || params.peaks > MAX_PEAKS {
             return Err(ParamsError::Peaks(params.peaks));
+        }
+        if !(1..=MAX_AVERAGE_FRAMES).contains(&params.average_frames) {
+            return Err(ParamsError::AverageFrames(params.average_frames));
         }
         let mut params = params.clone();
         if let Some(us) = params.tolerance_us {

@@ -3,13 +3,16 @@
 //! pair (eq. 6), its M peaks (eq. 7), the consistency search (eq. 8), the direction
 //! (eq. 13). The noise estimate `X_n(k)` that the weights need depends on every earlier
 //! frame, so [`Analyzer`](super::Analyzer) computes it in frame order between
-//! [`Worker::spectra`] and [`Worker::localize`].
+//! [`Worker::spectra`] and [`Worker::weigh`]; a frame's correlations may be averaged
+//! with those of the frames before it, so [`Worker::correlate`] keeps them in the frame's
+//! state for [`Worker::decide`].
 
 use super::correlation::{peak_ceiling, whiten, Correlator};
 use super::direction::{angles_deg, DirectionSolver};
 use super::outcome::{Clock, Detection, Outcome, StageTimes};
 use super::pairs::{pair_count, pair_index};
 use super::params::Setup;
+use super::peaks::Interpolation;
 use super::peaks::{find_peaks, Peak};
 use super::search::{Searcher, Solution};
 use super::spectrum::{frame_spectra, ForwardFft};
@@ -17,13 +20,37 @@ use super::weighting::enhanced_weights;
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
 
-/// One frame between the stages: its live microphones, spectra, `X(k)`, and the noise
-/// estimate `X_n(k)` of the frames before it.
+/// One frame between the stages: its live microphones, spectra, `X(k)`, the noise
+/// estimate `X_n(k)` of the frames before it, its weights, and its correlations.
 pub(crate) struct FrameState {
     pub live: Vec<usize>,
     spectra: Vec<Vec<Complex32>>,
     pub power: Vec<f32>,
     pub noise: Vec<f32>,
+    /// `w_e(k)` (all 1 without weighting).
+    weights: Vec<f32>,
+    /// The most any of this frame's correlation values (or refined peaks) can be.
+    pub ceiling: f64,
+    /// Bit `m` set when microphone `m` is live.
+    mask: u64,
+    /// Every pair's correlation at the lags searched and their two neighbours, one pair
+    /// after another in the order of [`pair_index`] over all microphones (see
+    /// [`Worker::window_starts`]); read only when `correlated` is `Correlated::Yes`.
+    windows: Vec<f32>,
+    pub correlated: Correlated,
+}
+
+/// Whether a frame's correlations were computed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Correlated {
+    /// Not live, or before the start of the recording.
+    No,
+    /// Left out: no frame that averages this one can reach the threshold.
+    Skipped,
+    /// Stopped part way, when the frame (averaged with no other) was shown unable to
+    /// reach the threshold; the most it could have scored.
+    Stopped(f64),
+    Yes,
 }
 
 impl FrameState {
@@ -34,6 +61,11 @@ impl FrameState {
             spectra: vec![vec![Complex32::default(); setup.bins()]; mics],
             power: vec![0.0; setup.bins()],
             noise: vec![0.0; setup.bins()],
+            weights: vec![1.0; setup.bins()],
+            ceiling: 0.0,
+            mask: 0,
+            windows: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
+            correlated: Correlated::No,
         }
     }
 }
@@ -42,12 +74,10 @@ impl FrameState {
 pub(crate) struct Worker {
     fft: ForwardFft,
     correlator: Correlator,
-    /// `w_e(k)` of the frame (all 1 without weighting).
-    weights: Vec<f32>,
     /// One pair's correlation at the lags it searches (and their two neighbours).
     window: Vec<f32>,
-    /// The live pairs `(a, b)`, indices into the live microphones.
-    pairs: Vec<(usize, usize)>,
+    /// Where each pair's window starts in [`FrameState`]'s `windows`.
+    window_starts: Vec<usize>,
     whitened: Vec<Vec<Complex32>>,
     peaks: Vec<Vec<Peak>>,
     searcher: Searcher,
@@ -62,9 +92,16 @@ impl Worker {
         Worker {
             fft: ForwardFft::new(setup.n, setup.params.window),
             correlator: Correlator::new(setup.n),
-            weights: vec![1.0; setup.bins()],
             window: Vec::with_capacity(setup.n),
-            pairs: Vec::with_capacity(pair_count(mics)),
+            window_starts: setup
+                .max_lag
+                .iter()
+                .scan(0, |start, &h| {
+                    let here = *start;
+                    *start += 2 * h + 3;
+                    Some(here)
+                })
+                .collect(),
             whitened: vec![vec![Complex32::default(); setup.bins()]; mics],
             peaks: (0..pair_count(mics))
                 .map(|_| Vec::with_capacity(setup.params.peaks))
@@ -91,54 +128,212 @@ impl Worker {
             &mut state.spectra,
             &mut state.power,
         );
+        state.mask = state.live.iter().fold(0u64, |acc, &m| acc | (1u64 << m));
         !state.live.is_empty()
     }
 
-    /// The stages after the noise estimate: weights (eq. 4-5), whitening, correlations
-    /// (eq. 6), peaks (eq. 7), search (eq. 8), direction (eq. 13).
-    ///
-    /// A set's score is one peak value per pair, and no peak can exceed the ceiling the
-    /// weights set: when even that cannot reach the threshold, the frame has no detection
-    /// whatever the correlations are, and they are not computed. The same test is
-    /// repeated as pairs are correlated, with their actual best peaks.
-    pub fn localize(
-        &mut self,
-        setup: &Setup,
-        state: &FrameState,
-        index: u64,
-        times: Option<&mut StageTimes>,
-    ) -> Outcome {
-        let mut clock = Clock::new(times);
-        let k = state.live.len();
-        if k < 2 {
-            return Outcome::Unsolved;
-        }
+    /// After the noise estimate: the weights of eq. (4)-(5), and from them the ceiling
+    /// no correlation value of the frame can exceed.
+    pub fn weigh(setup: &Setup, state: &mut FrameState) {
         if setup.params.weighting {
             enhanced_weights(
                 &state.power,
                 &state.noise,
                 setup.params.alpha,
                 setup.params.gamma,
-                &mut self.weights,
+                &mut state.weights,
             );
         }
-        let threshold = setup.params.min_score_per_pair * pair_count(k) as f64;
-        let ceiling = peak_ceiling(&self.weights, setup.n, setup.params.interpolation);
-        let cut = Cut {
-            prune: self.prune,
-            threshold,
-            ceiling,
-        };
-        let pairs = pair_count(k) as f64;
-        if cut.skip(&mut clock, pair_count(k), 0.0) {
-            return Outcome::BelowThreshold(false, ceiling, false);
+        state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.interpolation);
+    }
+
+    /// Whitening and the correlation of every live pair (eq. 6 divided by N, see
+    /// [`correlation`](super::correlation) on the scale), two pairs per inverse FFT in
+    /// the order of [`pair_index`], kept in the frame's state. `skip` leaves them out.
+    ///
+    /// When frames are not averaged, a frame whose correlated pairs show it cannot reach
+    /// the threshold stops there: a pair's refined peaks are at most `5/4` of its largest
+    /// value (a parabola through three samples overshoots the middle one by at most a
+    /// quarter of the larger neighbour), and the pairs still to do add at most the ceiling.
+    pub fn correlate(
+        &mut self,
+        setup: &Setup,
+        state: &mut FrameState,
+        skip: bool,
+        times: Option<&mut StageTimes>,
+    ) {
+        let mut clock = Clock::new(times);
+        let (k, mics) = (state.live.len(), setup.mics());
+        let pairs = pair_count(k);
+        if skip {
+            clock.count((0, pairs));
+            state.correlated = Correlated::Skipped;
+            return;
         }
         for &m in &state.live {
-            whiten(&state.spectra[m], &self.weights, &mut self.whitened[m]);
+            whiten(&state.spectra[m], &state.weights, &mut self.whitened[m]);
         }
         clock.lap(|t| &mut t.weighting);
-        if let Err(bound) = self.correlate_pairs(setup, state, &cut, &mut clock) {
+        let alone = setup.params.average_frames == 1 && self.prune;
+        let threshold = setup.params.min_score_per_pair * pairs as f64;
+        let overshoot = match setup.params.interpolation {
+            Interpolation::None => 1.0,
+            Interpolation::Parabolic => 1.25,
+        };
+        let norm = setup.n as f32;
+        let whitened = &self.whitened;
+        let live = &state.live;
+        let spectra = |(a, b): (usize, usize)| (&whitened[live[a]][..], &whitened[live[b]][..]);
+        let mut list = (0..k).flat_map(|a| (a + 1..k).map(move |b| (a, b)));
+        let mut best_possible = 0.0;
+        let mut done = 0;
+        while let Some(first) = list.next() {
+            let second = list.next();
+            if alone
+                && done > 0
+                && best_possible + (pairs - done) as f64 * state.ceiling < threshold
+            {
+                clock.count((0, pairs - done));
+                state.correlated =
+                    Correlated::Stopped(best_possible + (pairs - done) as f64 * state.ceiling);
+                return;
+            }
+            clock.count((if second.is_some() { 2 } else { 1 }, 0));
+            self.correlator
+                .correlate(spectra(first), second.map(spectra), norm);
+            for (which, (a, b)) in [Some(first), second].into_iter().flatten().enumerate() {
+                let pair = pair_index(live[a], live[b], mics);
+                let half = setup.max_lag[pair] + 1;
+                self.correlator.lags(which == 1, half, &mut self.window);
+                let start = self.window_starts[pair];
+                state.windows[start..start + 2 * half + 1].copy_from_slice(&self.window);
+                let top = self
+                    .window
+                    .iter()
+                    .copied()
+                    .fold(f32::NEG_INFINITY, f32::max);
+                best_possible += (top.max(0.0) * overshoot) as f64;
+                done += 1;
+            }
+        }
+        clock.lap(|t| &mut t.correlation);
+        state.correlated = Correlated::Yes;
+    }
+
+    /// The stages after the correlations for the last frame of `span` (the frame and the
+    /// ones before it, [`Params::average_frames`](super::Params::average_frames) in all):
+    /// each pair's correlation averaged over the live frames of `span`, its M peaks (eq.
+    /// 7), the search (eq. 8), the direction (eq. 13). When the average gives no
+    /// detection, the frame's own correlations are tried: averaging steadies the delays
+    /// of a sustained source in a reverberant room, but dilutes a click to a fraction of
+    /// its frame's score.
+    ///
+    /// A frame whose own weights cannot reach the threshold (its ceiling times its pairs)
+    /// has no detection, averaged or not: otherwise the average carries a source past
+    /// its end into the frames after it. A set's score is one peak value per pair, and no
+    /// value of an average exceeds the mean of its frames' ceilings: when even that cannot
+    /// reach the threshold, the average is not searched.
+    pub fn decide(
+        &mut self,
+        setup: &Setup,
+        span: &[FrameState],
+        index: u64,
+        times: Option<&mut StageTimes>,
+    ) -> Outcome {
+        let mut clock = Clock::new(times);
+        let state = span.last().expect("a frame");
+        let k = state.live.len();
+        if k < 2 {
+            return Outcome::Unsolved;
+        }
+        let pairs = pair_count(k) as f64;
+        let threshold = setup.params.min_score_per_pair * pairs;
+        // A frame that could not reach the threshold alone has no detection: the
+        // average would only carry the frames before it past their end.
+        let own = state.ceiling * pairs;
+        if own < threshold {
+            return Outcome::BelowThreshold(false, own / pairs, false);
+        }
+        let bound = span_ceiling(span) * pairs;
+        let averaged = if self.prune && bound < threshold {
+            Outcome::BelowThreshold(false, bound / pairs, false)
+        } else {
+            self.decide_over(setup, span, index, &mut clock)
+        };
+        if span.len() == 1
+            || matches!(averaged, Outcome::Detected(..))
+            || state.correlated != Correlated::Yes
+        {
+            return averaged;
+        }
+        match self.decide_over(setup, &span[span.len() - 1..], index, &mut clock) {
+            own @ Outcome::Detected(..) => own,
+            _ => averaged,
+        }
+    }
+
+    /// [`Worker::decide`] on the average over `span`.
+    fn decide_over(
+        &mut self,
+        setup: &Setup,
+        span: &[FrameState],
+        index: u64,
+        clock: &mut Clock,
+    ) -> Outcome {
+        let state = span.last().expect("a frame");
+        let k = state.live.len();
+        let pairs = pair_count(k) as f64;
+        let threshold = setup.params.min_score_per_pair * pairs;
+        if let Correlated::Stopped(bound) = state.correlated {
             return Outcome::BelowThreshold(false, bound / pairs, false);
+        }
+        let mics = setup.mics();
+        let frames = span.iter().filter(|f| !f.live.is_empty()).count() as f32;
+        let ceiling = span_ceiling(span);
+        let mut best_possible = 0.0;
+        let mut left = pair_count(k);
+        for a in 0..k {
+            for b in a + 1..k {
+                // The pairs left add at most the ceiling each.
+                if self.prune && best_possible + left as f64 * ceiling < threshold {
+                    clock.lap(|t| &mut t.peaks);
+                    return Outcome::BelowThreshold(
+                        false,
+                        (best_possible + left as f64 * ceiling) / pairs,
+                        false,
+                    );
+                }
+                left -= 1;
+                let (i, j) = (state.live[a], state.live[b]);
+                let pair = pair_index(i, j, mics);
+                let half = setup.max_lag[pair] + 1;
+                let start = self.window_starts[pair];
+                let both = (1u64 << i) | (1u64 << j);
+                self.window.clear();
+                self.window.resize(2 * half + 1, 0.0);
+                for f in span {
+                    if f.correlated == Correlated::Yes && f.mask & both == both {
+                        let w = &f.windows[start..start + 2 * half + 1];
+                        self.window.iter_mut().zip(w).for_each(|(s, v)| *s += v);
+                    }
+                }
+                if frames > 1.0 {
+                    self.window.iter_mut().for_each(|s| *s /= frames);
+                }
+                let peaks = &mut self.peaks[pair_index(a, b, k)];
+                find_peaks(
+                    &self.window,
+                    setup.params.peaks,
+                    setup.params.interpolation,
+                    peaks,
+                );
+                // A pair without peaks leaves no consistent set (the search says so).
+                best_possible += peaks.first().map_or(0.0, |p| p.value as f64);
+            }
+        }
+        clock.lap(|t| &mut t.peaks);
+        if self.prune && best_possible < threshold {
+            return Outcome::BelowThreshold(false, best_possible / pairs, false);
         }
         self.searcher.search(k, &self.peaks);
         clock.lap(|t| &mut t.search);
@@ -158,74 +353,19 @@ impl Worker {
         clock.lap(|t| &mut t.direction);
         outcome
     }
-
-    /// Eq. (6) divided by N (see [`correlation`](super::correlation) on the scale) for
-    /// every live pair, two pairs per inverse FFT in the order of [`pair_index`], and the
-    /// M peaks of each (eq. 7). Stops as soon as the frame is shown unable to reach the
-    /// threshold, with the most it could still have scored.
-    fn correlate_pairs(
-        &mut self,
-        setup: &Setup,
-        state: &FrameState,
-        cut: &Cut,
-        clock: &mut Clock,
-    ) -> Result<(), f64> {
-        let (k, mics) = (state.live.len(), setup.mics());
-        let norm = setup.n as f32;
-        self.pairs.clear();
-        for a in 0..k {
-            for b in a + 1..k {
-                self.pairs.push((a, b));
-            }
-        }
-        let whitened = &self.whitened;
-        let spectra =
-            |(a, b): (usize, usize)| (&whitened[state.live[a]][..], &whitened[state.live[b]][..]);
-        let mut best_possible = 0.0;
-        for (done, two) in self.pairs.chunks(2).enumerate() {
-            let left = self.pairs.len() - 2 * done;
-            if done > 0 && cut.skip(clock, left, best_possible) {
-                return Err(best_possible + left as f64 * cut.ceiling);
-            }
-            self.correlator
-                .correlate(spectra(two[0]), two.get(1).map(|&p| spectra(p)), norm);
-            clock.lap(|t| &mut t.correlation);
-            for (second, &(a, b)) in two.iter().enumerate() {
-                let (i, j) = (state.live[a], state.live[b]);
-                let half = setup.max_lag[pair_index(i, j, mics)] + 1;
-                self.correlator.lags(second == 1, half, &mut self.window);
-                let peaks = &mut self.peaks[pair_index(a, b, k)];
-                find_peaks(
-                    &self.window,
-                    setup.params.peaks,
-                    setup.params.interpolation,
-                    peaks,
-                );
-                // A pair without peaks leaves no consistent set (the search says so).
-                best_possible += peaks.first().map_or(cut.ceiling, |p| p.value as f64);
-            }
-            clock.lap(|t| &mut t.peaks);
-        }
-        Ok(())
-    }
 }
 
-/// When a frame can be decided without the rest of its correlations.
-struct Cut {
-    prune: bool,
-    threshold: f64,
-    /// The most any pair's peak can add (from the weights).
-    ceiling: f64,
-}
-
-impl Cut {
-    /// Whether `left` pairs still to correlate, each adding at most the ceiling to
-    /// `best_possible`, cannot reach the threshold; counts the pairs skipped or about to
-    /// be correlated.
-    fn skip(&self, clock: &mut Clock, left: usize, best_possible: f64) -> bool {
-        let skip = self.prune && best_possible + left as f64 * self.ceiling < self.threshold;
-        clock.count(if skip { (0, left) } else { (left.min(2), 0) });
-        skip
+/// The most any pair's averaged correlation can be over the last frame of `span`: the
+/// mean ceiling of its live frames.
+pub(crate) fn span_ceiling(span: &[FrameState]) -> f64 {
+    let (sum, count) = span
+        .iter()
+        .filter(|f| !f.live.is_empty())
+        .fold((0.0, 0.0), |(s, c), f| (s + f.ceiling, c + 1.0));
+    if count > 0.0 {
+        sum / count
+    } else {
+        0.0
     }
 }
 

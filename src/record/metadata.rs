@@ -104,6 +104,8 @@ pub struct ParametersInfo {
     pub tolerance_us: Option<f64>,
     /// The residual gate in microseconds, or null for none.
     pub residual_gate_us: Option<f64>,
+    /// Frames each pair's correlation is averaged over (1: none).
+    pub average_frames: usize,
 }
 
 /// A single-precision parameter as it was written (`0.4`), not as its nearest double.
@@ -132,6 +134,7 @@ impl RunMetadata {
                 min_score: params.min_score_per_pair * pair_count(geometry.mics.len()) as f64,
                 tolerance_us: params.tolerance_us,
                 residual_gate_us: params.residual_gate_us,
+                average_frames: params.average_frames,
             },
         }
     }

@@ -64,6 +64,18 @@ pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
         return ssl::Params::paper();
     }
+    // `avg=N`: frames each correlation is averaged over.
+    if let Some(n) = args.iter().find_map(|a| a.strip_prefix("avg=")) {
+        let rest: Vec<String> = args
+            .iter()
+            .filter(|a| !a.starts_with("avg="))
+            .cloned()
+            .collect();
+        return ssl::Params {
+            average_frames: n.parse().expect("avg=N takes a number of frames"),
+            ..params_from(&rest)
+        };
+    }
     let number = |i: usize| args.get(i).and_then(|a| a.parse::<f64>().ok());
     let defaults = ssl::Params::default();
     ssl::Params {
