@@ -191,7 +191,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ..params.clone()
             },
         ),
-        ("the paper's check (2 samples, no gate)", Params::paper()),
+        (
+            "no averaging over frames",
+            Params {
+                average_frames: 1,
+                ..params.clone()
+            },
+        ),
+        (
+            "the paper's method (2 samples, no gate, no averaging)",
+            Params::paper(),
+        ),
     ];
     for (label, v) in &variants {
         print!("| {label} |");

@@ -173,7 +173,7 @@ pub fn ambiguity_note(g: &Geometry) -> Option<String> {
     match g.shape {
         Shape::Volumetric => None,
         Shape::Planar { normal } => Some(format!(
-            "planar array: a direction and its mirror image through the array's plane are indistinguishable; directions are reported on the side of the plane that side = [{}, {}, {}] points to (normal [{:.3}, {:.3}, {:.3}])",
+            "planar array: a direction and its mirror image through the array's plane are indistinguishable; directions are reported on the side of the plane that side = [{}, {}, {}] points to (normal [{:.3}, {:.3}, {:.3}]); the elevation is coarse, and reflections from floors and ceilings bias it: trust the azimuth",
             s.x, s.y, s.z, normal.x + 0.0, normal.y + 0.0, normal.z + 0.0
         )),
         Shape::Linear { axis } => Some(format!(
