@@ -1,6 +1,6 @@
 //! Field conditions: real speech (the CMU ARCTIC clips in testdata/speech) in the paper's
-//! reverberant room with its fan, on the paper's prism and on small arrays, at 48 and
-//! 16 kHz, with a minute of background alone per array and rate. Prints a markdown table.
+//! reverberant room with its fan, on the paper's prism and on small arrays, at 48, 16
+//! and 8 kHz, with a minute of background alone per array and rate. Prints a markdown table.
 //!
 //! `cargo bench --bench field` (about a minute). Arguments choose other parameters (see
 //! `support::harness::params_from`): `paper`, `avg=N`, a tolerance and a gate in us.
@@ -249,7 +249,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             support::geometry_toml(&array.mics, ""),
         )?;
         let geometry = Geometry::from_file(&dir.path().join("array.toml"))?;
-        for rate in [48000, 16000] {
+        for rate in [48000, 16000, 8000] {
             let seed = 700 + 10 * k as u64 + (rate / 16000) as u64;
             let (records, truth) = run(
                 dir.path(),
