@@ -192,6 +192,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
         ),
         (
+            "calibrated threshold and reverberation (--calibrated)",
+            Params {
+                threshold_sigmas: Params::calibrated().threshold_sigmas,
+                reverb_level: Params::calibrated().reverb_level,
+                ..params.clone()
+            },
+        ),
+        (
+            "calibrated threshold, no reverberation",
+            Params {
+                threshold_sigmas: Params::calibrated().threshold_sigmas,
+                ..params.clone()
+            },
+        ),
+        (
             "no averaging over frames",
             Params {
                 average_frames: 1,

@@ -268,6 +268,7 @@ fn main() {
             "threshold 0.4 per pair",
             Params {
                 min_score_per_pair: 0.4,
+                threshold_sigmas: None,
                 ..base.clone()
             },
         ),
@@ -275,6 +276,7 @@ fn main() {
             "threshold 0.6 per pair",
             Params {
                 min_score_per_pair: 0.6,
+                threshold_sigmas: None,
                 ..base.clone()
             },
         ),
@@ -282,6 +284,7 @@ fn main() {
             "no threshold",
             Params {
                 min_score_per_pair: f64::NEG_INFINITY,
+                threshold_sigmas: None,
                 ..base.clone()
             },
         ),
@@ -299,6 +302,7 @@ fn main() {
         // Score distributions without a threshold, to choose the default threshold.
         let open = Params {
             min_score_per_pair: f64::NEG_INFINITY,
+            threshold_sigmas: None,
             ..Params::default()
         };
         let pct = |v: &mut Vec<f64>, p: f64| {

@@ -108,6 +108,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let (in_process, st, output) = timed_run(&Params::default())?;
     let (all_pairs, _, _) = timed_run(&Params {
         min_score_per_pair: 0.0,
+        threshold_sigmas: None,
         ..Params::default()
     })?;
 

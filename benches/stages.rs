@@ -189,6 +189,7 @@ fn stages(c: &mut Criterion) {
     // --min-score 0: no correlation can be skipped.
     let every_pair = Params {
         min_score_per_pair: 0.0,
+        threshold_sigmas: None,
         ..Params::default()
     };
     let g = geometry(&pos);

@@ -5,7 +5,8 @@ use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
 use ssl::method::{
     Interpolation, Params, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_MIN_SCORE_PER_PAIR,
-    DEFAULT_RESIDUAL_GATE_US, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
+    DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE,
+    DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
 };
 use ssl::{Format, Named};
 use std::path::PathBuf;
@@ -147,7 +148,7 @@ pub struct AnalyzeArgs {
     pub average_frames: u16,
 
     /// The paper's method as published: a tolerance of 2 samples, no residual gate, no averaging over frames
-    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames"])]
+    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "calibrated", "reverb_level"])]
     pub paper: bool,
 
     /// Speed of sound in m/s [default: the geometry's, else 343]
@@ -155,8 +156,20 @@ pub struct AnalyzeArgs {
     pub speed_of_sound: Option<f64>,
 
     /// Drop detections scoring below this per microphone pair (a frame with P pairs needs P times it; 0 keeps every consistent set)
-    #[arg(long, value_name = "SCORE", default_value_t = DEFAULT_MIN_SCORE_PER_PAIR, allow_negative_numbers = true, value_parser = parse_f64)]
+    #[arg(long, value_name = "SCORE", default_value_t = DEFAULT_MIN_SCORE_PER_PAIR, allow_negative_numbers = true, value_parser = parse_f64, conflicts_with = "calibrated")]
     pub min_score: f64,
+
+    /// Instead of --min-score, a threshold calibrated per frame against the background (chance correlation and a diffuse background's coherence), with late reverberation in the noise estimate: far better on reverberant speech, at low rates and on small arrays, but a steady fan next to the array is reported (docs/field.md)
+    #[arg(long)]
+    pub calibrated: bool,
+
+    /// With --calibrated: the allowance for chance correlation, in standard deviations
+    #[arg(long, value_name = "SIGMAS", default_value_t = DEFAULT_THRESHOLD_SIGMAS, value_parser = non_negative_f64, requires = "calibrated")]
+    pub threshold_sigmas: f64,
+
+    /// Share of the recent frames' power taken as late reverberation in the noise estimate [default: 0, or 0.5 with --calibrated]
+    #[arg(long, value_name = "SHARE", value_parser = unit_interval)]
+    pub reverb_level: Option<f32>,
 
     /// Analysis window
     #[arg(long, default_value = "hann", value_parser = choice::<Window>())]
@@ -278,6 +291,12 @@ impl AnalyzeArgs {
                 .then_some(self.residual_gate_us),
             speed_of_sound: self.speed_of_sound,
             min_score_per_pair: self.min_score,
+            threshold_sigmas: self.calibrated.then_some(self.threshold_sigmas),
+            reverb_level: self.reverb_level.unwrap_or(if self.calibrated {
+                DEFAULT_REVERB_LEVEL
+            } else {
+                0.0
+            }),
             window: self.window,
             interpolation: self.interpolation,
             average_frames: if self.paper {

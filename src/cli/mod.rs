@@ -110,7 +110,7 @@ fn warning_with_hint(name: &str, w: &Warning) -> String {
         Warning::FewDetections { steady: true, .. } => {
             "; --no-weighting localizes such steady sources"
         }
-        Warning::FewDetections { .. } => "; --min-score sets the threshold per pair",
+        Warning::FewDetections { .. } => "; --min-score sets the threshold per pair (--calibrated calibrates it from the background)",
         _ => "",
     };
     format!("{name}: {w}{hint}")

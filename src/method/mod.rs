@@ -11,6 +11,7 @@
 //! | microphone pairs, numbered once | [`pairs`] | |
 //! | the consistent set of delays with the greatest correlation | [`search`] | eq. (8) |
 //! | far-field least-squares direction | [`direction`] | eq. (9)-(13) |
+//! | the detection threshold, calibrated against the background | [`threshold`] | beyond the paper |
 //!
 //! [`Params`] holds the parameters; one frame goes through the stages in `worker.rs`, and
 //! the analyzer (`analyzer.rs`) runs a recording's frames through them in blocks on
@@ -28,6 +29,7 @@ mod params;
 pub mod peaks;
 pub mod search;
 pub mod spectrum;
+pub mod threshold;
 pub mod weighting;
 mod worker;
 
@@ -35,8 +37,9 @@ pub(crate) use analyzer::Analyzer;
 pub use outcome::{Detection, FrameStats, StageTimes};
 pub use params::{
     default_frame_size, Params, ParamsError, DEFAULT_AVERAGE_FRAMES, DEFAULT_MIN_SCORE_PER_PAIR,
-    DEFAULT_RESIDUAL_GATE_US, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
-    MAX_FRAME_SIZE, PRIMING_S,
+    DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
+    MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, PRIMING_S, REVERB_TAU_S,
 };
 pub use peaks::Interpolation;
 pub use spectrum::Window;
+pub use threshold::{DEFAULT_THRESHOLD_SIGMAS, DIFFUSE_MARGIN};

@@ -4,6 +4,10 @@
 use super::pairs::{pair_count, pair_index};
 use super::peaks::{Interpolation, MAX_PEAKS};
 use super::spectrum::Window;
+use super::threshold::{
+    chance_sigma, diffuse_coherence, steady_weight, DEFAULT_THRESHOLD_SIGMAS, DIFFUSE_MARGIN,
+    STEADY_FRAME,
+};
 use super::weighting::NoiseSettings;
 use crate::geometry::Geometry;
 
@@ -31,9 +35,19 @@ pub struct Params {
     pub residual_gate_us: Option<f64>,
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
-    /// Detection threshold per microphone pair: a frame whose best set scores below this
-    /// times its number of pairs gives no detection (the same number suits any array).
+    /// Fixed detection threshold per microphone pair, used when `threshold_sigmas` is
+    /// `None`: a frame whose best set scores below this times its number of pairs gives no
+    /// detection.
     pub min_score_per_pair: f64,
+    /// The threshold calibrated against the background ([`Params::calibrated`]): chance
+    /// plus a coherent background, with this many standard deviations for chance (see
+    /// the `threshold` module). `None` (the default): the fixed `min_score_per_pair`.
+    pub threshold_sigmas: Option<f64>,
+    /// Late reverberation in the noise estimate (beyond the paper): `X_n(k)` gains
+    /// this share of the recent frames' `X(k)`, smoothed over [`REVERB_TAU_S`], so that
+    /// the tail of a sound in a reverberant room is weighed as noise. 0 (the default):
+    /// none; [`DEFAULT_REVERB_LEVEL`] with [`Params::calibrated`].
+    pub reverb_level: f32,
     /// The analysis window.
     pub window: Window,
     /// Sub-sample refinement of the correlation peaks.
@@ -48,6 +62,16 @@ pub struct Params {
 }
 
 impl Params {
+    /// The defaults with the threshold calibrated against the background and late
+    /// reverberation in the noise estimate (`--calibrated`; docs/field.md).
+    pub fn calibrated() -> Self {
+        Params {
+            threshold_sigmas: Some(DEFAULT_THRESHOLD_SIGMAS),
+            reverb_level: DEFAULT_REVERB_LEVEL,
+            ..Params::default()
+        }
+    }
+
     /// The paper's consistency check as published: a tolerance of 2 samples and no
     /// residual gate (everything else as the defaults).
     pub fn paper() -> Self {
@@ -56,6 +80,8 @@ impl Params {
             tolerance_us: None,
             residual_gate_us: None,
             average_frames: 1,
+            threshold_sigmas: None,
+            reverb_level: 0.0,
             ..Params::default()
         }
     }
@@ -79,6 +105,8 @@ impl Default for Params {
             max_nodes: 1_000_000,
             noise: NoiseSettings::default(),
             average_frames: DEFAULT_AVERAGE_FRAMES,
+            threshold_sigmas: None,
+            reverb_level: 0.0,
         }
     }
 }
@@ -101,6 +129,15 @@ pub const DEFAULT_TOLERANCE_US: f64 = 40.0;
 /// Default number of frames each correlation is averaged over: the frame and the five
 /// before it, 75 ms at the default frame size (docs/field.md for how it was chosen).
 pub const DEFAULT_AVERAGE_FRAMES: usize = 6;
+
+/// The share of the recent frames' power taken as late reverberation by
+/// [`Params::calibrated`] (measured on
+/// real speech in the paper's room, docs/field.md).
+pub const DEFAULT_REVERB_LEVEL: f32 = 0.5;
+
+/// Time constant of the late-reverberation estimate (seconds): 0.65 per frame of 1024 at
+/// 48 kHz, as in Valin et al.'s later work.
+pub const REVERB_TAU_S: f64 = 0.025;
 
 /// The most frames a correlation can be averaged over.
 pub const MAX_AVERAGE_FRAMES: usize = 64;
@@ -155,6 +192,12 @@ pub enum ParamsError {
     /// The number of frames averaged is 0 or more than [`MAX_AVERAGE_FRAMES`].
     #[error("the number of frames to average must be between 1 and {MAX_AVERAGE_FRAMES}, got {0}")]
     AverageFrames(usize),
+    /// The threshold's allowance for chance is negative or not a number.
+    #[error("the threshold's allowance for chance must be a non-negative number of standard deviations, got {0}")]
+    ThresholdSigmas(f64),
+    /// The reverberation share is outside 0 to 1.
+    #[error("the share of late reverberation must be between 0 and 1, got {0}")]
+    ReverbLevel(f32),
     /// The threshold is not a number.
     #[error("the detection threshold must be a number, got {0}")]
     MinScore(f64),
@@ -179,9 +222,22 @@ pub(crate) struct Setup {
     pub speed: f64,
     /// Lag search range per pair of the array (samples).
     pub max_lag: Vec<usize>,
+    /// The threshold per pair a diffuse background calls for (the `threshold` module).
+    pub diffuse_floor: f64,
+    /// A frame whose weights' ceiling is under this has nothing above the noise
+    /// estimate (the `threshold` module's steady frames).
+    pub steady_ceiling: f64,
 }
 
 impl Setup {
+    /// A frame's detection threshold per pair, from its weights `w_e(k)`.
+    pub fn threshold_per_pair(&self, weights: &[f32]) -> f64 {
+        match self.params.threshold_sigmas {
+            Some(z) => self.diffuse_floor + z * chance_sigma(weights, self.n),
+            None => self.params.min_score_per_pair,
+        }
+    }
+
     pub fn new(
         geometry: &Geometry,
         sample_rate: u32,
@@ -210,6 +266,15 @@ impl Setup {
         if let Some(g) = params.residual_gate_us.filter(|g| g.is_nan() || *g <= 0.0) {
             return Err(ParamsError::ResidualGate(g));
         }
+        if let Some(z) = params
+            .threshold_sigmas
+            .filter(|z| !(z.is_finite() && *z >= 0.0))
+        {
+            return Err(ParamsError::ThresholdSigmas(z));
+        }
+        if !(0.0..=1.0).contains(&params.reverb_level) {
+            return Err(ParamsError::ReverbLevel(params.reverb_level));
+        }
         if params.min_score_per_pair.is_nan() {
             return Err(ParamsError::MinScore(params.min_score_per_pair));
         }
@@ -236,6 +301,16 @@ impl Setup {
                 needed: ((widest + 2) * 2).next_power_of_two(),
             });
         }
+        let diffuse_floor = DIFFUSE_MARGIN * diffuse_coherence(geometry, n, rate, speed);
+        // In the units of `peak_ceiling`: E times the interpolation's overshoot.
+        let steady_ceiling = {
+            let w = steady_weight(params.alpha, params.reverb_level);
+            let overshoot = match params.interpolation {
+                Interpolation::None => 1.0,
+                Interpolation::Parabolic => 1.25,
+            };
+            STEADY_FRAME * w * w * overshoot * (1.0 + 1e-3)
+        };
         Ok(Setup {
             geometry: geometry.clone(),
             params,
@@ -244,6 +319,8 @@ impl Setup {
             rate,
             speed,
             max_lag,
+            diffuse_floor,
+            steady_ceiling,
         })
     }
 

@@ -31,6 +31,11 @@ pub(crate) struct FrameState {
     weights: Vec<f32>,
     /// The most any of this frame's correlation values (or refined peaks) can be.
     pub ceiling: f64,
+    /// The frame's detection threshold per pair.
+    pub threshold: f64,
+    /// With the calibrated threshold: nothing in the frame stands above the noise
+    /// estimate (see [`super::threshold`]); such a frame gives no detection.
+    pub steady: bool,
     /// Bit `m` set when microphone `m` is live.
     mask: u64,
     /// Every pair's correlation at the lags searched and their two neighbours, one pair
@@ -63,6 +68,8 @@ impl FrameState {
             noise: vec![0.0; setup.bins()],
             weights: vec![1.0; setup.bins()],
             ceiling: 0.0,
+            threshold: 0.0,
+            steady: false,
             mask: 0,
             windows: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
             correlated: Correlated::No,
@@ -133,7 +140,7 @@ impl Worker {
     }
 
     /// After the noise estimate: the weights of eq. (4)-(5), and from them the ceiling
-    /// no correlation value of the frame can exceed.
+    /// no correlation value of the frame can exceed and the frame's threshold.
     pub fn weigh(setup: &Setup, state: &mut FrameState) {
         if setup.params.weighting {
             enhanced_weights(
@@ -145,6 +152,10 @@ impl Worker {
             );
         }
         state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.interpolation);
+        state.threshold = setup.threshold_per_pair(&state.weights);
+        state.steady = setup.params.threshold_sigmas.is_some()
+            && setup.params.weighting
+            && state.ceiling <= setup.steady_ceiling;
     }
 
     /// Whitening and the correlation of every live pair (eq. 6 divided by N, see
@@ -175,7 +186,7 @@ impl Worker {
         }
         clock.lap(|t| &mut t.weighting);
         let alone = setup.params.average_frames == 1 && self.prune;
-        let threshold = setup.params.min_score_per_pair * pairs as f64;
+        let threshold = state.threshold * pairs as f64;
         let overshoot = match setup.params.interpolation {
             Interpolation::None => 1.0,
             Interpolation::Parabolic => 1.25,
@@ -247,11 +258,11 @@ impl Worker {
             return Outcome::Unsolved;
         }
         let pairs = pair_count(k) as f64;
-        let threshold = setup.params.min_score_per_pair * pairs;
+        let threshold = state.threshold * pairs;
         // A frame that could not reach the threshold alone has no detection: the
         // average would only carry the frames before it past their end.
         let own = state.ceiling * pairs;
-        if own < threshold {
+        if own < threshold || state.steady {
             return Outcome::BelowThreshold(false, own / pairs, false);
         }
         let bound = span_ceiling(span) * pairs;
@@ -283,7 +294,7 @@ impl Worker {
         let state = span.last().expect("a frame");
         let k = state.live.len();
         let pairs = pair_count(k) as f64;
-        let threshold = setup.params.min_score_per_pair * pairs;
+        let threshold = state.threshold * pairs;
         if let Correlated::Stopped(bound) = state.correlated {
             return Outcome::BelowThreshold(false, bound / pairs, false);
         }

@@ -94,11 +94,16 @@ pub struct ParametersInfo {
     pub interpolation: Interpolation,
     /// Speed of sound used (m/s).
     pub speed_of_sound: f64,
-    /// Detection threshold per microphone pair.
-    pub min_score_per_pair: f64,
-    /// The threshold a frame with every microphone live needs: `min_score_per_pair`
-    /// times the array's pairs.
-    pub min_score: f64,
+    /// Fixed detection threshold per microphone pair, or null for the calibrated one.
+    pub min_score_per_pair: Option<f64>,
+    /// The fixed threshold a frame with every microphone live needs:
+    /// `min_score_per_pair` times the array's pairs (null with the calibrated one).
+    pub min_score: Option<f64>,
+    /// The calibrated threshold's allowance for chance (standard deviations), or null
+    /// with a fixed threshold.
+    pub threshold_sigmas: Option<f64>,
+    /// Share of late reverberation in the noise estimate (0: none).
+    pub reverb_level: f64,
     /// The consistency tolerance in microseconds, when given so (it then replaces
     /// `tolerance_samples` at each file's rate).
     pub tolerance_us: Option<f64>,
@@ -116,6 +121,10 @@ fn as_given(v: f32) -> f64 {
 impl RunMetadata {
     /// The metadata of a run with `geometry` (read from `geometry_file`) and `params`.
     pub fn new(geometry: &Geometry, geometry_file: &str, params: &Params) -> Self {
+        let fixed = params
+            .threshold_sigmas
+            .is_none()
+            .then_some(params.min_score_per_pair);
         RunMetadata {
             tool: Tool::default(),
             geometry: GeometryInfo::new(geometry, geometry_file),
@@ -130,8 +139,10 @@ impl RunMetadata {
                 tolerance_samples: as_given(params.tolerance),
                 interpolation: params.interpolation,
                 speed_of_sound: params.speed_of_sound.unwrap_or(geometry.speed_of_sound),
-                min_score_per_pair: params.min_score_per_pair,
-                min_score: params.min_score_per_pair * pair_count(geometry.mics.len()) as f64,
+                min_score_per_pair: fixed,
+                min_score: fixed.map(|m| m * pair_count(geometry.mics.len()) as f64),
+                threshold_sigmas: params.threshold_sigmas,
+                reverb_level: as_given(params.reverb_level),
                 tolerance_us: params.tolerance_us,
                 residual_gate_us: params.residual_gate_us,
                 average_frames: params.average_frames,

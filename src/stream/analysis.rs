@@ -113,8 +113,8 @@ pub enum Warning {
         best_per_pair: Option<f64>,
         /// The most any frame decided before its search could have scored per pair.
         bound_per_pair: Option<f64>,
-        /// The threshold per pair.
-        threshold_per_pair: f64,
+        /// The fixed threshold per pair, or `None` for the calibrated one.
+        threshold_per_pair: Option<f64>,
         /// The recording's loudness stays within 6 dB from start to end, and the
         /// spectral weighting is on: a source on from the first sample is background to it.
         steady: bool,
@@ -160,7 +160,10 @@ impl fmt::Display for Warning {
                     )?,
                     (None, None) => write!(f, "no frame held a consistent set of delays")?,
                 }
-                write!(f, ", against a threshold of {threshold_per_pair} per pair")?;
+                match threshold_per_pair {
+                    Some(t) => write!(f, ", against a threshold of {t} per pair")?,
+                    None => write!(f, ", against the threshold calibrated from each frame's background")?,
+                }
                 if *steady {
                     write!(f, "; the recording is steady from start to end (its loudness varies by less than 6 dB), and the spectral weighting takes a source that sounds from the first sample without a pause as background")?;
                 }
@@ -407,7 +410,10 @@ impl<S: SampleSource> Analysis<S> {
                 frames: stats.frames,
                 best_per_pair: stats.best_score_per_pair,
                 bound_per_pair: stats.best_bound_per_pair,
-                threshold_per_pair: params.min_score_per_pair,
+                threshold_per_pair: params
+                    .threshold_sigmas
+                    .is_none()
+                    .then_some(params.min_score_per_pair),
                 steady: params.weighting
                     && stats.power_range.is_some_and(|(lo, hi)| hi <= 4.0 * lo),
             });

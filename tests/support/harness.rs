@@ -64,6 +64,39 @@ pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
         return ssl::Params::paper();
     }
+    // `calibrated`: the threshold calibrated against the background, with reverberation.
+    if args.first().is_some_and(|a| a == "calibrated") {
+        return ssl::Params {
+            threshold_sigmas: ssl::Params::calibrated().threshold_sigmas,
+            reverb_level: ssl::Params::calibrated().reverb_level,
+            ..params_from(&args[1..])
+        };
+    }
+    // `rev=X`: the share of late reverberation in the noise estimate.
+    if let Some(x) = args.iter().find_map(|a| a.strip_prefix("rev=")) {
+        let rest: Vec<String> = args
+            .iter()
+            .filter(|a| !a.starts_with("rev="))
+            .cloned()
+            .collect();
+        return ssl::Params {
+            reverb_level: x.parse().expect("rev=X takes a number"),
+            ..params_from(&rest)
+        };
+    }
+    // `min=X`: a fixed threshold per pair.
+    if let Some(x) = args.iter().find_map(|a| a.strip_prefix("min=")) {
+        let rest: Vec<String> = args
+            .iter()
+            .filter(|a| !a.starts_with("min="))
+            .cloned()
+            .collect();
+        return ssl::Params {
+            min_score_per_pair: x.parse().expect("min=X takes a number"),
+            threshold_sigmas: None,
+            ..params_from(&rest)
+        };
+    }
     // `avg=N`: frames each correlation is averaged over.
     if let Some(n) = args.iter().find_map(|a| a.strip_prefix("avg=")) {
         let rest: Vec<String> = args
