@@ -322,6 +322,18 @@ fn speech_scene(
     (wav, truth)
 }
 
+/// A tetrahedron of 6.5 cm edge as `tetra.toml` in `dir`.
+fn tetrahedron_file(dir: &Path) {
+    let e = 0.065 / (2.0 * 2f64.sqrt());
+    let tetra = [
+        nalgebra::Vector3::new(e, e, e),
+        nalgebra::Vector3::new(e, -e, -e),
+        nalgebra::Vector3::new(-e, e, -e),
+        nalgebra::Vector3::new(-e, -e, e),
+    ];
+    write(dir, "tetra.toml", geometry_toml(&tetra, ""));
+}
+
 /// `ssl analyze` of `wav` with the array of `geometry` and `extra` arguments, scored.
 fn analyze_and_score(
     dir: &Path,
@@ -368,14 +380,7 @@ fn tolerance_in_time_and_the_residual_gate_keep_reverberant_speech_on_target() {
 #[test]
 fn averaging_over_frames_steadies_reverberant_speech_on_a_small_array() {
     let dir = tempdir();
-    let e = 0.065 / (2.0 * 2f64.sqrt());
-    let tetra = [
-        nalgebra::Vector3::new(e, e, e),
-        nalgebra::Vector3::new(e, -e, -e),
-        nalgebra::Vector3::new(-e, e, -e),
-        nalgebra::Vector3::new(-e, -e, e),
-    ];
-    write(dir.path(), "tetra.toml", geometry_toml(&tetra, ""));
+    tetrahedron_file(dir.path());
     let (wav, truth) = speech_scene(dir.path(), "tetra.toml", 16000, 1.5, 15.0);
     let score = |extra: &[&str]| analyze_and_score(dir.path(), &wav, "tetra.toml", &truth, extra);
     let single = score(&["--average-frames", "1"]);
@@ -397,14 +402,7 @@ fn averaging_over_frames_steadies_reverberant_speech_on_a_small_array() {
 #[test]
 fn calibrated_threshold_sharpens_reverberant_speech_on_a_small_array() {
     let dir = tempdir();
-    let e = 0.065 / (2.0 * 2f64.sqrt());
-    let tetra = [
-        nalgebra::Vector3::new(e, e, e),
-        nalgebra::Vector3::new(e, -e, -e),
-        nalgebra::Vector3::new(-e, e, -e),
-        nalgebra::Vector3::new(-e, -e, e),
-    ];
-    write(dir.path(), "tetra.toml", geometry_toml(&tetra, ""));
+    tetrahedron_file(dir.path());
     let (wav, truth) = speech_scene(dir.path(), "tetra.toml", 16000, 1.5, 15.0);
     let score = |extra: &[&str]| analyze_and_score(dir.path(), &wav, "tetra.toml", &truth, extra);
     let fixed = score(&[]);

@@ -8,15 +8,15 @@
 //! and direction in parallel; then the outcomes in frame order. The output is the same for
 //! any number of threads.
 //!
-//! Priming: the first [`PRIMING_S`] of a recording are folded into the noise estimate
+//! Priming: the first [`PRIMING_S`](super::PRIMING_S) of a recording are folded into the noise estimate
 //! before any frame is weighed. Otherwise the first frames are weighed against an
 //! estimate that has not formed yet, and a fan that is on from the start is reported
 //! there (README, "Choices and evidence").
 
 use super::frames::{FrameBlock, BLOCK};
 use super::outcome::{Detection, FrameStats, Outcome, StageTimes};
-use super::params::{Params, ParamsError, Setup, PRIMING_S, REVERB_TAU_S};
-use super::weighting::NoiseEstimator;
+use super::params::{Params, ParamsError, Setup};
+use super::sequential::Sequential;
 use super::worker::{FrameState, Worker};
 use crate::geometry::Geometry;
 use rayon::prelude::*;
@@ -49,26 +49,11 @@ impl Analyzer {
         params: &Params,
     ) -> Result<Self, ParamsError> {
         let setup = Setup::new(geometry, sample_rate, params)?;
-        let hop_s = setup.hop as f64 / setup.rate;
         Ok(Analyzer {
             workers: (0..rayon::current_num_threads())
                 .map(|_| Mutex::new((Worker::new(&setup), StageTimes::default())))
                 .collect(),
-            sequential: Sequential {
-                noise: NoiseEstimator::new(setup.bins(), hop_s, setup.params.noise),
-                stats: FrameStats {
-                    dead_frames: vec![0; setup.mics()],
-                    ..Default::default()
-                },
-                priming: ((PRIMING_S / hop_s).ceil() as usize).min(BLOCK),
-                reverb: vec![0.0; setup.bins()],
-                reverb_settings: (setup.params.reverb_level > 0.0).then(|| {
-                    (
-                        (-hop_s / REVERB_TAU_S).exp() as f32,
-                        setup.params.reverb_level,
-                    )
-                }),
-            },
+            sequential: Sequential::new(&setup),
             states: (0..BLOCK + setup.params.average_frames - 1)
                 .map(|_| FrameState::new(&setup))
                 .collect(),
@@ -256,73 +241,6 @@ impl Analyzer {
         // The last frames go before the next block's.
         self.states[..carried + count].rotate_left(count);
         self.live[..carried + count].rotate_left(count);
-    }
-}
-
-/// What depends on every earlier frame: the noise estimate and the counters.
-struct Sequential {
-    noise: NoiseEstimator,
-    stats: FrameStats,
-    /// Frames of the next block to fold into the noise estimate before it is weighed.
-    priming: usize,
-    /// The late-reverberation estimate added to `X_n(k)` (see [`Params::reverb_level`]).
-    reverb: Vec<f32>,
-    /// Its smoothing coefficient per frame and its share of `X(k)`.
-    reverb_settings: Option<(f32, f32)>,
-}
-
-impl Sequential {
-    /// Folds a frame's `X(k)` into the late-reverberation estimate.
-    fn fold_reverb(&mut self, power: &[f32]) {
-        if let Some((keep, share)) = self.reverb_settings {
-            for (r, &x) in self.reverb.iter_mut().zip(power) {
-                *r = keep * *r + (1.0 - keep) * share * x;
-            }
-        }
-    }
-
-    /// Gives each frame of a block the noise estimate of the frames before it (for its
-    /// weights, eq. 4-5; only with `weighting`), then updates the estimate with its
-    /// `X(k)`; primed frames are folded in first and not again. Counts silent frames and
-    /// dead microphones.
-    fn estimate_noise(&mut self, weighting: bool, states: &mut [FrameState], live: &[bool]) {
-        let primed = std::mem::take(&mut self.priming).min(states.len());
-        for (state, _) in states[..primed].iter().zip(live).filter(|(_, &l)| l) {
-            self.noise.update(&state.power);
-            self.fold_reverb(&state.power);
-        }
-        for (i, (state, &live)) in states.iter_mut().zip(live).enumerate() {
-            self.stats.frames += 1;
-            if !live {
-                self.stats.silent_frames += 1;
-                continue;
-            }
-            let power = state.power.iter().map(|&p| p as f64).sum::<f64>();
-            self.stats.power_range = Some(match self.stats.power_range {
-                Some((lo, hi)) => (lo.min(power), hi.max(power)),
-                None => (power, power),
-            });
-            for (m, dead) in self.stats.dead_frames.iter_mut().enumerate() {
-                if !state.live.contains(&m) {
-                    *dead += 1;
-                }
-            }
-            if !self.noise.started() {
-                self.noise.start(&state.power);
-            }
-            if weighting {
-                state.noise.copy_from_slice(self.noise.noise());
-                if self.reverb_settings.is_some() {
-                    for (n, r) in state.noise.iter_mut().zip(&self.reverb) {
-                        *n += r;
-                    }
-                }
-            }
-            if i >= primed {
-                self.noise.update(&state.power);
-                self.fold_reverb(&state.power);
-            }
-        }
     }
 }
 

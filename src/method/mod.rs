@@ -28,6 +28,7 @@ pub mod pairs;
 mod params;
 pub mod peaks;
 pub mod search;
+mod sequential;
 pub mod spectrum;
 pub mod threshold;
 pub mod weighting;

@@ -58,66 +58,50 @@ pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std
 }
 
 /// The method's parameters a harness runs with: the defaults; `paper` for the paper's
-/// consistency check (2 samples, no residual gate); or a tolerance and a residual gate
-/// in microseconds (`0` turns the gate off).
+/// method; otherwise the defaults changed by any of `calibrated` (`--calibrated`),
+/// `min=X` (a fixed threshold per pair), `rev=X` (late reverberation), `avg=N` (frames
+/// averaged), and a tolerance and a residual gate in microseconds (`0` turns the gate
+/// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
         return ssl::Params::paper();
     }
-    // `calibrated`: the threshold calibrated against the background, with reverberation.
-    if args.first().is_some_and(|a| a == "calibrated") {
-        return ssl::Params {
-            threshold_sigmas: ssl::Params::calibrated().threshold_sigmas,
-            reverb_level: ssl::Params::calibrated().reverb_level,
-            ..params_from(&args[1..])
+    let mut params = ssl::Params::default();
+    let mut numbers = Vec::new();
+    for arg in args {
+        let value = |what: &str| -> f64 {
+            let (_, v) = arg.split_once('=').expect("key=value");
+            v.parse()
+                .unwrap_or_else(|_| panic!("{arg}: {what} takes a number"))
         };
+        match arg.split_once('=').map(|(k, _)| k) {
+            // The threshold calibrated against the background, with reverberation.
+            None if arg == "calibrated" => {
+                let c = ssl::Params::calibrated();
+                (params.threshold_sigmas, params.reverb_level) =
+                    (c.threshold_sigmas, c.reverb_level);
+            }
+            // A fixed threshold per pair.
+            Some("min") => {
+                params.min_score_per_pair = value("min");
+                params.threshold_sigmas = None;
+            }
+            // The share of late reverberation in the noise estimate.
+            Some("rev") => params.reverb_level = value("rev") as f32,
+            // Frames each correlation is averaged over.
+            Some("avg") => params.average_frames = value("avg") as usize,
+            _ => numbers.push(
+                arg.parse::<f64>()
+                    .unwrap_or_else(|_| panic!("unknown argument {arg}")),
+            ),
+        }
     }
-    // `rev=X`: the share of late reverberation in the noise estimate.
-    if let Some(x) = args.iter().find_map(|a| a.strip_prefix("rev=")) {
-        let rest: Vec<String> = args
-            .iter()
-            .filter(|a| !a.starts_with("rev="))
-            .cloned()
-            .collect();
-        return ssl::Params {
-            reverb_level: x.parse().expect("rev=X takes a number"),
-            ..params_from(&rest)
-        };
+    // A tolerance and a residual gate in microseconds (0 turns the gate off).
+    if let Some(&us) = numbers.first() {
+        params.tolerance_us = Some(us);
     }
-    // `min=X`: a fixed threshold per pair.
-    if let Some(x) = args.iter().find_map(|a| a.strip_prefix("min=")) {
-        let rest: Vec<String> = args
-            .iter()
-            .filter(|a| !a.starts_with("min="))
-            .cloned()
-            .collect();
-        return ssl::Params {
-            min_score_per_pair: x.parse().expect("min=X takes a number"),
-            threshold_sigmas: None,
-            ..params_from(&rest)
-        };
+    if let Some(&gate) = numbers.get(1) {
+        params.residual_gate_us = (gate > 0.0).then_some(gate);
     }
-    // `avg=N`: frames each correlation is averaged over.
-    if let Some(n) = args.iter().find_map(|a| a.strip_prefix("avg=")) {
-        let rest: Vec<String> = args
-            .iter()
-            .filter(|a| !a.starts_with("avg="))
-            .cloned()
-            .collect();
-        return ssl::Params {
-            average_frames: n.parse().expect("avg=N takes a number of frames"),
-            ..params_from(&rest)
-        };
-    }
-    let number = |i: usize| args.get(i).and_then(|a| a.parse::<f64>().ok());
-    let defaults = ssl::Params::default();
-    ssl::Params {
-        tolerance_us: number(0).or(defaults.tolerance_us),
-        residual_gate_us: match number(1) {
-            Some(g) if g > 0.0 => Some(g),
-            Some(_) => None,
-            None => defaults.residual_gate_us,
-        },
-        ..defaults
-    }
+    params
 }
