@@ -216,3 +216,22 @@ fn an_array_whose_delays_are_a_few_samples_draws_a_warning() {
     let out = example(&[]);
     assert!(!stderr(&out).contains("largest delay"), "{}", stderr(&out));
 }
+
+/// `--frame-ms` picks the power of two nearest to that length at the file's rate (the
+/// example is 48 kHz: 32 ms is 1536 samples, nearest 2048), and the metadata says what
+/// was asked and what was used.
+#[test]
+fn frame_length_in_milliseconds() {
+    let out = example(&["-f", "json", "--frame-ms", "32"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(doc["parameters"]["frame_ms"], 32.0);
+    assert!(doc["parameters"]["frame_size"].is_null());
+    assert_eq!(doc["files"][0]["frame_size"], 2048);
+    let out = example(&["--frame-ms", "32", "--frame-size", "512"]);
+    assert_eq!(out.status.code(), Some(2));
+}

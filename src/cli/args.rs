@@ -112,8 +112,12 @@ pub struct AnalyzeArgs {
     pub output: Option<PathBuf>,
 
     /// Frame size N in samples [default: about 21 ms: 1024 at 44.1/48 kHz, 256 at 16 kHz]
-    #[arg(short = 'n', long, value_name = "N")]
+    #[arg(short = 'n', long, value_name = "N", conflicts_with = "frame_ms")]
     pub frame_size: Option<usize>,
+
+    /// Frame length in milliseconds, the same at every sample rate: N is the power of two nearest to it at each file's rate
+    #[arg(long, value_name = "MS", value_parser = positive)]
+    pub frame_ms: Option<f64>,
 
     /// Noise over-subtraction alpha of the spectral weighting (paper eq. 4)
     #[arg(long, default_value_t = 0.4, value_parser = unit_interval)]
@@ -281,6 +285,7 @@ impl AnalyzeArgs {
     pub fn params(&self) -> Params {
         Params {
             frame_size: self.frame_size,
+            frame_ms: self.frame_ms,
             alpha: self.alpha,
             gamma: self.gamma,
             weighting: !self.no_weighting,

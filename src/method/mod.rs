@@ -37,9 +37,9 @@ mod worker;
 pub(crate) use analyzer::Analyzer;
 pub use outcome::{Detection, FrameStats, StageTimes};
 pub use params::{
-    default_frame_size, Params, ParamsError, DEFAULT_AVERAGE_FRAMES, DEFAULT_MIN_SCORE_PER_PAIR,
-    DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
-    MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, PRIMING_S, REVERB_TAU_S,
+    default_frame_size, frame_size_for_ms, Params, ParamsError, DEFAULT_AVERAGE_FRAMES,
+    DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL, DEFAULT_TOLERANCE,
+    DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, PRIMING_S, REVERB_TAU_S,
 };
 pub use peaks::Interpolation;
 pub use spectrum::Window;

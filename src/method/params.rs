@@ -14,8 +14,12 @@ use crate::geometry::Geometry;
 /// The method's parameters (defaults are the paper's where it gives them).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Params {
-    /// Frame size N in samples (`None`: [`default_frame_size`] of the sample rate).
+    /// Frame size N in samples (`None`: from `frame_ms`, else [`default_frame_size`] of
+    /// the sample rate).
     pub frame_size: Option<usize>,
+    /// Frame length in milliseconds when `frame_size` is `None`: N is the power of two
+    /// nearest to it (in ratio) at the file's rate ([`frame_size_for_ms`]).
+    pub frame_ms: Option<f64>,
     /// `alpha` of eq. (4).
     pub alpha: f32,
     /// `gamma` of eq. (5).
@@ -91,6 +95,7 @@ impl Default for Params {
     fn default() -> Self {
         Params {
             frame_size: None,
+            frame_ms: None,
             alpha: 0.4,
             gamma: 0.3,
             weighting: true,
@@ -160,6 +165,17 @@ pub fn default_frame_size(sample_rate: u32) -> usize {
     1usize << (p as u32)
 }
 
+/// The power of two nearest (in ratio) to `ms` milliseconds at `sample_rate`, within 16
+/// to [`MAX_FRAME_SIZE`] samples.
+pub fn frame_size_for_ms(ms: f64, sample_rate: u32) -> usize {
+    let ideal = (ms * sample_rate as f64 / 1000.0).max(1.0);
+    let p = ideal
+        .log2()
+        .round()
+        .clamp(4.0, MAX_FRAME_SIZE.trailing_zeros() as f64);
+    1usize << (p as u32)
+}
+
 /// Parameters that cannot be used with this array at this sample rate.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamsError {
@@ -168,6 +184,9 @@ pub enum ParamsError {
         "the frame size must be an even number of samples from 16 to {MAX_FRAME_SIZE}, got {0}"
     )]
     FrameSize(usize),
+    /// The frame length in milliseconds is not a positive number.
+    #[error("the frame length must be a positive number of milliseconds, got {0}")]
+    FrameMs(f64),
     /// The frame cannot hold the array's largest delay on both sides of lag 0.
     #[error("the array's largest delay ({delay} samples at {sample_rate} Hz) does not fit in a frame of {frame_size} samples: a frame of {needed} samples or more is needed")]
     FrameTooShort {
@@ -243,9 +262,13 @@ impl Setup {
         sample_rate: u32,
         params: &Params,
     ) -> Result<Self, ParamsError> {
-        let n = params
-            .frame_size
-            .unwrap_or_else(|| default_frame_size(sample_rate));
+        if let Some(ms) = params.frame_ms.filter(|ms| !(ms.is_finite() && *ms > 0.0)) {
+            return Err(ParamsError::FrameMs(ms));
+        }
+        let n = params.frame_size.unwrap_or_else(|| match params.frame_ms {
+            Some(ms) => frame_size_for_ms(ms, sample_rate),
+            None => default_frame_size(sample_rate),
+        });
         if !(16..=MAX_FRAME_SIZE).contains(&n) || n % 2 != 0 {
             return Err(ParamsError::FrameSize(n));
         }
@@ -345,6 +368,18 @@ fn lag_range(max_delay: f64) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn frame_length_in_milliseconds_is_the_nearest_power_of_two() {
+        assert_eq!(frame_size_for_ms(21.3, 48000), 1024);
+        assert_eq!(frame_size_for_ms(21.3, 16000), 256);
+        assert_eq!(frame_size_for_ms(32.0, 16000), 512);
+        assert_eq!(frame_size_for_ms(64.0, 8000), 512);
+        // 16 ms at 44.1 kHz is 705.6 samples: 512 is 1.38x away, 1024 1.45x.
+        assert_eq!(frame_size_for_ms(16.0, 44100), 512);
+        assert_eq!(frame_size_for_ms(0.01, 8000), 16);
+        assert_eq!(frame_size_for_ms(1e6, 192000), MAX_FRAME_SIZE);
+    }
 
     #[test]
     fn default_frame_size_scales_with_rate() {

@@ -76,6 +76,8 @@ pub struct ParametersInfo {
     /// Frame size N given on the command line, or `null` for the default of each file's
     /// rate (about 21 ms); each file's entry has the frame size used.
     pub frame_size: Option<usize>,
+    /// The frame length asked for in milliseconds, or null.
+    pub frame_ms: Option<f64>,
     /// Always `"frame_size / 2"`.
     pub hop: String,
     /// The analysis window.
@@ -130,6 +132,7 @@ impl RunMetadata {
             geometry: GeometryInfo::new(geometry, geometry_file),
             parameters: ParametersInfo {
                 frame_size: params.frame_size,
+                frame_ms: params.frame_ms,
                 hop: "frame_size / 2".into(),
                 window: params.window,
                 alpha: as_given(params.alpha),
