@@ -16,7 +16,15 @@
 //! - **a coherent background:** a spherically diffuse noise field has a coherence of
 //!   `sin(2 pi f d / c) / (2 pi f d / c)` between microphones `d` apart; its mean
 //!   magnitude over the bins and the array's pairs, times [`DIFFUSE_MARGIN`], is added.
-//!   It is near 0 for the prism (0.01 at 48 kHz) and large for small arrays at low rates.
+//!   The mean coherence is 0.02 / 0.05 / 0.08 for the prism at 48 / 16 / 8 kHz and
+//!   0.11 / 0.44 for a 6-mic circle of radius 4.63 cm at 48 / 8 kHz.
+//!
+//! A frame with nothing above the noise estimate ([`STEADY_FRAME`]) gives no detection.
+//! Late reverberation is added to the noise estimate at the same time
+//! ([`Params::reverb_level`](super::Params::reverb_level)): without the calibration it
+//! lowers speech scores under the fixed threshold, and without it the calibration
+//! sharpens nothing. Both are opt-in (`--calibrated`, [`Params::calibrated`](super::Params::calibrated)):
+//! a steady source next to the array, heard without reflections, is reported.
 //!
 //! Measured on real speech in a reverberant room with fan noise on four arrays at 8, 16
 //! and 48 kHz, this keeps every background minute free of false detections while the
