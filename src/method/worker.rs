@@ -259,8 +259,9 @@ impl Worker {
         }
         let pairs = pair_count(k) as f64;
         let threshold = state.threshold * pairs;
-        // A frame that could not reach the threshold alone has no detection: the
-        // average would only carry the frames before it past their end.
+        // A frame that could not reach the threshold alone, or (calibrated) has nothing
+        // above the noise estimate, has no detection: the average would only carry the
+        // frames before it past their end.
         let own = state.ceiling * pairs;
         if own < threshold || state.steady {
             return Outcome::BelowThreshold(false, own / pairs, false);
