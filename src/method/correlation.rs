@@ -44,11 +44,7 @@ pub fn peak_ceiling(weights: &[f32], n: usize, interp: Interpolation) -> f64 {
     let inner: f64 = weights[1..last].iter().map(|&w| (w * w) as f64).sum();
     let edges = (weights[0] * weights[0]) as f64 + (weights[last] * weights[last]) as f64;
     let e = (edges + 2.0 * inner) / n as f64;
-    let overshoot = match interp {
-        Interpolation::None => 1.0,
-        Interpolation::Parabolic => 1.25,
-    };
-    e * overshoot * (1.0 + 1e-3)
+    e * interp.overshoot() * (1.0 + 1e-3)
 }
 
 /// The weighted PHAT correlations of eq. (6), two microphone pairs per inverse FFT.
@@ -101,10 +97,15 @@ impl Correlator {
     /// Copies `r(tau)` for `tau = -half..=half` of the first pair (or the second) of the
     /// last [`Correlator::correlate`] into `out` (cleared first; `half < N/2`).
     pub fn lags(&self, second: bool, half: usize, out: &mut Vec<f32>) {
-        let n = self.n;
-        assert!(half < n / 2, "lag window {half} too wide for N = {n}");
         out.clear();
         out.resize(2 * half + 1, 0.0);
+        self.lags_into(second, out);
+    }
+
+    /// As [`Correlator::lags`], into a slice of `2 * half + 1` values.
+    pub fn lags_into(&self, second: bool, out: &mut [f32]) {
+        let (n, half) = (self.n, out.len() / 2);
+        assert!(half < n / 2, "lag window {half} too wide for N = {n}");
         let (negative, positive) = out.split_at_mut(half);
         pick_part(&self.buffer[n - half..], second, negative);
         pick_part(&self.buffer[..=half], second, positive);

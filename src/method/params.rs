@@ -328,11 +328,7 @@ impl Setup {
         // In the units of `peak_ceiling`: E times the interpolation's overshoot.
         let steady_ceiling = {
             let w = steady_weight(params.alpha, params.reverb_level);
-            let overshoot = match params.interpolation {
-                Interpolation::None => 1.0,
-                Interpolation::Parabolic => 1.25,
-            };
-            STEADY_FRAME * w * w * overshoot * (1.0 + 1e-3)
+            STEADY_FRAME * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
         };
         Ok(Setup {
             geometry: geometry.clone(),

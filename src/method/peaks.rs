@@ -25,6 +25,18 @@ impl Named for Interpolation {
     ];
 }
 
+impl Interpolation {
+    /// How far a refined peak can rise above the largest sample of the correlation, as
+    /// a factor: a parabola through a local maximum and its neighbours peaks at most a
+    /// quarter of the larger neighbour above it.
+    pub fn overshoot(self) -> f64 {
+        match self {
+            Interpolation::None => 1.0,
+            Interpolation::Parabolic => 1.25,
+        }
+    }
+}
+
 /// One candidate delay of a pair: its lag in samples (sub-sample refined) and the value of
 /// the correlation there.
 #[derive(Debug, Clone, Copy, PartialEq)]

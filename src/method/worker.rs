@@ -12,7 +12,6 @@ use super::direction::{angles_deg, DirectionSolver};
 use super::outcome::{Clock, Detection, Outcome, StageTimes};
 use super::pairs::{pair_count, pair_index};
 use super::params::Setup;
-use super::peaks::Interpolation;
 use super::peaks::{find_peaks, Peak};
 use super::search::{Searcher, Solution};
 use super::spectrum::{frame_spectra, ForwardFft};
@@ -187,10 +186,7 @@ impl Worker {
         clock.lap(|t| &mut t.weighting);
         let alone = setup.params.average_frames == 1 && self.prune;
         let threshold = state.threshold * pairs as f64;
-        let overshoot = match setup.params.interpolation {
-            Interpolation::None => 1.0,
-            Interpolation::Parabolic => 1.25,
-        };
+        let overshoot = setup.params.interpolation.overshoot() as f32;
         let norm = setup.n as f32;
         let whitened = &self.whitened;
         let live = &state.live;
@@ -215,14 +211,10 @@ impl Worker {
             for (which, (a, b)) in [Some(first), second].into_iter().flatten().enumerate() {
                 let pair = pair_index(live[a], live[b], mics);
                 let half = setup.max_lag[pair] + 1;
-                self.correlator.lags(which == 1, half, &mut self.window);
                 let start = self.window_starts[pair];
-                state.windows[start..start + 2 * half + 1].copy_from_slice(&self.window);
-                let top = self
-                    .window
-                    .iter()
-                    .copied()
-                    .fold(f32::NEG_INFINITY, f32::max);
+                let window = &mut state.windows[start..start + 2 * half + 1];
+                self.correlator.lags_into(which == 1, window);
+                let top = window.iter().copied().fold(f32::NEG_INFINITY, f32::max);
                 best_possible += (top.max(0.0) * overshoot) as f64;
                 done += 1;
             }
