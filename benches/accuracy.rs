@@ -192,17 +192,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
         ),
         (
-            "calibrated threshold and reverberation (--calibrated)",
+            "no background subtraction (--background-s 0)",
             Params {
-                threshold_sigmas: Params::calibrated().threshold_sigmas,
-                reverb_level: Params::calibrated().reverb_level,
+                background_s: None,
                 ..params.clone()
             },
         ),
         (
-            "calibrated threshold, no reverberation",
+            "calibrated threshold, no reverberation (--reverb-level 0)",
             Params {
-                threshold_sigmas: Params::calibrated().threshold_sigmas,
+                reverb_level: 0.0,
+                ..params.clone()
+            },
+        ),
+        (
+            "fixed threshold, no reverberation (--min-score 0.5)",
+            Params {
+                threshold_sigmas: None,
+                reverb_level: 0.0,
                 ..params.clone()
             },
         ),

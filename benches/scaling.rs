@@ -1,9 +1,12 @@
 //! How `ssl analyze` scales beyond 8 channels at 48 kHz: 16 and 32 microphones, 16 and
 //! 96 kHz, and many small files in one call.
 //!
-//! `cargo bench --bench scaling -- [SECONDS]` (default 30). For each case it writes a free-field scene with `ssl simulate` (white
-//! noise events of 0.8 s every 1.5 s from changing directions at 3 m, -26 dBFS, sensor
-//! noise at -50 dBFS), analyses it with `--threads 1` and with all cores (wall time,
+//! `cargo bench --bench scaling -- [SECONDS]` (default 30). For each case it writes a scene with `ssl simulate`
+//! (free field: white noise events of 0.8 s every 1.5 s from changing directions at 3 m,
+//! -26 dBFS, sensor noise at -50 dBFS; room: the CMU ARCTIC clips of testdata/speech
+//! taking turns from changing directions 1.5-3 m away in an 8 x 7 x 3 m room with RT60
+//! 0.35 s, a fan and diffuse noise 10 dB below, at the defaults, whose calibrated
+//! threshold searches far more candidate sets, and with the fixed threshold), analyses it with `--threads 1` and with all cores (wall time,
 //! x real time, peak memory), checks that both outputs are identical byte for byte,
 //! and scores the result with `ssl evaluate`. The 16- and 32-microphone arrays are
 //! Fibonacci lattices on a sphere of radius 0.25 m; the others are the paper's prism.
@@ -45,8 +48,47 @@ fn scene_toml(rate: u32, seconds: f64) -> String {
     s + "[noise]\nsensor_db = -50\n"
 }
 
+/// A reverberant scene of real speech: the two clips taking turns, 0.3 s apart.
+fn speech_scene_toml(rate: u32, seconds: f64) -> String {
+    let mut s = format!(
+        "sample_rate = {rate}\nduration = {seconds}\nseed = 6\nformat = \"int16\"\n\
+         [room]\ndimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n\
+         [array]\ngeometry = \"array.toml\"\nposition = [4.0, 3.5, 1.2]\n"
+    );
+    let mut t = 0.4;
+    let mut i = 0;
+    while t + CLIPS[i % 2].1 < seconds {
+        let (clip, length) = CLIPS[i % 2];
+        let azimuth = -170.0 + (i * 67 % 340) as f64;
+        let elevation = -20.0 + (i * 13 % 40) as f64;
+        let distance = 1.5 + (i % 4) as f64 * 0.5;
+        write!(
+            s,
+            "[[source]]\nazimuth_deg = {azimuth}\nelevation_deg = {elevation}\n\
+             distance = {distance}\nsignal = \"file\"\nfile = \"{clip}\"\nlevel_db = -26\n\
+             active = [[{t:.2}, {:.2}]]\n",
+            t + length
+        )
+        .unwrap();
+        t += length + 0.3;
+        i += 1;
+    }
+    s + "[noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\nposition = [7.6, 6.6, 2.7]\n\
+         signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n"
+}
+
+/// The speech clips (in testdata/speech) and their lengths in seconds.
+const CLIPS: [(&str, f64); 2] = [
+    ("cmu_arctic_us_aew_a0001.wav", 3.9),
+    ("cmu_arctic_us_axb_a0004.wav", 2.8),
+];
+
 struct Case {
     name: String,
+    /// Reverberant speech rather than free-field noise events.
+    speech: bool,
+    /// Options added to `ssl analyze`.
+    options: &'static [&'static str],
     mics: Vec<Vector3<f64>>,
     rate: u32,
     seconds: f64,
@@ -61,6 +103,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     let prism = prism();
     let cases = [
         Case {
+            speech: false,
+            options: &[],
             name: "prism (8 mics, 28 pairs), 48 kHz".into(),
             mics: prism.clone(),
             rate: 48000,
@@ -68,6 +112,8 @@ fn main() -> Result<(), Box<dyn Error>> {
             copies: 1,
         },
         Case {
+            speech: false,
+            options: &[],
             name: "16 mics (120 pairs), 48 kHz".into(),
             mics: sphere_lattice(16, 0.25),
             rate: 48000,
@@ -75,6 +121,8 @@ fn main() -> Result<(), Box<dyn Error>> {
             copies: 1,
         },
         Case {
+            speech: false,
+            options: &[],
             name: "32 mics (496 pairs), 48 kHz".into(),
             mics: sphere_lattice(32, 0.25),
             rate: 48000,
@@ -82,6 +130,26 @@ fn main() -> Result<(), Box<dyn Error>> {
             copies: 1,
         },
         Case {
+            name: "32 mics, reverberant speech, 48 kHz".into(),
+            speech: true,
+            options: &[],
+            mics: sphere_lattice(32, 0.25),
+            rate: 48000,
+            seconds: seconds / 2.0,
+            copies: 1,
+        },
+        Case {
+            name: "32 mics, reverberant speech, 48 kHz, --min-score 0.5".into(),
+            speech: true,
+            options: &["--min-score", "0.5"],
+            mics: sphere_lattice(32, 0.25),
+            rate: 48000,
+            seconds: seconds / 2.0,
+            copies: 1,
+        },
+        Case {
+            speech: false,
+            options: &[],
             name: "prism, 96 kHz (N = 2048)".into(),
             mics: prism.clone(),
             rate: 96000,
@@ -89,6 +157,8 @@ fn main() -> Result<(), Box<dyn Error>> {
             copies: 1,
         },
         Case {
+            speech: false,
+            options: &[],
             name: "prism, 16 kHz (N = 256)".into(),
             mics: prism.clone(),
             rate: 16000,
@@ -96,6 +166,8 @@ fn main() -> Result<(), Box<dyn Error>> {
             copies: 1,
         },
         Case {
+            speech: false,
+            options: &[],
             name: "200 files of 2 s (prism, 48 kHz), one call".into(),
             mics: prism,
             rate: 48000,
@@ -112,7 +184,18 @@ fn main() -> Result<(), Box<dyn Error>> {
         let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
         let array = path("array.toml");
         std::fs::write(&array, geometry_toml(&case.mics, ""))?;
-        std::fs::write(path("scene.toml"), scene_toml(case.rate, case.seconds))?;
+        let scene = if case.speech {
+            for (clip, _) in CLIPS {
+                std::fs::copy(
+                    support::testdata(&format!("speech/{clip}")),
+                    dir.path().join(clip),
+                )?;
+            }
+            speech_scene_toml(case.rate, case.seconds)
+        } else {
+            scene_toml(case.rate, case.seconds)
+        };
+        std::fs::write(path("scene.toml"), scene)?;
         let wav = path("rec.wav");
         let truth = path("truth.json");
         let simulate = [
@@ -138,6 +221,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             let mut args = vec!["analyze", "-g", &array];
             args.extend(inputs.iter().map(String::as_str));
             args.extend(["-o", &out, "--threads", &threads_arg]);
+            args.extend(case.options);
             let (wall, peak_mb) = run_measured(exe, &args)?;
             let audio = case.seconds * case.copies as f64;
             cells.push(format!("{wall:.2} s ({:.0}x)", audio / wall));

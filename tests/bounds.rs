@@ -50,7 +50,8 @@ fn simulate_and_analyze(d: &Path) {
     }
 }
 
-const SOURCE: &str = "[[source]]\nazimuth_deg = 30.0\ndistance = 1.0\nsignal = \"white\"\n";
+const SOURCE: &str =
+    "[[source]]\nazimuth_deg = 30.0\ndistance = 1.0\nsignal = \"white\"\nactive = [[0.4, 0.9]]\n";
 
 #[test]
 fn endless_and_absurd_inputs_are_refused_promptly() {

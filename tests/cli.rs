@@ -29,7 +29,16 @@ fn example(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn the_json_metadata_has_stable_types_and_numbers_as_given() {
-    let out = example(&["-f", "json", "--alpha", "0.4", "-n", "1024"]);
+    let out = example(&[
+        "-f",
+        "json",
+        "--alpha",
+        "0.4",
+        "-n",
+        "1024",
+        "--min-score",
+        "0.5",
+    ]);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("\"alpha\":0.4,"), "{}", &text[..600]);
@@ -39,19 +48,28 @@ fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     assert_eq!(p["min_score_per_pair"], 0.5);
     assert_eq!(p["min_score"], 14.0);
     assert_eq!(p["tolerance_samples"], 2.0);
-    // The default frame size: null in the parameters, the size used in the file's entry.
+    assert!(p["threshold_sigmas"].is_null());
+    assert_eq!(p["reverb_level"], 0.0);
+    // The default frame size: null in the parameters, the size used in the file's entry;
+    // the default threshold is calibrated (no fixed score), with late reverberation.
     let out = example(&["-f", "json"]);
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert!(doc["parameters"]["frame_size"].is_null());
+    let p = &doc["parameters"];
+    assert!(p["frame_size"].is_null());
     assert_eq!(doc["files"][0]["frame_size"], 1024);
+    assert!(p["min_score"].is_null() && p["min_score_per_pair"].is_null());
+    assert_eq!(p["threshold_sigmas"], 6.0);
+    assert_eq!(p["reverb_level"], 0.5);
+    assert_eq!(p["background_s"], 2.0);
     for key in [
         "alpha",
         "gamma",
-        "min_score",
-        "min_score_per_pair",
+        "threshold_sigmas",
+        "reverb_level",
+        "background_s",
         "speed_of_sound",
     ] {
-        assert!(doc["parameters"][key].is_number(), "{key}");
+        assert!(p[key].is_number(), "{key}");
     }
 }
 
@@ -63,8 +81,8 @@ fn min_score_is_per_microphone_pair() {
         assert!(out.status.success());
         parse_csv(&String::from_utf8(out.stdout).unwrap())
     };
-    let default = rows(&[]);
-    assert_eq!(rows(&["--min-score", "0.5"]).len(), default.len());
+    let default = rows(&["--min-score", "0.5"]);
+    assert!(!default.is_empty());
     let lower = rows(&["--min-score", "0.3"]);
     assert!(
         lower.len() > default.len(),

@@ -4,9 +4,9 @@ use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
 use ssl::method::{
-    Interpolation, Params, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_MIN_SCORE_PER_PAIR,
-    DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE,
-    DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
+    Interpolation, Params, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S,
+    DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL,
+    DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
 };
 use ssl::{Format, Named};
 use std::path::PathBuf;
@@ -151,27 +151,27 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "FRAMES", default_value_t = DEFAULT_AVERAGE_FRAMES as u16, value_parser = clap::value_parser!(u16).range(1..=MAX_AVERAGE_FRAMES as i64))]
     pub average_frames: u16,
 
-    /// The paper's method as published: a tolerance of 2 samples, no residual gate, no averaging over frames
-    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "calibrated", "reverb_level"])]
+    /// Subtract from each pair's correlation its steady background (a fan next to the array), learned over about this many seconds; 0: none, as in the paper
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_BACKGROUND_S, value_parser = non_negative_f64)]
+    pub background_s: f64,
+
+    /// The paper's method as published: a tolerance of 2 samples, no residual gate, no averaging over frames, no background subtraction
+    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "min_score", "threshold_sigmas", "reverb_level", "background_s"])]
     pub paper: bool,
 
     /// Speed of sound in m/s [default: the geometry's, else 343]
     #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
     pub speed_of_sound: Option<f64>,
 
-    /// Drop detections scoring below this per microphone pair (a frame with P pairs needs P times it; 0 keeps every consistent set)
-    #[arg(long, value_name = "SCORE", default_value_t = DEFAULT_MIN_SCORE_PER_PAIR, allow_negative_numbers = true, value_parser = parse_f64, conflicts_with = "calibrated")]
-    pub min_score: f64,
+    /// A fixed threshold instead of the calibrated one: drop detections scoring below this per microphone pair (a frame with P pairs needs P times it; 0 keeps every consistent set). The default threshold is calibrated per frame against its background (a diffuse field's coherence between the microphones plus --threshold-sigmas of chance correlation)
+    #[arg(long, value_name = "SCORE", allow_negative_numbers = true, value_parser = parse_f64)]
+    pub min_score: Option<f64>,
 
-    /// Instead of --min-score, a threshold calibrated per frame against the background (chance correlation and a diffuse background's coherence), with late reverberation in the noise estimate: far better on reverberant speech, at low rates and on small arrays, but a steady fan next to the array is reported (docs/field.md)
-    #[arg(long)]
-    pub calibrated: bool,
-
-    /// With --calibrated: the allowance for chance correlation, in standard deviations
-    #[arg(long, value_name = "SIGMAS", default_value_t = DEFAULT_THRESHOLD_SIGMAS, value_parser = non_negative_f64, requires = "calibrated")]
+    /// The calibrated threshold's allowance for chance correlation, in standard deviations
+    #[arg(long, value_name = "SIGMAS", default_value_t = DEFAULT_THRESHOLD_SIGMAS, value_parser = non_negative_f64, conflicts_with = "min_score")]
     pub threshold_sigmas: f64,
 
-    /// Share of the recent frames' power taken as late reverberation in the noise estimate [default: 0, or 0.5 with --calibrated]
+    /// Share of the recent frames' power taken as late reverberation in the noise estimate [default: 0.5; 0 with --min-score]
     #[arg(long, value_name = "SHARE", value_parser = unit_interval)]
     pub reverb_level: Option<f32>,
 
@@ -295,15 +295,19 @@ impl AnalyzeArgs {
             residual_gate_us: (!self.paper && self.residual_gate_us > 0.0)
                 .then_some(self.residual_gate_us),
             speed_of_sound: self.speed_of_sound,
-            min_score_per_pair: self.min_score,
-            threshold_sigmas: self.calibrated.then_some(self.threshold_sigmas),
-            reverb_level: self.reverb_level.unwrap_or(if self.calibrated {
-                DEFAULT_REVERB_LEVEL
-            } else {
-                0.0
-            }),
+            min_score_per_pair: self.min_score.unwrap_or(DEFAULT_MIN_SCORE_PER_PAIR),
+            threshold_sigmas: (!self.paper && self.min_score.is_none())
+                .then_some(self.threshold_sigmas),
+            reverb_level: self
+                .reverb_level
+                .unwrap_or(if self.paper || self.min_score.is_some() {
+                    0.0
+                } else {
+                    DEFAULT_REVERB_LEVEL
+                }),
             window: self.window,
             interpolation: self.interpolation,
+            background_s: (!self.paper && self.background_s > 0.0).then_some(self.background_s),
             average_frames: if self.paper {
                 1
             } else {

@@ -110,7 +110,11 @@ fn warning_with_hint(name: &str, w: &Warning) -> String {
         Warning::FewDetections { steady: true, .. } => {
             "; --no-weighting localizes such steady sources"
         }
-        Warning::FewDetections { .. } => "; --min-score sets the threshold per pair (--calibrated calibrates it from the background)",
+        Warning::FewDetections {
+            threshold_per_pair: None,
+            ..
+        } => "; --min-score sets a fixed threshold per pair instead",
+        Warning::FewDetections { .. } => "; --min-score sets the threshold per pair",
         _ => "",
     };
     format!("{name}: {w}{hint}")

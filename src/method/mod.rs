@@ -11,6 +11,7 @@
 //! | microphone pairs, numbered once | [`pairs`] | |
 //! | the consistent set of delays with the greatest correlation | [`search`] | eq. (8) |
 //! | far-field least-squares direction | [`direction`] | eq. (9)-(13) |
+//! | the coherent background, subtracted from the correlations | [`background`] | beyond the paper |
 //! | the detection threshold, calibrated against the background | [`threshold`] | beyond the paper |
 //!
 //! [`Params`] holds the parameters; one frame goes through the stages in `worker.rs`, and
@@ -20,6 +21,7 @@
 //! [`Analysis`](crate::stream::Analysis)).
 
 pub(crate) mod analyzer;
+pub mod background;
 pub mod correlation;
 pub mod direction;
 pub mod frames;
@@ -35,6 +37,7 @@ pub mod weighting;
 mod worker;
 
 pub(crate) use analyzer::Analyzer;
+pub use background::DEFAULT_BACKGROUND_S;
 pub use outcome::{Detection, FrameStats, StageTimes};
 pub use params::{
     default_frame_size, frame_size_for_ms, Params, ParamsError, DEFAULT_AVERAGE_FRAMES,

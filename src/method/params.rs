@@ -1,6 +1,7 @@
 //! The method's parameters, their defaults, and their validation against an array and a
 //! sample rate.
 
+use super::background::{DEFAULT_BACKGROUND_S, GATE};
 use super::pairs::{pair_count, pair_index};
 use super::peaks::{Interpolation, MAX_PEAKS};
 use super::spectrum::Window;
@@ -40,17 +41,18 @@ pub struct Params {
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
     /// Fixed detection threshold per microphone pair, used when `threshold_sigmas` is
-    /// `None`: a frame whose best set scores below this times its number of pairs gives no
-    /// detection.
+    /// `None` ([`Params::fixed_threshold`], `--paper`): a frame whose best set scores
+    /// below this times its number of pairs gives no detection.
     pub min_score_per_pair: f64,
-    /// The threshold calibrated against the background ([`Params::calibrated`]): chance
-    /// plus a coherent background, with this many standard deviations for chance (see
-    /// the `threshold` module). `None` (the default): the fixed `min_score_per_pair`.
+    /// The threshold calibrated against the background (the default): chance plus a
+    /// coherent background, with this many standard deviations for chance (see the
+    /// `threshold` module; default [`DEFAULT_THRESHOLD_SIGMAS`]). `None`: the fixed
+    /// `min_score_per_pair`.
     pub threshold_sigmas: Option<f64>,
     /// Late reverberation in the noise estimate (beyond the paper): `X_n(k)` gains
     /// this share of the recent frames' `X(k)`, smoothed over [`REVERB_TAU_S`], so that
-    /// the tail of a sound in a reverberant room is weighed as noise. 0 (the default):
-    /// none; [`DEFAULT_REVERB_LEVEL`] with [`Params::calibrated`].
+    /// the tail of a sound in a reverberant room is weighed as noise. Default
+    /// [`DEFAULT_REVERB_LEVEL`]; 0 (none) with a fixed threshold and `--paper`.
     pub reverb_level: f32,
     /// The analysis window.
     pub window: Window,
@@ -63,15 +65,21 @@ pub struct Params {
     /// Each pair's correlation is averaged over this many frames, the frame's own and
     /// the ones before it (1: none, as in the paper; default [`DEFAULT_AVERAGE_FRAMES`]).
     pub average_frames: usize,
+    /// Time constant (seconds) of the coherent background subtracted from every pair's
+    /// correlation (beyond the paper, see the `background` module; `None`: none, as in
+    /// the paper; default [`DEFAULT_BACKGROUND_S`](super::background::DEFAULT_BACKGROUND_S)).
+    pub background_s: Option<f64>,
 }
 
 impl Params {
-    /// The defaults with the threshold calibrated against the background and late
-    /// reverberation in the noise estimate (`--calibrated`; docs/field.md).
-    pub fn calibrated() -> Self {
+    /// The defaults with a fixed threshold of `min_score_per_pair` per pair instead of
+    /// the calibrated one, and no late reverberation in the noise estimate (which lowers
+    /// speech scores under a fixed threshold): `--min-score`.
+    pub fn fixed_threshold(min_score_per_pair: f64) -> Self {
         Params {
-            threshold_sigmas: Some(DEFAULT_THRESHOLD_SIGMAS),
-            reverb_level: DEFAULT_REVERB_LEVEL,
+            min_score_per_pair,
+            threshold_sigmas: None,
+            reverb_level: 0.0,
             ..Params::default()
         }
     }
@@ -86,6 +94,7 @@ impl Params {
             average_frames: 1,
             threshold_sigmas: None,
             reverb_level: 0.0,
+            background_s: None,
             ..Params::default()
         }
     }
@@ -110,8 +119,9 @@ impl Default for Params {
             max_nodes: 1_000_000,
             noise: NoiseSettings::default(),
             average_frames: DEFAULT_AVERAGE_FRAMES,
-            threshold_sigmas: None,
-            reverb_level: 0.0,
+            threshold_sigmas: Some(DEFAULT_THRESHOLD_SIGMAS),
+            reverb_level: DEFAULT_REVERB_LEVEL,
+            background_s: Some(DEFAULT_BACKGROUND_S),
         }
     }
 }
@@ -135,9 +145,8 @@ pub const DEFAULT_TOLERANCE_US: f64 = 40.0;
 /// before it, 75 ms at the default frame size (docs/field.md for how it was chosen).
 pub const DEFAULT_AVERAGE_FRAMES: usize = 6;
 
-/// The share of the recent frames' power taken as late reverberation by
-/// [`Params::calibrated`] (measured on
-/// real speech in the paper's room, docs/field.md).
+/// The share of the recent frames' power taken as late reverberation by default
+/// (measured on real speech in the paper's room, docs/field.md).
 pub const DEFAULT_REVERB_LEVEL: f32 = 0.5;
 
 /// Time constant of the late-reverberation estimate (seconds): 0.65 per frame of 1024 at
@@ -217,6 +226,9 @@ pub enum ParamsError {
     /// The reverberation share is outside 0 to 1.
     #[error("the share of late reverberation must be between 0 and 1, got {0}")]
     ReverbLevel(f32),
+    /// The background's time constant is not a positive number of seconds.
+    #[error("the background's time constant must be a positive number of seconds, got {0}")]
+    BackgroundS(f64),
     /// The threshold is not a number.
     #[error("the detection threshold must be a number, got {0}")]
     MinScore(f64),
@@ -246,6 +258,9 @@ pub(crate) struct Setup {
     /// A frame whose weights' ceiling is under this has nothing above the noise
     /// estimate (the `threshold` module's steady frames).
     pub steady_ceiling: f64,
+    /// A frame whose weights' ceiling is under this may teach the coherent background
+    /// ([`super::background`]).
+    pub background_gate: f64,
 }
 
 impl Setup {
@@ -298,6 +313,9 @@ impl Setup {
         if !(0.0..=1.0).contains(&params.reverb_level) {
             return Err(ParamsError::ReverbLevel(params.reverb_level));
         }
+        if let Some(s) = params.background_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(ParamsError::BackgroundS(s));
+        }
         if params.min_score_per_pair.is_nan() {
             return Err(ParamsError::MinScore(params.min_score_per_pair));
         }
@@ -330,6 +348,10 @@ impl Setup {
             let w = steady_weight(params.alpha, params.reverb_level);
             STEADY_FRAME * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
         };
+        let background_gate = {
+            let w = steady_weight(params.alpha, params.reverb_level);
+            GATE * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
+        };
         Ok(Setup {
             geometry: geometry.clone(),
             params,
@@ -340,6 +362,7 @@ impl Setup {
             max_lag,
             diffuse_floor,
             steady_ceiling,
+            background_gate,
         })
     }
 

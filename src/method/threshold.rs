@@ -23,8 +23,11 @@
 //! Late reverberation is added to the noise estimate at the same time
 //! ([`Params::reverb_level`](super::Params::reverb_level)): without the calibration it
 //! lowers speech scores under the fixed threshold, and without it the calibration
-//! sharpens nothing. Both are opt-in (`--calibrated`, [`Params::calibrated`](super::Params::calibrated)):
-//! a steady source next to the array, heard without reflections, is reported.
+//! sharpens nothing. Both are the defaults; `--min-score` (
+//! [`Params::fixed_threshold`](super::Params::fixed_threshold)) restores the fixed
+//! threshold without reverberation. A steady source next to the array, heard without
+//! reflections, passes this threshold: the steady background subtracted from the
+//! correlations ([`super::background`]) is what keeps it out.
 //!
 //! Measured on real speech in a reverberant room with fan noise on four arrays at 8, 16
 //! and 48 kHz, this keeps every background minute free of false detections while the
@@ -52,7 +55,8 @@ pub fn steady_weight(alpha: f32, reverb_level: f32) -> f64 {
 /// above the noise estimate and gives no detection, averaged or not: otherwise the
 /// average carries a source into the silence after it. (A steady point source heard
 /// without reflections, a fan next to the array, still gets through: its periodogram's
-/// fluctuations lift its frames to 1.3-1.8 times that level; docs/field.md.)
+/// fluctuations lift its frames to 1.3-1.8 times that level; [`super::background`]
+/// removes it.)
 pub const STEADY_FRAME: f64 = 1.5;
 
 /// The mean over the array's pairs and the bins `1..N/2` of the magnitude of the

@@ -40,8 +40,11 @@ pub(crate) struct FrameState {
     /// Every pair's correlation at the lags searched and their two neighbours, one pair
     /// after another in the order of [`pair_index`] over all microphones (see
     /// [`Worker::window_starts`]); read only when `correlated` is `Correlated::Yes`.
-    windows: Vec<f32>,
+    pub(super) windows: Vec<f32>,
     pub correlated: Correlated,
+    /// The coherent background learns from this frame ([`super::background`]): it is
+    /// correlated in full even when no detection needs it.
+    pub teaches: bool,
 }
 
 /// Whether a frame's correlations were computed.
@@ -72,6 +75,7 @@ impl FrameState {
             mask: 0,
             windows: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
             correlated: Correlated::No,
+            teaches: false,
         }
     }
 }
@@ -184,7 +188,7 @@ impl Worker {
             whiten(&state.spectra[m], &state.weights, &mut self.whitened[m]);
         }
         clock.lap(|t| &mut t.weighting);
-        let alone = setup.params.average_frames == 1 && self.prune;
+        let alone = setup.params.average_frames == 1 && self.prune && !state.teaches;
         let threshold = state.threshold * pairs as f64;
         let overshoot = setup.params.interpolation.overshoot() as f32;
         let norm = setup.n as f32;

@@ -113,6 +113,9 @@ pub struct ParametersInfo {
     pub residual_gate_us: Option<f64>,
     /// Frames each pair's correlation is averaged over (1: none).
     pub average_frames: usize,
+    /// Time constant of the steady background subtracted from the correlations
+    /// (seconds), or null for none.
+    pub background_s: Option<f64>,
 }
 
 /// A single-precision parameter as it was written (`0.4`), not as its nearest double.
@@ -149,6 +152,7 @@ impl RunMetadata {
                 tolerance_us: params.tolerance_us,
                 residual_gate_us: params.residual_gate_us,
                 average_frames: params.average_frames,
+                background_s: params.background_s,
             },
         }
     }

@@ -58,9 +58,10 @@ pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std
 }
 
 /// The method's parameters a harness runs with: the defaults; `paper` for the paper's
-/// method; otherwise the defaults changed by any of `calibrated` (`--calibrated`),
-/// `min=X` (a fixed threshold per pair), `rev=X` (late reverberation), `avg=N` (frames
-/// averaged), and a tolerance and a residual gate in microseconds (`0` turns the gate
+/// method; otherwise the defaults changed by any of `fixed` (`--min-score` at its
+/// default) or `min=X` (a fixed threshold per pair, without late reverberation),
+/// `rev=X` (late reverberation, after them), `avg=N` (frames
+/// averaged), `bg=S` (the coherent background's time constant, 0: none), and a tolerance and a residual gate in microseconds (`0` turns the gate
 /// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
@@ -75,19 +76,21 @@ pub fn params_from(args: &[String]) -> ssl::Params {
                 .unwrap_or_else(|_| panic!("{arg}: {what} takes a number"))
         };
         match arg.split_once('=').map(|(k, _)| k) {
-            // The threshold calibrated against the background, with reverberation.
-            None if arg == "calibrated" => {
-                let c = ssl::Params::calibrated();
-                (params.threshold_sigmas, params.reverb_level) =
-                    (c.threshold_sigmas, c.reverb_level);
+            // The fixed threshold per pair of `--min-score` (default or given), without
+            // late reverberation.
+            None if arg == "fixed" => {
+                let f = ssl::Params::fixed_threshold(params.min_score_per_pair);
+                (params.threshold_sigmas, params.reverb_level) = (f.threshold_sigmas, 0.0);
             }
-            // A fixed threshold per pair.
             Some("min") => {
                 params.min_score_per_pair = value("min");
                 params.threshold_sigmas = None;
+                params.reverb_level = 0.0;
             }
             // The share of late reverberation in the noise estimate.
             Some("rev") => params.reverb_level = value("rev") as f32,
+            // The coherent background's time constant (0: none).
+            Some("bg") => params.background_s = Some(value("bg")).filter(|&s| s > 0.0),
             // Frames each correlation is averaged over.
             Some("avg") => params.average_frames = value("avg") as usize,
             _ => numbers.push(

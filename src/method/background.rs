@@ -1,0 +1,111 @@
+//! The coherent background, subtracted from every pair's correlation (beyond the paper).
+//!
+//! The noise estimate of eq. (4)-(5) is a power per bin: it tells how loud the background
+//! is, not where it comes from. A steady point source heard mostly directly (a fan on
+//! the table next to the array) keeps the same delays in every frame, and its weighted
+//! correlations peak there frame after frame above any threshold that lets speech
+//! through. So each pair's correlation, at the lags searched, is also estimated for
+//! the background, and its positive part is subtracted before the peaks (eq. 7):
+//!
+//! - the estimate learns from frames with nothing above the noise estimate (their
+//!   weights' ceiling within [`GATE`] times that of a frame at the noise level), one
+//!   frame in [`STRIDE`] (so that the frames it needs are few enough to correlate even
+//!   when no detection needs them): a running mean at first, then an exponential
+//!   average over [`Params::background_s`](super::Params::background_s);
+//! - only the positive part is subtracted, so no value grows: the ceilings and bounds
+//!   that leave out correlations stay exact, and a source where the background has
+//!   nothing is scored as before.
+//!
+//! A source in the direction of a steady background loses the background's share there.
+//! Measured in docs/field.md.
+
+use super::pairs::{pair_count, pair_index};
+use super::params::Setup;
+use super::worker::{Correlated, FrameState};
+
+/// A frame teaches the background when its weights' ceiling is within this many times
+/// that of a frame at the noise level (a steady fan's frames measure 1.3-1.8).
+pub const GATE: f64 = 2.0;
+
+/// One frame in this many of those within [`GATE`] teaches the background.
+pub const STRIDE: u64 = 4;
+
+/// Default time constant of the background estimate (seconds).
+pub const DEFAULT_BACKGROUND_S: f64 = 2.0;
+
+/// Every pair's background correlation at the lags searched, laid out as the frames'
+/// windows.
+pub(crate) struct Background {
+    windows: Vec<f32>,
+    starts: Vec<usize>,
+    /// Frames learned from, per pair.
+    learned: Vec<u32>,
+    /// The smallest weight of a new frame in the average.
+    floor: f32,
+}
+
+impl Background {
+    /// An empty estimate, or `None` when the parameters leave it out.
+    pub fn new(setup: &Setup) -> Option<Self> {
+        let tau = setup.params.background_s?;
+        let hop_s = setup.hop as f64 / setup.rate;
+        let starts: Vec<usize> = setup
+            .max_lag
+            .iter()
+            .scan(0, |start, &h| {
+                let here = *start;
+                *start += 2 * h + 3;
+                Some(here)
+            })
+            .collect();
+        Some(Background {
+            windows: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
+            starts,
+            learned: vec![0; pair_count(setup.mics())],
+            floor: (STRIDE as f64 * hop_s / tau).min(1.0) as f32,
+        })
+    }
+
+    /// Whether frame `index` teaches the background (it must then be correlated).
+    pub fn teaches(setup: &Setup, state: &FrameState, index: u64) -> bool {
+        setup.params.background_s.is_some()
+            && index % STRIDE == 0
+            && state.ceiling <= setup.background_gate
+    }
+
+    /// In frame order: subtracts the background from each correlated frame's windows,
+    /// then learns from the frames that teach it (marked by [`Background::teaches`]).
+    pub fn apply(&mut self, setup: &Setup, states: &mut [FrameState]) {
+        let mics = setup.mics();
+        for state in states.iter_mut() {
+            if state.correlated != Correlated::Yes {
+                continue;
+            }
+            let teach = state.teaches;
+            let live = &state.live;
+            for (i, &a) in live.iter().enumerate() {
+                for &b in &live[i + 1..] {
+                    let pair = pair_index(a, b, mics);
+                    let start = self.starts[pair];
+                    let len = 2 * setup.max_lag[pair] + 3;
+                    let known = &mut self.windows[start..start + len];
+                    let frame = &mut state.windows[start..start + len];
+                    let learned = self.learned[pair];
+                    let share = if teach {
+                        self.learned[pair] += 1;
+                        (1.0 / (learned as f32 + 1.0)).max(self.floor)
+                    } else {
+                        0.0
+                    };
+                    for (k, f) in known.iter_mut().zip(frame.iter_mut()) {
+                        let raw = *f;
+                        if learned > 0 {
+                            *f = raw - k.max(0.0);
+                        }
+                        *k += share * (raw - *k);
+                    }
+                }
+            }
+        }
+    }
+}
