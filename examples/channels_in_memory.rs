@@ -40,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let slices = channels.iter().map(|c| &c[..]).collect();
     let params = Params::default();
     let analysis = Analysis::from_channels("memory", slices, 48000, &geometry, &params)?;
-    let mut out = Format::Ndjson.exporter(std::io::stdout().lock());
+    let mut out = Format::Ndjson.exporter(std::io::stdout().lock(), false);
     out.begin(&RunMetadata::new(&geometry, "tetrahedron", &params))?;
     let mut failed = None;
     let (_, result) = analysis.run(|_, detection| {

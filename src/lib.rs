@@ -36,6 +36,7 @@
 //!     truth.rs        a simulation's truth
 //!     csv.rs json.rs  one exporter per format behind one trait
 //!     read.rs         reading results and truth files back
+//!   track/          sources, not frames: the tracker and its events
 //!   named.rs        the Named trait: closed sets of named values
 //!   evaluate/       scoring results against a truth (`ssl evaluate`)
 //!   sim/            the simulator (feature `simulate`): scene, room, signals, noise
@@ -87,6 +88,7 @@ pub mod record;
 #[cfg(feature = "simulate")]
 pub mod sim;
 pub mod stream;
+pub mod track;
 
 pub use geometry::{Geometry, GeometryError};
 pub use method::{Detection, Params, ParamsError};

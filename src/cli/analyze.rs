@@ -9,8 +9,10 @@ use super::sink::{same_file, Sink};
 use super::{error, output_error, warn, warning_with_hint, with_hint};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use ssl::record::EventRecord;
 use ssl::record::FileEntry;
 use ssl::stream::SampleSource;
+use ssl::track::Tracker;
 use ssl::{Analysis, DetectionRecord, Exporter, Format, Geometry, OutputError, RunMetadata};
 use std::io::{self, BufWriter, IsTerminal};
 use std::ops::ControlFlow;
@@ -39,7 +41,7 @@ impl Output<'_> {
             let mut exporter = self
                 .args
                 .format
-                .exporter(BufWriter::with_capacity(1 << 16, sink));
+                .exporter(BufWriter::with_capacity(1 << 16, sink), self.args.events);
             // Records go out as they are made to a reader of standard output that waits
             // for them: always as NDJSON, in every format when the input is live.
             let live_input = self
@@ -59,6 +61,33 @@ impl Output<'_> {
     fn failed(&self, e: OutputError) -> anyhow::Error {
         output_error(&self.shown, e)
     }
+
+    /// Writes what the tracker has given out (or, without one, `detection`).
+    fn write(
+        &mut self,
+        name: &str,
+        tracker: Option<&mut Tracker>,
+        detection: Option<&ssl::Detection>,
+    ) -> Result<(), OutputError> {
+        let exporter = self.exporter()?;
+        let Some(tracker) = tracker else {
+            return match detection {
+                Some(d) => exporter.detection(&DetectionRecord::new(name, d)?),
+                None => Ok(()),
+            };
+        };
+        for row in tracker.take_rows() {
+            exporter.detection(&DetectionRecord::tracked(
+                name,
+                &row.detection,
+                Some(row.source),
+            )?)?;
+        }
+        for event in tracker.take_events() {
+            exporter.event(&EventRecord::new(name, &event)?)?;
+        }
+        Ok(())
+    }
 }
 
 /// Runs `ssl analyze`. Returns whether every file succeeded.
@@ -69,13 +98,14 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         warn(args.quiet, &format!("{geometry_path}: {w}"));
     }
     let params = args.params();
+    let track = args.track_params();
     let mut inputs: Vec<&Path> = args.files.iter().map(Path::new).collect();
     inputs.push(&args.geometry);
     let sink = Sink::open(args.output.as_deref(), &inputs)?;
     warn_about_repeats(args);
     let mut out = Output {
         args,
-        meta: RunMetadata::new(&geometry, &geometry_path, &params),
+        meta: RunMetadata::new(&geometry, &geometry_path, &params).with_tracking(track.clone()),
         shown: sink.shown().to_string(),
         sink: Some(sink),
         exporter: None,
@@ -97,14 +127,17 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         };
         let progress = Progress::new(show_progress, &analysis);
         let name = analysis.name().to_string();
+        let mut tracker = track.clone().map(Tracker::new);
+        // Frame i's centre is at (i + 1) hops (docs/interface.md, "Frames and time").
+        let hop = analysis.frame_size() as f64 / 2.0 / analysis.sample_rate() as f64;
         let mut output_failure = None;
         let (summary, result) = analysis.run(|index, detection| {
             progress.frame(index);
-            let written = out.exporter().and_then(|exporter| match detection {
-                Some(d) => exporter.detection(&DetectionRecord::new(&name, d)?),
-                None => Ok(()),
-            });
-            match written {
+            if let Some(t) = tracker.as_mut() {
+                let here = detection.map_or(&[][..], std::slice::from_ref);
+                t.push((index as f64 + 1.0) * hop, here);
+            }
+            match out.write(&name, tracker.as_mut(), detection) {
                 Ok(()) => ControlFlow::Continue(()),
                 Err(e) => {
                     output_failure = Some(e);
@@ -113,6 +146,12 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
             }
         });
         progress.finish(&summary);
+        if let Some(t) = tracker.as_mut() {
+            t.finish();
+            if output_failure.is_none() && summary.stats.frames > 0 {
+                output_failure = out.write(&name, Some(t), None).err();
+            }
+        }
         if let Some(e) = output_failure {
             return Err(out.failed(e));
         }

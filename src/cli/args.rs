@@ -8,6 +8,7 @@ use ssl::method::{
     DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL,
     DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
 };
+use ssl::track::TrackParams;
 use ssl::{Format, Named};
 use std::path::PathBuf;
 
@@ -183,6 +184,18 @@ pub struct AnalyzeArgs {
     #[arg(long, default_value = "parabolic", value_parser = choice::<Interpolation>())]
     pub interpolation: Interpolation,
 
+    /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, and delays rows by up to --confirm-s)
+    #[arg(long)]
+    pub no_track: bool,
+
+    /// Write events instead of detections: one row per stretch of activity of one tracked source (JSON: both, in `detections` and `events`)
+    #[arg(long, conflicts_with = "no_track")]
+    pub events: bool,
+
+    /// A track is confirmed by 3 detections within this many seconds of its first; rows wait up to this long
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = positive, conflicts_with = "no_track")]
+    pub confirm_s: f64,
+
     /// Threads to analyse with (0: all cores); the output is the same for any number
     #[arg(short = 'j', long, default_value_t = 0, value_name = "N")]
     pub threads: usize,
@@ -282,6 +295,14 @@ fn positive(s: &str) -> std::result::Result<f64, String> {
 }
 
 impl AnalyzeArgs {
+    /// The tracker's parameters, or `None` with `--no-track`.
+    pub fn track_params(&self) -> Option<TrackParams> {
+        (!self.no_track).then(|| TrackParams {
+            confirm_s: self.confirm_s,
+            ..TrackParams::default()
+        })
+    }
+
     pub fn params(&self) -> Params {
         Params {
             frame_size: self.frame_size,

@@ -4,7 +4,7 @@
 //! record type itself. Numbers are written in Rust's shortest round-trip decimal form
 //! (`0.5`, `1`, `-12.25`), never in exponent form, which every CSV reader parses.
 
-use super::{DetectionRecord, Exporter, FileEntry, OutputError, RunMetadata};
+use super::{DetectionRecord, EventRecord, Exporter, FileEntry, OutputError, RunMetadata};
 use serde::ser::{self, Impossible, Serialize, SerializeStruct, Serializer};
 use std::fmt::Write as _;
 use std::io::Write;
@@ -14,15 +14,17 @@ pub struct CsvExporter<W: Write> {
     out: csv::Writer<W>,
     buf: String,
     flush_each: bool,
+    events: bool,
 }
 
 impl<W: Write> CsvExporter<W> {
-    /// A CSV writer to `out`.
-    pub fn new(out: W) -> Self {
+    /// A CSV writer to `out`, of detections or (`events`) of events.
+    pub fn new(out: W, events: bool) -> Self {
         CsvExporter {
             out: csv::WriterBuilder::new().from_writer(out),
             buf: String::new(),
             flush_each: false,
+            events,
         }
     }
 
@@ -47,10 +49,28 @@ impl<W: Write> CsvExporter<W> {
 
 impl<W: Write> Exporter<W> for CsvExporter<W> {
     fn begin(&mut self, _meta: &RunMetadata) -> Result<(), OutputError> {
-        Ok(self.header::<DetectionRecord>()?)
+        if self.events {
+            Ok(self.header::<EventRecord>()?)
+        } else {
+            Ok(self.header::<DetectionRecord>()?)
+        }
     }
 
     fn detection(&mut self, record: &DetectionRecord) -> Result<(), OutputError> {
+        if self.events {
+            return Ok(());
+        }
+        self.row(record)?;
+        if self.flush_each {
+            self.out.flush()?;
+        }
+        Ok(())
+    }
+
+    fn event(&mut self, record: &EventRecord) -> Result<(), OutputError> {
+        if !self.events {
+            return Ok(());
+        }
         self.row(record)?;
         if self.flush_each {
             self.out.flush()?;
@@ -300,7 +320,7 @@ mod tests {
     /// them (no exponents, integers without a decimal point), `None` as an empty field.
     #[test]
     fn rows_follow_the_record_type() {
-        let mut csv = CsvExporter::new(Vec::new());
+        let mut csv = CsvExporter::new(Vec::new(), false);
         csv.header::<DetectionRecord>().unwrap();
         let record = DetectionRecord {
             time_s: 0.106667,
@@ -313,13 +333,14 @@ mod tests {
             file: "a, b.wav".into(),
             frame: Some(9),
             mics: None,
+            source: Some(3),
         };
         csv.row(&record).unwrap();
         let text = String::from_utf8(csv.out.into_inner().unwrap()).unwrap();
         assert_eq!(
             text,
-            "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics\n\
-             0.106667,-0.0000001,10,1,0,0.000001,58.6523,\"a, b.wav\",9,\n"
+            "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics,source\n\
+             0.106667,-0.0000001,10,1,0,0.000001,58.6523,\"a, b.wav\",9,,3\n"
         );
     }
 }

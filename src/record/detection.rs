@@ -33,12 +33,21 @@ pub struct DetectionRecord {
     /// Microphones that took part.
     #[serde(default)]
     pub mics: Option<usize>,
+    /// The track the detection belongs to (docs/interface.md, "Tracked sources"), or
+    /// `None` with tracking off.
+    #[serde(default)]
+    pub source: Option<u64>,
 }
 
 impl DetectionRecord {
     /// The record of `detection` in the recording named `file`. Fails on a non-finite
     /// value, which is never written.
     pub fn new(file: &str, d: &Detection) -> Result<Self, OutputError> {
+        Self::tracked(file, d, None)
+    }
+
+    /// The record of `detection`, from the track `source` (or none).
+    pub fn tracked(file: &str, d: &Detection, source: Option<u64>) -> Result<Self, OutputError> {
         let record = DetectionRecord {
             time_s: fixed(d.time_s, 6),
             azimuth_deg: fixed(d.azimuth_deg, 3),
@@ -50,6 +59,7 @@ impl DetectionRecord {
             file: file.to_string(),
             frame: Some(d.frame),
             mics: Some(d.mics),
+            source,
         };
         let values = [
             ("time_s", record.time_s),

@@ -1,7 +1,7 @@
 //! JSON: one document with the run's metadata, a streamed `detections` array and the
 //! per-file entries; NDJSON: one detection object per line.
 
-use super::{DetectionRecord, Exporter, FileEntry, OutputError, RunMetadata};
+use super::{DetectionRecord, EventRecord, Exporter, FileEntry, OutputError, RunMetadata};
 use serde_json::Value;
 use std::io::Write;
 
@@ -10,15 +10,20 @@ pub struct JsonExporter<W: Write> {
     out: W,
     first: bool,
     flush_each: bool,
+    /// With `events`: the events, written after the detections (a few hundred bytes
+    /// each, one per stretch of activity).
+    events: Option<Vec<EventRecord>>,
 }
 
 impl<W: Write> JsonExporter<W> {
-    /// A JSON document writer to `out`.
-    pub fn new(out: W) -> Self {
+    /// A JSON document writer to `out`; with `events`, the document has an `events`
+    /// array too.
+    pub fn new(out: W, events: bool) -> Self {
         JsonExporter {
             out,
             first: true,
             flush_each: false,
+            events: events.then(Vec::new),
         }
     }
 }
@@ -47,16 +52,28 @@ impl<W: Write> Exporter<W> for JsonExporter<W> {
         Ok(())
     }
 
+    fn event(&mut self, record: &EventRecord) -> Result<(), OutputError> {
+        if let Some(events) = self.events.as_mut() {
+            events.push(record.clone());
+        }
+        Ok(())
+    }
+
     fn flush_each_record(&mut self) {
         self.flush_each = true;
     }
 
     fn finish(mut self: Box<Self>, files: &[FileEntry]) -> Result<W, OutputError> {
-        write!(
-            self.out,
-            "\n],\n\"files\":{}}}\n",
-            serde_json::to_string(files)?
-        )?;
+        self.out.write_all(b"\n],\n")?;
+        if let Some(events) = &self.events {
+            self.out.write_all(b"\"events\":[")?;
+            for (i, e) in events.iter().enumerate() {
+                self.out.write_all(if i == 0 { b"\n" } else { b",\n" })?;
+                serde_json::to_writer(&mut self.out, e)?;
+            }
+            self.out.write_all(b"\n],\n")?;
+        }
+        writeln!(self.out, "\"files\":{}}}", serde_json::to_string(files)?)?;
         self.out.flush()?;
         Ok(self.out)
     }
@@ -66,15 +83,26 @@ impl<W: Write> Exporter<W> for JsonExporter<W> {
 pub struct NdjsonExporter<W: Write> {
     out: W,
     flush_each: bool,
+    events: bool,
 }
 
 impl<W: Write> NdjsonExporter<W> {
-    /// An NDJSON writer to `out`.
-    pub fn new(out: W) -> Self {
+    /// An NDJSON writer to `out`, of detections or (`events`) of events.
+    pub fn new(out: W, events: bool) -> Self {
         NdjsonExporter {
             out,
             flush_each: false,
+            events,
         }
+    }
+
+    fn line<T: serde::Serialize>(&mut self, record: &T) -> Result<(), OutputError> {
+        serde_json::to_writer(&mut self.out, record)?;
+        self.out.write_all(b"\n")?;
+        if self.flush_each {
+            self.out.flush()?;
+        }
+        Ok(())
     }
 }
 
@@ -84,12 +112,17 @@ impl<W: Write> Exporter<W> for NdjsonExporter<W> {
     }
 
     fn detection(&mut self, record: &DetectionRecord) -> Result<(), OutputError> {
-        serde_json::to_writer(&mut self.out, record)?;
-        self.out.write_all(b"\n")?;
-        if self.flush_each {
-            self.out.flush()?;
+        if self.events {
+            return Ok(());
         }
-        Ok(())
+        self.line(record)
+    }
+
+    fn event(&mut self, record: &EventRecord) -> Result<(), OutputError> {
+        if !self.events {
+            return Ok(());
+        }
+        self.line(record)
     }
 
     fn flush_each_record(&mut self) {

@@ -6,6 +6,7 @@ use crate::geometry::{Geometry, Shape};
 use crate::method::pairs::pair_count;
 use crate::method::{Interpolation, Params, Window};
 use crate::stream::Summary;
+use crate::track::TrackParams;
 use serde::{Deserialize, Serialize};
 
 /// The run's metadata, in the order the JSON document carries it.
@@ -113,6 +114,8 @@ pub struct ParametersInfo {
     pub residual_gate_us: Option<f64>,
     /// Frames each pair's correlation is averaged over (1: none).
     pub average_frames: usize,
+    /// The tracker's parameters, or null with tracking off.
+    pub track: Option<TrackParams>,
     /// Time constant of the steady background subtracted from the correlations
     /// (seconds), or null for none.
     pub background_s: Option<f64>,
@@ -153,8 +156,15 @@ impl RunMetadata {
                 residual_gate_us: params.residual_gate_us,
                 average_frames: params.average_frames,
                 background_s: params.background_s,
+                track: None,
             },
         }
+    }
+
+    /// The same, with tracking by `track` (or off).
+    pub fn with_tracking(mut self, track: Option<TrackParams>) -> Self {
+        self.parameters.track = track;
+        self
     }
 }
 

@@ -9,6 +9,7 @@
 
 mod csv;
 mod detection;
+mod event;
 mod json;
 mod metadata;
 mod read;
@@ -17,6 +18,7 @@ mod truth;
 pub use self::csv::CsvExporter;
 pub use self::json::{JsonExporter, NdjsonExporter};
 pub use detection::DetectionRecord;
+pub use event::EventRecord;
 pub use metadata::{
     ambiguity_note, FileEntry, GeometryInfo, MicInfo, ParametersInfo, RunMetadata, Tool,
 };
@@ -58,12 +60,13 @@ impl Named for Format {
 }
 
 impl Format {
-    /// A writer of this format to `out`.
-    pub fn exporter<W: Write + 'static>(self, out: W) -> Box<dyn Exporter<W>> {
+    /// A writer of this format to `out`: of detections, or with `events` of events
+    /// (CSV and NDJSON: events only; JSON: both, the events in an `events` array).
+    pub fn exporter<W: Write + 'static>(self, out: W, events: bool) -> Box<dyn Exporter<W>> {
         match self {
-            Format::Csv => Box::new(CsvExporter::new(out)),
-            Format::Json => Box::new(JsonExporter::new(out)),
-            Format::Ndjson => Box::new(NdjsonExporter::new(out)),
+            Format::Csv => Box::new(CsvExporter::new(out, events)),
+            Format::Json => Box::new(JsonExporter::new(out, events)),
+            Format::Ndjson => Box::new(NdjsonExporter::new(out, events)),
         }
     }
 }
@@ -73,8 +76,11 @@ impl Format {
 pub trait Exporter<W: Write> {
     /// Starts the output: the CSV header, or the JSON document's metadata.
     fn begin(&mut self, meta: &RunMetadata) -> Result<(), OutputError>;
-    /// Writes one detection.
+    /// Writes one detection (nothing when a CSV or NDJSON writer writes events).
     fn detection(&mut self, record: &DetectionRecord) -> Result<(), OutputError>;
+    /// Writes one event (nothing unless the writer was made for events; JSON keeps them
+    /// for the end of the document).
+    fn event(&mut self, record: &EventRecord) -> Result<(), OutputError>;
     /// Flush after every record from now on (a live consumer at the other end of a pipe).
     fn flush_each_record(&mut self);
     /// Ends the output (the JSON document closes with the per-file entries) and returns
@@ -103,6 +109,16 @@ pub enum OutputError {
         file: String,
         /// The frame.
         frame: u64,
+    },
+    /// An event holds NaN or an infinity (a bug: it is never written).
+    #[error("internal error: non-finite {field} in an event of {file} (source {track})")]
+    NonFiniteEvent {
+        /// The field.
+        field: &'static str,
+        /// The input's name.
+        file: String,
+        /// The track.
+        track: u64,
     },
 }
 
@@ -133,7 +149,7 @@ impl OutputError {
                 _ => None,
             },
             OutputError::Json(e) => e.io_error_kind(),
-            OutputError::NonFinite { .. } => None,
+            OutputError::NonFinite { .. } | OutputError::NonFiniteEvent { .. } => None,
         };
         kind == Some(io::ErrorKind::BrokenPipe)
     }

@@ -206,13 +206,15 @@ pub struct Row {
     pub file: String,
     pub frame: u64,
     pub mics: usize,
+    /// The track (`None` with `--no-track`).
+    pub source: Option<u64>,
 }
 
 /// The rows of a CSV result, read by the library's reader (the header is checked).
 pub fn parse_csv(text: &str) -> Vec<Row> {
     assert_eq!(
         text.lines().next().unwrap(),
-        "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics"
+        "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics,source"
     );
     ssl::record::parse_detections(text)
         .unwrap()
@@ -226,6 +228,7 @@ pub fn parse_csv(text: &str) -> Vec<Row> {
             file: r.file,
             frame: r.frame.unwrap(),
             mics: r.mics.unwrap(),
+            source: r.source,
         })
         .collect()
 }

@@ -1,0 +1,76 @@
+//! One row of `ssl analyze --events`: a stretch of activity of one tracked source.
+
+use super::{fixed, OutputError};
+use crate::method::direction::angles_deg;
+use crate::track::Event;
+use serde::{Deserialize, Serialize};
+
+/// An event as written (docs/interface.md, "Events"), fields in order, rounded as
+/// detections are.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct EventRecord {
+    /// The input, as given (`<stdin>` for `-`).
+    pub file: String,
+    /// The track's id.
+    pub source: u64,
+    /// Centre of the first detection's frame (seconds from the start of the file).
+    pub start_s: f64,
+    /// Centre of the last detection's frame.
+    pub end_s: f64,
+    /// Azimuth of the mean direction (degrees).
+    pub azimuth_deg: f64,
+    /// Elevation of the mean direction (degrees).
+    pub elevation_deg: f64,
+    /// Mean direction: x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// Angular spread of the detections (degrees; see [`Event::spread_deg`]).
+    pub spread_deg: f64,
+    /// Detections in the event.
+    pub detections: u64,
+    /// Mean score of the detections.
+    pub score: f64,
+}
+
+impl EventRecord {
+    /// The record of `event` in the recording named `file`. Fails on a non-finite value.
+    pub fn new(file: &str, e: &Event) -> Result<Self, OutputError> {
+        let (azimuth, elevation) = angles_deg(&e.direction);
+        let record = EventRecord {
+            file: file.to_string(),
+            source: e.source,
+            start_s: fixed(e.start_s, 6),
+            end_s: fixed(e.end_s, 6),
+            azimuth_deg: fixed(azimuth, 3),
+            elevation_deg: fixed(elevation, 3),
+            x: fixed(e.direction.x, 6),
+            y: fixed(e.direction.y, 6),
+            z: fixed(e.direction.z, 6),
+            spread_deg: fixed(e.spread_deg, 3),
+            detections: e.detections,
+            score: fixed(e.score, 4),
+        };
+        let values = [
+            ("start_s", record.start_s),
+            ("end_s", record.end_s),
+            ("azimuth_deg", record.azimuth_deg),
+            ("elevation_deg", record.elevation_deg),
+            ("x", record.x),
+            ("y", record.y),
+            ("z", record.z),
+            ("spread_deg", record.spread_deg),
+            ("score", record.score),
+        ];
+        match values.iter().find(|(_, v)| !v.is_finite()) {
+            Some(&(field, _)) => Err(OutputError::NonFiniteEvent {
+                field,
+                file: file.to_string(),
+                track: e.source,
+            }),
+            None => Ok(record),
+        }
+    }
+}

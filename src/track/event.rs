@@ -1,0 +1,75 @@
+//! A stretch of activity of one tracked source (docs/interface.md, "Events").
+
+use crate::method::Detection;
+use nalgebra::Vector3;
+
+/// One stretch of activity of one track: from its first detection to its last, with no
+/// silence longer than [`TrackParams::end_s`](super::TrackParams::end_s) in between.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Event {
+    /// The track's id.
+    pub source: u64,
+    /// Time of the first detection (frame centre, seconds).
+    pub start_s: f64,
+    /// Time of the last detection.
+    pub end_s: f64,
+    /// Mean direction of the detections (unit vector).
+    pub direction: Vector3<f64>,
+    /// Angular spread of the detections (degrees): `acos` of the mean resultant length,
+    /// the angle whose cosine is the mean cosine between each detection and the mean
+    /// direction (0 when they all agree; close to their RMS angle from it when small).
+    pub spread_deg: f64,
+    /// Detections in the stretch.
+    pub detections: u64,
+    /// Mean score of the detections.
+    pub score: f64,
+}
+
+/// An event being accumulated: sums only, so memory does not grow with its length.
+#[derive(Debug, Clone)]
+pub(crate) struct Accumulator {
+    start_s: f64,
+    end_s: f64,
+    sum: Vector3<f64>,
+    score: f64,
+    count: u64,
+}
+
+impl Accumulator {
+    pub fn new(d: &Detection) -> Self {
+        Accumulator {
+            start_s: d.time_s,
+            end_s: d.time_s,
+            sum: d.direction,
+            score: d.score,
+            count: 1,
+        }
+    }
+
+    pub fn add(&mut self, d: &Detection) {
+        self.start_s = self.start_s.min(d.time_s);
+        self.end_s = self.end_s.max(d.time_s);
+        self.sum += d.direction;
+        self.score += d.score;
+        self.count += 1;
+    }
+
+    pub fn finish(&self, source: u64) -> Event {
+        let n = self.count as f64;
+        let resultant = self.sum.norm() / n;
+        let direction = if self.sum.norm() > 0.0 {
+            self.sum / self.sum.norm()
+        } else {
+            Vector3::x()
+        };
+        Event {
+            source,
+            start_s: self.start_s,
+            end_s: self.end_s,
+            direction,
+            spread_deg: resultant.clamp(-1.0, 1.0).acos().to_degrees(),
+            detections: self.count,
+            score: self.score / n,
+        }
+    }
+}

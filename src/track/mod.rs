@@ -1,0 +1,111 @@
+//! Sources, not frames: a tracker over the per-frame detections (beyond the paper).
+//!
+//! The method gives at most one direction per frame. The [`Tracker`] follows them over
+//! time, online, in frame order:
+//!
+//! - **association:** a detection joins the track whose last direction is nearest, within
+//!   a gate of [`TrackParams::gate_deg`] widened by [`TrackParams::max_speed_deg_s`] times
+//!   the time since the track's last detection, at most [`TrackParams::max_gate_deg`];
+//! - **birth on confirmation:** a detection that joins no track starts a candidate; the
+//!   candidate becomes a track once [`TrackParams::confirm_hits`] detections have joined
+//!   it within [`TrackParams::confirm_s`] of its first, else its detections are dropped
+//!   (isolated outliers never reach the output). A confirmed candidate near a track that
+//!   has fallen silent (within the gate) takes that track's id again: a talker who pauses
+//!   and speaks again from the same place keeps one id;
+//! - **activity:** a track whose last detection is more than [`TrackParams::end_s`] old
+//!   has ended its stretch of activity: its [`Event`] is complete. (1 s by default: real
+//!   speech in a reverberant room gives detections in bursts, a word or two at a time,
+//!   with pauses of up to about half a second between them within a sentence.) A silent track is
+//!   forgotten after [`TrackParams::forget_s`] (at most [`MAX_TRACKS`] are remembered).
+//!
+//! Every detection that comes out carries its track's id (`source`, from 1, never reused
+//! within one recording). Rows come out in frame order, at most
+//! [`TrackParams::confirm_s`] after their frame: that is the tracker's delay. Memory
+//! holds the open candidates and the rows still waiting, bounded by that delay.
+//! Measured in docs/tracking.md.
+
+mod event;
+mod tracker;
+
+pub use event::Event;
+pub use tracker::{Tracked, Tracker};
+
+/// The tracker's parameters (see the module's documentation).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TrackParams {
+    /// Detections a candidate needs to become a track.
+    pub confirm_hits: usize,
+    /// Within this many seconds of its first detection (also the tracker's delay).
+    pub confirm_s: f64,
+    /// Association gate (degrees) right after a track's last detection.
+    pub gate_deg: f64,
+    /// The gate widens by this many degrees per second since a track's last detection.
+    pub max_speed_deg_s: f64,
+    /// The widest gate (degrees).
+    pub max_gate_deg: f64,
+    /// A track silent for longer than this (seconds) ends its stretch of activity.
+    pub end_s: f64,
+    /// A silent track is forgotten after this many seconds (its id is never reused).
+    pub forget_s: f64,
+}
+
+impl Default for TrackParams {
+    fn default() -> Self {
+        TrackParams {
+            confirm_hits: 3,
+            confirm_s: 0.5,
+            gate_deg: 12.0,
+            max_speed_deg_s: 60.0,
+            max_gate_deg: 25.0,
+            end_s: 1.0,
+            forget_s: 120.0,
+        }
+    }
+}
+
+/// At most this many tracks are remembered at once (the oldest silent one goes first).
+pub const MAX_TRACKS: usize = 64;
+
+/// Why tracker parameters were refused.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum TrackParamsError {
+    /// A parameter is out of its range.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl TrackParams {
+    /// Checks every parameter.
+    pub fn check(&self) -> Result<(), TrackParamsError> {
+        let positive = [
+            ("the confirmation window", self.confirm_s),
+            ("the gate", self.gate_deg),
+            ("the widest gate", self.max_gate_deg),
+            ("the end of activity", self.end_s),
+            ("the memory of silent tracks", self.forget_s),
+        ];
+        for (what, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                fail!(
+                    TrackParamsError::Invalid,
+                    "{what} must be a positive number, got {v}"
+                );
+            }
+        }
+        if !(self.max_speed_deg_s.is_finite() && self.max_speed_deg_s >= 0.0) {
+            fail!(
+                TrackParamsError::Invalid,
+                "the largest speed must be a non-negative number, got {}",
+                self.max_speed_deg_s
+            );
+        }
+        if self.confirm_hits == 0 || self.confirm_hits > 1000 {
+            fail!(
+                TrackParamsError::Invalid,
+                "the detections that confirm a track must be 1 to 1000, got {}",
+                self.confirm_hits
+            );
+        }
+        Ok(())
+    }
+}
