@@ -2,8 +2,9 @@
 //! reverberant room with its fan, on the paper's prism and on small arrays, at 48, 16
 //! and 8 kHz, with a minute of background alone per array and rate. Prints a markdown table.
 //!
-//! `cargo bench --bench field` (about a minute). Arguments choose other parameters (see
-//! `support::harness::params_from`): `paper`, `avg=N`, a tolerance and a gate in us.
+//! `cargo bench --bench field` (about two minutes). Arguments choose other parameters (see
+//! `support::harness::params_from`): `paper`, `fixed`, `bg=S`, `avg=N`, a tolerance and a
+//! gate in us; `track` passes the detections through the tracker, as `ssl analyze` does.
 //!
 //! Each scene holds 8 speech events (the two clips alternating), one per horizontal
 //! angle, 3 m away at elevation -7 deg for the prism (the paper's first condition), 1.5 m
@@ -29,6 +30,7 @@ use ssl::sim::scene::{
     SignalKind, SourceSpec,
 };
 use ssl::sim::simulate;
+use ssl::track::{TrackParams, Tracked, Tracker};
 use ssl::{Analysis, DetectionRecord, Geometry, Params, Truth};
 use std::error::Error;
 use std::ops::ControlFlow;
@@ -202,7 +204,8 @@ fn scene(array: &Array, rate: u32, kind: Kind, seed: u64) -> SceneFile {
     }
 }
 
-/// Simulates a scene and analyses it in memory: the records and the truth.
+/// Simulates a scene and analyses it in memory (through the tracker, with `TRACK`
+/// set, as `ssl analyze` does by default): the records and the truth.
 fn run(
     dir: &Path,
     scene: &SceneFile,
@@ -212,14 +215,36 @@ fn run(
     let sim = simulate(scene, dir)?;
     let channels = sim.channels.iter().map(|c| &c[..]).collect();
     let analysis = Analysis::from_channels("scene", channels, sim.sample_rate, geometry, params)?;
+    let hop = analysis.frame_size() as f64 / 2.0 / sim.sample_rate as f64;
+    let mut tracker = TRACK.get().cloned().flatten().map(Tracker::new);
     let mut records = Vec::new();
-    let (_, result) = analysis.run(|_, d| {
-        records.extend(d.map(|d| DetectionRecord::new("scene", d).expect("finite")));
+    let record = |t: Tracked| {
+        DetectionRecord::tracked("scene", &t.detection, Some(t.source)).expect("finite")
+    };
+    let (_, result) = analysis.run(|i, d| {
+        match tracker.as_mut() {
+            Some(t) => {
+                t.push(
+                    (i as f64 + 1.0) * hop,
+                    d.map_or(&[][..], std::slice::from_ref),
+                );
+                records.extend(t.take_rows().map(record));
+            }
+            None => records.extend(d.map(|d| DetectionRecord::new("scene", d).expect("finite"))),
+        }
         ControlFlow::Continue(())
     });
     result?;
+    if let Some(t) = tracker.as_mut() {
+        t.finish();
+        records.extend(t.take_rows().map(record));
+    }
     Ok((records, sim.truth))
 }
+
+/// The tracker the detections go through: `track` on the command line for the
+/// defaults, `track=HITS,SECONDS` for other confirmation settings.
+static TRACK: std::sync::OnceLock<Option<TrackParams>> = std::sync::OnceLock::new();
 
 /// The mean azimuth error (deg) of the detections while a source is active, against
 /// the active source nearest in azimuth: what a planar array measures well whatever
@@ -297,7 +322,16 @@ fn main() -> Result<(), Box<dyn Error>> {
     // Optional: other parameters (see `params_from`), and `grid` for the RT60 x SNR grid.
     let mut args = support::harness::args();
     let grid = args.iter().any(|a| a == "grid");
-    args.retain(|a| a != "grid");
+    let track = args.iter().find(|a| a.starts_with("track")).map(|a| {
+        let mut p = TrackParams::default();
+        if let Some((hits, seconds)) = a.strip_prefix("track=").and_then(|v| v.split_once(',')) {
+            p.confirm_hits = hits.parse().expect("track=HITS,SECONDS");
+            p.confirm_s = seconds.parse().expect("track=HITS,SECONDS");
+        }
+        p
+    });
+    TRACK.set(track).expect("set once");
+    args.retain(|a| a != "grid" && !a.starts_with("track"));
     let params = support::harness::params_from(&args);
     if grid {
         return rt60_snr_grid(dir.path(), &params, started);

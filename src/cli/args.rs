@@ -192,7 +192,7 @@ pub struct AnalyzeArgs {
     #[arg(long, conflicts_with = "no_track")]
     pub events: bool,
 
-    /// A track is confirmed by 3 detections within this many seconds of its first; rows wait up to this long
+    /// A track is confirmed by 2 detections within this many seconds of its first; rows wait up to this long
     #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = positive, conflicts_with = "no_track")]
     pub confirm_s: f64,
 

@@ -114,11 +114,11 @@ pub struct ParametersInfo {
     pub residual_gate_us: Option<f64>,
     /// Frames each pair's correlation is averaged over (1: none).
     pub average_frames: usize,
-    /// The tracker's parameters, or null with tracking off.
-    pub track: Option<TrackParams>,
     /// Time constant of the steady background subtracted from the correlations
     /// (seconds), or null for none.
     pub background_s: Option<f64>,
+    /// The tracker's parameters, or null with tracking off.
+    pub track: Option<TrackParams>,
 }
 
 /// A single-precision parameter as it was written (`0.4`), not as its nearest double.

@@ -52,7 +52,7 @@ pub struct TrackParams {
 impl Default for TrackParams {
     fn default() -> Self {
         TrackParams {
-            confirm_hits: 3,
+            confirm_hits: 2,
             confirm_s: 0.5,
             gate_deg: 12.0,
             max_speed_deg_s: 60.0,

@@ -360,14 +360,14 @@ mod tests {
                 frames[f] = vec![azimuth];
             }
         }
-        for f in [250, 300, 350] {
-            frames[f] = vec![150.0 + f as f64 / 10.0];
+        for (f, azimuth) in [(250, 150.0), (300, -150.0), (350, 100.0)] {
+            frames[f] = vec![azimuth];
         }
         let (rows, events) = track(&frames);
         // Every row of the talkers, none of the outliers, in frame order.
         assert_eq!(rows.len(), 150);
         assert!(rows.windows(2).all(|w| w[0].0 < w[1].0));
-        assert!(rows.iter().all(|r| r.2 < 100.0));
+        assert!(rows.iter().all(|r| r.2 < 90.0));
         let ids: Vec<u64> = rows.iter().map(|r| r.1).collect();
         assert!(rows.iter().all(|r| (r.2 > 0.0) == (r.1 == 1)), "{ids:?}");
         assert!(rows.iter().any(|r| r.1 == 2));
@@ -415,11 +415,12 @@ mod tests {
 
     #[test]
     fn scattered_detections_never_make_a_track() {
-        // One detection every 4 frames, each 40 deg from the one before.
-        let frames: Vec<Vec<f64>> = (0..400)
+        // One detection every 0.2 s, each 47 deg round from the one before: no two
+        // within a confirmation window are within the gate of each other.
+        let frames: Vec<Vec<f64>> = (0..2000)
             .map(|f| {
-                if f % 4 == 0 {
-                    vec![(f as f64 * 10.0) % 360.0 - 180.0]
+                if f % 20 == 0 {
+                    vec![(f as f64 / 20.0 * 47.0) % 360.0 - 180.0]
                 } else {
                     Vec::new()
                 }
