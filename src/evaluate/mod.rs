@@ -11,9 +11,14 @@
 //! - event detection rate: the share of active intervals (events) with at least one
 //!   detection within [`HIT_DEG`] in a frame that overlaps the interval;
 //! - false detections: detections in frames that overlap no active interval (each
-//!   extended by a reverberation tail), per minute of such time.
+//!   extended by a reverberation tail), per minute of such time;
+//! - when the rows carry a `source` (tracking on): tracks and events (the `tracks`
+//!   module).
 
 mod report;
+mod tracks;
+
+pub use tracks::{SourceTracks, TrackReport, OVERLAP_WINDOW_S};
 
 use crate::method::default_frame_size;
 use crate::method::direction::{angle_between_deg, angles_deg};
@@ -90,6 +95,7 @@ struct Det {
     time_s: f64,
     direction: Vector3<f64>,
     frame: Option<u64>,
+    source: Option<u64>,
 }
 
 /// The scores of one true source.
@@ -146,6 +152,8 @@ pub struct Report {
     pub hop_s: f64,
     /// The tail added to each interval (seconds).
     pub tail_s: f64,
+    /// Tracks and events, when the rows carry a `source`.
+    pub tracking: Option<TrackReport>,
 }
 
 /// Scores `dets` against `truth`. `tail_s` extends each active interval when counting
@@ -172,6 +180,7 @@ pub fn evaluate(
                 time_s: r.time_s,
                 direction,
                 frame: r.frame,
+                source: r.source,
             }),
             _ => Err(EvaluateError::Result(format!(
                 "detection {}: its time or direction is not finite (or the vector is zero)",
@@ -308,6 +317,15 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             .then(|| false_detections as f64 / (background_s / 60.0)),
         hop_s: hop,
         tail_s,
+        tracking: dets.iter().any(|d| d.source.is_some()).then(|| {
+            let tracked: Vec<Det> = dets
+                .iter()
+                .filter(|d| d.source.is_some())
+                .copied()
+                .collect();
+            let ids: Vec<u64> = tracked.iter().filter_map(|d| d.source).collect();
+            tracks::score_tracks(sources, &tracked, &ids, truth.duration_s, tail_s)
+        }),
     }
 }
 

@@ -55,6 +55,31 @@ impl Report {
             self.tail_s,
             opt(self.false_per_minute, 1)
         );
+        if let Some(t) = &self.tracking {
+            s += &format!(
+                "tracks: {} ({} per source, lowest purity of a source's dominant track {})\n",
+                t.tracks,
+                opt(t.tracks_per_source, 2),
+                opt(t.min_purity.map(|p| 100.0 * p), 1) + "%",
+            );
+            s += &format!(
+                "events: {} of {} true events recalled, {} false ({:.1} per minute) of {}; direction error {} deg, onset {} s, offset {} s\n",
+                t.events_recalled,
+                t.true_events,
+                t.false_events,
+                t.false_events_per_minute,
+                t.events,
+                opt(t.event_error_deg, 2),
+                opt(t.onset_error_s, 2),
+                opt(t.offset_error_s, 2),
+            );
+            if t.overlap_pairs > 0 {
+                s += &format!(
+                    "several sources at once: {} of {} (0.1 s window, source) pairs detected\n",
+                    t.overlap_detected, t.overlap_pairs
+                );
+            }
+        }
         s
     }
 }

@@ -1,0 +1,306 @@
+//! Scoring tracks and events (results whose rows carry a `source`).
+//!
+//! - A row belongs to a true source when that source is active at the row's time
+//!   (its interval extended by the tail) and the row is within [`HIT_DEG`] of it, the
+//!   nearest such source. Per true source: its rows' tracks, the dominant one (most
+//!   rows), that track's purity (the share of its rows that belong to the source), and
+//!   how many tracks the source is split into.
+//! - Events are read off the rows as the tracker makes them: a track's rows, split
+//!   where it is silent for longer than [`TrackParams::end_s`](crate::track::TrackParams)
+//!   (the default, 1 s). A true event (an active interval) is recalled by the event that
+//!   overlaps it most in time among those whose mean direction is within [`HIT_DEG`] of
+//!   its source; its direction error and its onset and offset errors (event start minus
+//!   interval start, event end minus interval end) are those of that event. An event
+//!   that overlaps no true event of a source within [`HIT_DEG`] is false.
+//! - Several sources at once: over the 0.1 s windows in which two or more sources are
+//!   active throughout, the share of (window, source) pairs with a row of that source
+//!   in the window.
+
+use super::{Det, Source, HIT_DEG};
+use crate::method::direction::angle_between_deg;
+use crate::track::TrackParams;
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+
+/// Window length for several sources at once (seconds).
+pub const OVERLAP_WINDOW_S: f64 = 0.1;
+
+/// How one true source was tracked.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SourceTracks {
+    /// The source's index in the scene.
+    pub index: usize,
+    /// Its rows (within [`HIT_DEG`], nearest to it, while it is active).
+    pub rows: usize,
+    /// The track with most of its rows.
+    pub dominant_track: Option<u64>,
+    /// The share of the dominant track's rows that belong to this source.
+    pub purity: Option<f64>,
+    /// Tracks its rows are split into.
+    pub tracks: usize,
+}
+
+/// The scores of tracks and events.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct TrackReport {
+    /// Per true source.
+    pub sources: Vec<SourceTracks>,
+    /// Distinct tracks in the result.
+    pub tracks: usize,
+    /// Mean tracks per true source, over the sources with rows.
+    pub tracks_per_source: Option<f64>,
+    /// The lowest purity of a source's dominant track.
+    pub min_purity: Option<f64>,
+    /// True events (active intervals).
+    pub true_events: usize,
+    /// True events recalled by an event.
+    pub events_recalled: usize,
+    /// Events read off the rows.
+    pub events: usize,
+    /// Of those, events matching no true event.
+    pub false_events: usize,
+    /// False events per minute of recording.
+    pub false_events_per_minute: f64,
+    /// Mean direction error of the recalling events (degrees).
+    pub event_error_deg: Option<f64>,
+    /// Mean absolute onset error (seconds).
+    pub onset_error_s: Option<f64>,
+    /// Mean absolute offset error (seconds).
+    pub offset_error_s: Option<f64>,
+    /// (window, source) pairs with two or more sources active throughout the window.
+    pub overlap_pairs: usize,
+    /// Of those, pairs with a row of the source in the window.
+    pub overlap_detected: usize,
+}
+
+struct Stretch {
+    start: f64,
+    end: f64,
+    sum: Vector3<f64>,
+}
+
+/// Tracks and events of `dets` (each with its track in `tracks`) against `sources`.
+pub(super) fn score_tracks(
+    sources: &[Source],
+    dets: &[Det],
+    tracks: &[u64],
+    duration_s: f64,
+    tail_s: f64,
+) -> TrackReport {
+    let active = |s: &Source, t: f64| s.intervals.iter().any(|&(a, b)| t >= a && t <= b + tail_s);
+    // The true source of each row, if any.
+    let owner: Vec<Option<usize>> = dets
+        .iter()
+        .map(|d| {
+            sources
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| active(s, d.time_s))
+                .map(|(i, s)| (i, angle_between_deg(&d.direction, &s.direction)))
+                .filter(|(_, e)| *e < HIT_DEG)
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(i, _)| i)
+        })
+        .collect();
+    let mut rows_of_track: BTreeMap<u64, usize> = BTreeMap::new();
+    for &t in tracks {
+        *rows_of_track.entry(t).or_default() += 1;
+    }
+    let mut per_source = Vec::new();
+    for (i, _) in sources.iter().enumerate() {
+        let mut by_track: BTreeMap<u64, usize> = BTreeMap::new();
+        for (o, &t) in owner.iter().zip(tracks) {
+            if *o == Some(i) {
+                *by_track.entry(t).or_default() += 1;
+            }
+        }
+        let dominant = by_track
+            .iter()
+            .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)))
+            .map(|(&t, &n)| (t, n));
+        per_source.push(SourceTracks {
+            index: i,
+            rows: by_track.values().sum(),
+            dominant_track: dominant.map(|d| d.0),
+            purity: dominant.map(|(t, n)| n as f64 / rows_of_track[&t] as f64),
+            tracks: by_track.len(),
+        });
+    }
+    let with_rows: Vec<&SourceTracks> = per_source.iter().filter(|s| s.rows > 0).collect();
+    // Events read off the rows.
+    let end_s = TrackParams::default().end_s;
+    let mut open: BTreeMap<u64, Stretch> = BTreeMap::new();
+    let mut stretches = Vec::new();
+    for (d, &t) in dets.iter().zip(tracks) {
+        match open.get_mut(&t) {
+            Some(s) if d.time_s - s.end <= end_s => {
+                s.end = d.time_s;
+                s.sum += d.direction;
+            }
+            _ => {
+                let new = Stretch {
+                    start: d.time_s,
+                    end: d.time_s,
+                    sum: d.direction,
+                };
+                if let Some(done) = open.insert(t, new) {
+                    stretches.push(done);
+                }
+            }
+        }
+    }
+    stretches.extend(open.into_values());
+    let matches = |e: &Stretch, s: &Source, (a, b): (f64, f64)| {
+        e.start <= b + tail_s && e.end >= a && angle_between_deg(&e.sum, &s.direction) < HIT_DEG
+    };
+    let (mut true_events, mut recalled) = (0, 0);
+    let (mut errors, mut onsets, mut offsets) = (Vec::new(), Vec::new(), Vec::new());
+    for s in sources {
+        for &(a, b) in &s.intervals {
+            true_events += 1;
+            let overlap = |e: &Stretch| e.end.min(b + tail_s) - e.start.max(a);
+            if let Some(e) = stretches
+                .iter()
+                .filter(|e| matches(e, s, (a, b)))
+                .max_by(|x, y| overlap(x).total_cmp(&overlap(y)))
+            {
+                recalled += 1;
+                errors.push(angle_between_deg(&e.sum, &s.direction));
+                onsets.push((e.start - a).abs());
+                offsets.push((e.end - b).abs());
+            }
+        }
+    }
+    let false_events = stretches
+        .iter()
+        .filter(|e| {
+            !sources
+                .iter()
+                .any(|s| s.intervals.iter().any(|&iv| matches(e, s, iv)))
+        })
+        .count();
+    // Several sources at once.
+    let (mut overlap_pairs, mut overlap_detected) = (0, 0);
+    let windows = (duration_s / OVERLAP_WINDOW_S).floor() as usize;
+    for w in 0..windows {
+        let (w0, w1) = (
+            w as f64 * OVERLAP_WINDOW_S,
+            (w + 1) as f64 * OVERLAP_WINDOW_S,
+        );
+        let on: Vec<usize> = (0..sources.len())
+            .filter(|&i| {
+                sources[i]
+                    .intervals
+                    .iter()
+                    .any(|&(a, b)| a <= w0 && b >= w1)
+            })
+            .collect();
+        if on.len() < 2 {
+            continue;
+        }
+        for &i in &on {
+            overlap_pairs += 1;
+            let hit = dets
+                .iter()
+                .zip(&owner)
+                .any(|(d, o)| *o == Some(i) && d.time_s >= w0 && d.time_s < w1);
+            overlap_detected += hit as usize;
+        }
+    }
+    let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    TrackReport {
+        tracks: rows_of_track.len(),
+        tracks_per_source: (!with_rows.is_empty()).then(|| {
+            with_rows.iter().map(|s| s.tracks as f64).sum::<f64>() / with_rows.len() as f64
+        }),
+        min_purity: with_rows
+            .iter()
+            .filter_map(|s| s.purity)
+            .min_by(f64::total_cmp),
+        sources: per_source,
+        true_events,
+        events_recalled: recalled,
+        events: stretches.len(),
+        false_events,
+        false_events_per_minute: false_events as f64 / (duration_s / 60.0),
+        event_error_deg: mean(&errors),
+        onset_error_s: mean(&onsets),
+        offset_error_s: mean(&offsets),
+        overlap_pairs,
+        overlap_detected,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::method::direction::unit_from_angles;
+
+    fn det(t: f64, azimuth: f64) -> Det {
+        Det {
+            time_s: t,
+            direction: unit_from_angles(azimuth, 0.0),
+            frame: None,
+            source: None,
+        }
+    }
+
+    #[test]
+    fn scores_hand_made_tracks_and_events() {
+        // Source 0 at 0 deg, on 1-3 s and 6-8 s; source 1 at 90 deg, on 2-5 s.
+        let sources = vec![
+            Source {
+                direction: unit_from_angles(0.0, 0.0),
+                intervals: vec![(1.0, 3.0), (6.0, 8.0)],
+            },
+            Source {
+                direction: unit_from_angles(90.0, 0.0),
+                intervals: vec![(2.0, 5.0)],
+            },
+        ];
+        let mut rows = Vec::new();
+        // Track 1 follows source 0 through 1.2-2.8 s and again 6.5-7.5 s (a new event
+        // after 3.7 s of silence); one row of track 1 strays to source 1 at 2.5 s.
+        for i in 0..9 {
+            rows.push((det(1.2 + 0.2 * i as f64, 1.0), 1));
+        }
+        rows.push((det(2.5, 89.0), 1));
+        for i in 0..6 {
+            rows.push((det(6.5 + 0.2 * i as f64, -1.0), 1));
+        }
+        // Source 1 split into tracks 2 (2.1-3.1 s) and 3 (4.0-4.8 s).
+        for i in 0..6 {
+            rows.push((det(2.1 + 0.2 * i as f64, 91.0), 2));
+        }
+        for i in 0..5 {
+            rows.push((det(4.0 + 0.2 * i as f64, 90.0), 3));
+        }
+        // Track 4: something at 200 deg during source 1 only: a false event.
+        rows.push((det(4.5, -160.0), 4));
+        rows.push((det(4.6, -160.0), 4));
+        rows.sort_by(|a, b| a.0.time_s.total_cmp(&b.0.time_s));
+        let (dets, ids): (Vec<Det>, Vec<u64>) = rows.into_iter().unzip();
+        let r = score_tracks(&sources, &dets, &ids, 10.0, 0.0);
+        assert_eq!(r.tracks, 4);
+        let s0 = &r.sources[0];
+        assert_eq!((s0.rows, s0.dominant_track, s0.tracks), (15, Some(1), 1));
+        // Track 1 holds 16 rows, 15 of them source 0's.
+        assert!((s0.purity.unwrap() - 15.0 / 16.0).abs() < 1e-12);
+        let s1 = &r.sources[1];
+        // Source 1: the stray row of track 1, 6 of track 2, 5 of track 3.
+        assert_eq!((s1.rows, s1.dominant_track, s1.tracks), (12, Some(2), 3));
+        assert_eq!(s1.purity, Some(1.0));
+        assert_eq!(r.tracks_per_source, Some(2.0));
+        // Events: track 1 twice (with the stray row inside its first), tracks 2, 3, 4.
+        assert_eq!((r.events, r.true_events, r.events_recalled), (5, 3, 3));
+        assert_eq!(r.false_events, 1);
+        assert!((r.false_events_per_minute - 6.0).abs() < 1e-12);
+        // Onsets: 0.2 (1.2 vs 1), 0.5 (6.5 vs 6), 0.1 (2.1 vs 2); offsets: 0.2 (2.8 vs 3),
+        // 0.5 (7.5 vs 8), 1.9 (3.1 vs 5: track 2 overlaps source 1 longer than track 3).
+        assert!((r.onset_error_s.unwrap() - 0.8 / 3.0).abs() < 1e-9);
+        assert!((r.offset_error_s.unwrap() - 2.6 / 3.0).abs() < 1e-9);
+        // 2-3 s: both sources on, 10 windows x 2 sources; source 0 has a row in the
+        // windows at 2.0, 2.2, 2.4, 2.6, 2.8 (5), source 1 at 2.1, 2.3, 2.5, 2.7, 2.9 (5).
+        assert_eq!((r.overlap_pairs, r.overlap_detected), (20, 10));
+    }
+}
