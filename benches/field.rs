@@ -29,13 +29,12 @@ use ssl::sim::scene::{
     ArraySpec, Colour, DiffuseSpec, FanSpec, NoiseSpec, RoomSpec, SampleFormat, SceneFile,
     SignalKind, SourceSpec,
 };
-use ssl::sim::simulate;
-use ssl::track::{TrackParams, Tracked, Tracker};
-use ssl::{Analysis, DetectionRecord, Geometry, Params, Truth};
+use ssl::track::TrackParams;
+use ssl::{DetectionRecord, Geometry, Params, Truth};
 use std::error::Error;
-use std::ops::ControlFlow;
 use std::path::Path;
 use support::bench::azimuths;
+use support::harness::analyse_scene;
 
 const CLIPS: [(&str, f64); 2] = [
     ("cmu_arctic_us_aew_a0001.wav", 3.9),
@@ -204,42 +203,15 @@ fn scene(array: &Array, rate: u32, kind: Kind, seed: u64) -> SceneFile {
     }
 }
 
-/// Simulates a scene and analyses it in memory (through the tracker, with `TRACK`
-/// set, as `ssl analyze` does by default): the records and the truth.
+/// Simulates a scene and analyses it in memory, through the tracker with `track` on
+/// the command line (as `ssl analyze` does by default): the records and the truth.
 fn run(
     dir: &Path,
     scene: &SceneFile,
     geometry: &Geometry,
     params: &Params,
 ) -> Result<(Vec<DetectionRecord>, Truth), Box<dyn Error>> {
-    let sim = simulate(scene, dir)?;
-    let channels = sim.channels.iter().map(|c| &c[..]).collect();
-    let analysis = Analysis::from_channels("scene", channels, sim.sample_rate, geometry, params)?;
-    let hop = analysis.frame_size() as f64 / 2.0 / sim.sample_rate as f64;
-    let mut tracker = TRACK.get().cloned().flatten().map(Tracker::new);
-    let mut records = Vec::new();
-    let record = |t: Tracked| {
-        DetectionRecord::tracked("scene", &t.detection, Some(t.source)).expect("finite")
-    };
-    let (_, result) = analysis.run(|i, d| {
-        match tracker.as_mut() {
-            Some(t) => {
-                t.push(
-                    (i as f64 + 1.0) * hop,
-                    d.map_or(&[][..], std::slice::from_ref),
-                );
-                records.extend(t.take_rows().map(record));
-            }
-            None => records.extend(d.map(|d| DetectionRecord::new("scene", d).expect("finite"))),
-        }
-        ControlFlow::Continue(())
-    });
-    result?;
-    if let Some(t) = tracker.as_mut() {
-        t.finish();
-        records.extend(t.take_rows().map(record));
-    }
-    Ok((records, sim.truth))
+    analyse_scene(dir, scene, geometry, params, TRACK.get().cloned().flatten())
 }
 
 /// The tracker the detections go through: `track` on the command line for the

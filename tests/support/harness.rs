@@ -108,3 +108,46 @@ pub fn params_from(args: &[String]) -> ssl::Params {
     }
     params
 }
+
+/// Simulates `scene` in `dir` and analyses it in memory as `ssl analyze` does, through a
+/// tracker with `track` (else every frame's detection): the records and the truth.
+#[cfg(feature = "simulate")]
+pub fn analyse_scene(
+    dir: &Path,
+    scene: &ssl::sim::scene::SceneFile,
+    geometry: &ssl::Geometry,
+    params: &ssl::Params,
+    track: Option<ssl::track::TrackParams>,
+) -> Result<(Vec<ssl::DetectionRecord>, ssl::Truth), Box<dyn std::error::Error>> {
+    use ssl::track::{Tracked, Tracker};
+    use ssl::DetectionRecord;
+    let sim = ssl::sim::simulate(scene, dir)?;
+    let channels = sim.channels.iter().map(|c| &c[..]).collect();
+    let analysis =
+        ssl::Analysis::from_channels("scene", channels, sim.sample_rate, geometry, params)?;
+    let hop = analysis.frame_size() as f64 / 2.0 / sim.sample_rate as f64;
+    let mut tracker = track.map(Tracker::new);
+    let record = |t: Tracked| {
+        DetectionRecord::tracked("scene", &t.detection, Some(t.source)).expect("finite")
+    };
+    let mut records = Vec::new();
+    let (_, result) = analysis.run(|i, d| {
+        match tracker.as_mut() {
+            Some(t) => {
+                t.push(
+                    (i as f64 + 1.0) * hop,
+                    d.map_or(&[][..], std::slice::from_ref),
+                );
+                records.extend(t.take_rows().map(record));
+            }
+            None => records.extend(d.map(|d| DetectionRecord::new("scene", d).expect("finite"))),
+        }
+        std::ops::ControlFlow::Continue(())
+    });
+    result?;
+    if let Some(t) = tracker.as_mut() {
+        t.finish();
+        records.extend(t.take_rows().map(record));
+    }
+    Ok((records, sim.truth))
+}
