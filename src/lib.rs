@@ -37,6 +37,7 @@
 //!     csv.rs json.rs  one exporter per format behind one trait
 //!     read.rs         reading results and truth files back
 //!   track/          sources, not frames: the tracker and its events
+//!   plot/           drawing results as SVG (feature `plot`, `ssl plot`)
 //!   named.rs        the Named trait: closed sets of named values
 //!   evaluate/       scoring results against a truth (`ssl evaluate`)
 //!   sim/            the simulator (feature `simulate`): scene, room, signals, noise
@@ -84,6 +85,8 @@ pub mod evaluate;
 pub mod geometry;
 pub mod method;
 mod named;
+#[cfg(feature = "plot")]
+pub mod plot;
 pub mod record;
 #[cfg(feature = "simulate")]
 pub mod sim;

@@ -79,6 +79,22 @@ pub enum Command {
         reverberation tail)."
     )]
     Evaluate(EvaluateArgs),
+    #[command(
+        about = "Draw results as one SVG: directions against time and a sky map",
+        long_about = "Draw results as one SVG: directions against time and a sky map.\n\n\
+        RESULT is the output of `ssl analyze` in any format (detections, or --events CSV; `-` reads \
+        standard input). Each file gets a row of three panels: azimuth against time, elevation \
+        against time, and a sky map (azimuth against elevation), one mark per detection coloured by \
+        tracked source (else by score), events as bars. With --truth, the true directions and active \
+        intervals are drawn in black and the figures of `ssl evaluate` head the row. Large results \
+        are binned: at most 20,000 marks per panel (one per cell of 1/1200 of the duration by 1 deg, \
+        the cells doubled until fewer). The same input gives the same bytes.",
+        after_help = "Examples:\n  \
+        ssl analyze testdata/example.wav -g testdata/prism.toml -f json --events -o r.json\n  \
+        ssl plot r.json -o r.svg\n  \
+        ssl plot r.json --truth testdata/example.truth.json -o r.svg"
+    )]
+    Plot(PlotArgs),
     /// Print a shell completion script (bash, zsh, fish, elvish or powershell)
     #[command(after_help = "Examples:\n  \
         ssl completions bash > ~/.local/share/bash-completion/completions/ssl\n  \
@@ -233,6 +249,29 @@ pub struct SimulateArgs {
     /// Truth JSON [default: the output's name with .truth.json]
     #[arg(long, value_name = "JSON")]
     pub truth: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct PlotArgs {
+    /// Results of `ssl analyze` (CSV, JSON or NDJSON); `-` reads standard input
+    #[arg(required = true, value_name = "RESULT")]
+    pub results: Vec<PathBuf>,
+
+    /// Write the SVG here (atomically) instead of standard output
+    #[arg(short, long, value_name = "SVG")]
+    pub output: Option<PathBuf>,
+
+    /// Truth JSON written by `ssl simulate`: draw the true directions and score the result
+    #[arg(long, value_name = "JSON")]
+    pub truth: Option<PathBuf>,
+
+    /// Draw only this file of the result (as the result names it)
+    #[arg(long, value_name = "NAME")]
+    pub file: Option<String>,
+
+    /// Seconds after each active interval during which detections are not false, for the scores [default: half the room's RT60]
+    #[arg(long, value_name = "S", value_parser = non_negative)]
+    pub tail: Option<f32>,
 }
 
 #[derive(Debug, Args)]

@@ -6,6 +6,7 @@ mod analyze;
 pub mod args;
 mod evaluate;
 mod geometry;
+mod plot;
 mod simulate;
 mod sink;
 
@@ -36,6 +37,7 @@ pub fn main() -> i32 {
         Command::Geometry(args) => geometry::run(&args).map(|()| true),
         Command::Simulate(args) => simulate::run(&args).map(|()| true),
         Command::Evaluate(args) => evaluate::run(&args).map(|()| true),
+        Command::Plot(args) => plot::run(&args).map(|()| true),
         Command::Completions(args) => {
             let mut cmd = <Cli as clap::CommandFactory>::command();
             clap_complete::generate(args.shell, &mut cmd, "ssl", &mut std::io::stdout());

@@ -1,0 +1,83 @@
+//! `ssl plot`: draw results as one SVG.
+
+use super::args::PlotArgs;
+use super::sink::Sink;
+use anyhow::{bail, Context, Result};
+use ssl::evaluate::evaluate;
+use ssl::plot::{parse_result, plot, PlotData};
+use ssl::record::MAX_RESULT_BYTES;
+use ssl::stream::{io_reason, read_text, read_text_from};
+use ssl::Truth;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+fn text(path: &Path, limit: u64) -> Result<String> {
+    if path == Path::new("-") {
+        read_text_from(std::io::stdin().lock(), limit)
+            .map_err(|e| anyhow::anyhow!("<stdin>: cannot read: {}", io_reason(&e)))
+    } else {
+        read_text(path, limit)
+            .map_err(|e| anyhow::anyhow!("{}: cannot read: {}", path.display(), io_reason(&e)))
+    }
+}
+
+fn shown(path: &Path) -> String {
+    if path == Path::new("-") {
+        "<stdin>".into()
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// Runs `ssl plot`.
+pub fn run(args: &PlotArgs) -> Result<()> {
+    if args.results.iter().filter(|p| *p == Path::new("-")).count()
+        + args.truth.iter().filter(|p| *p == Path::new("-")).count()
+        > 1
+    {
+        bail!("standard input (-) can be read only once");
+    }
+    let mut data = PlotData::default();
+    for path in &args.results {
+        let one = parse_result(&text(path, MAX_RESULT_BYTES)?).with_context(|| shown(path))?;
+        data.array = data.array.or(one.array);
+        data.threshold = data.threshold.or(one.threshold);
+        data.files.extend(one.files);
+    }
+    let truth = match &args.truth {
+        Some(path) => Some(
+            Truth::from_json(&text(path, ssl::record::MAX_TRUTH_BYTES)?)
+                .with_context(|| shown(path))?,
+        ),
+        None => None,
+    };
+    let report = match &truth {
+        Some(t) => {
+            let rows: Vec<_> = data
+                .files
+                .iter()
+                .filter(|f| args.file.as_ref().is_none_or(|n| &f.name == n))
+                .flat_map(|f| f.detections.iter().cloned())
+                .collect();
+            let tail = args
+                .tail
+                .map_or(t.rt60_s().map_or(0.0, |x| x / 2.0), f64::from);
+            Some(evaluate(t, &rows, tail).map_err(|e| {
+                anyhow::anyhow!("{}: {e} (--file picks one)", shown(&args.results[0]))
+            })?)
+        }
+        None => None,
+    };
+    let svg = plot(
+        &data,
+        args.file.as_deref(),
+        truth.as_ref().zip(report.as_ref()),
+    )
+    .map_err(|e| anyhow::anyhow!("{}: {e}", shown(&args.results[0])))?;
+    let mut inputs: Vec<&Path> = args.results.iter().map(PathBuf::as_path).collect();
+    inputs.extend(args.truth.as_deref());
+    let mut sink = Sink::open(args.output.as_deref(), &inputs)?;
+    sink.write_all(svg.as_bytes())
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {}", sink.shown(), io_reason(&e)))?;
+    sink.commit()
+}

@@ -1,0 +1,351 @@
+//! Drawing results (`ssl plot`, feature `plot`): one self-contained SVG.
+//!
+//! Each file of a result gets one row of three panels: azimuth against time, elevation
+//! against time, and a sky map (azimuth against elevation). A detection is one mark in
+//! each, coloured by its tracked source (else by its score, dark to bright); events are
+//! drawn as bars over their span at their mean direction; a truth adds the true
+//! directions over their active intervals (black lines, and rings on the sky map) and
+//! the headline figures of `ssl evaluate` in the row's title.
+//!
+//! Large results stay small: each panel draws at most one mark per cell of a grid of
+//! [`TIME_BINS`] columns by 1 deg (azimuth and elevation), the first detection of the cell
+//! setting its colour; while more than [`MAX_MARKS`] cells are occupied the cells double
+//! in size. The same input gives the same bytes.
+
+mod read;
+
+pub use read::{parse_result, PlotData, PlotFile};
+
+use crate::evaluate::Report;
+use crate::record::{DetectionRecord, Truth};
+use plotters::prelude::*;
+use std::collections::BTreeMap;
+
+/// Columns of the time grid a file's marks are binned on.
+pub const TIME_BINS: usize = 1200;
+/// The most marks one panel draws.
+pub const MAX_MARKS: usize = 20_000;
+
+/// Width of the picture and height of one file's row (pixels).
+const WIDTH: u32 = 1500;
+const ROW: u32 = 440;
+
+/// Why a picture could not be drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The result holds nothing to draw for the files asked.
+    #[error("{0}")]
+    Empty(String),
+    /// The drawing failed (a bug).
+    #[error("drawing failed: {0}")]
+    Draw(String),
+}
+
+fn draw_err<E: std::fmt::Debug>(e: E) -> PlotError {
+    PlotError::Draw(format!("{e:?}"))
+}
+
+/// Ten colours that tell tracks apart (Tableau 10).
+const PALETTE: [(u8, u8, u8); 10] = [
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+];
+
+fn track_colour(source: u64) -> RGBColor {
+    let (r, g, b) = PALETTE[(source as usize).wrapping_sub(1) % PALETTE.len()];
+    RGBColor(r, g, b)
+}
+
+/// Dark blue (low) to yellow (high), for `x` in 0..=1.
+fn score_colour(x: f64) -> RGBColor {
+    let x = x.clamp(0.0, 1.0);
+    let stops = [
+        (68.0, 1.0, 84.0),
+        (33.0, 145.0, 140.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let (i, t) = if x < 0.5 {
+        (0, x * 2.0)
+    } else {
+        (1, x * 2.0 - 1.0)
+    };
+    let mix = |a: f64, b: f64| (a + (b - a) * t).round() as u8;
+    RGBColor(
+        mix(stops[i].0, stops[i + 1].0),
+        mix(stops[i].1, stops[i + 1].1),
+        mix(stops[i].2, stops[i + 1].2),
+    )
+}
+
+/// One mark: time, azimuth, elevation, colour.
+type Mark = (f64, f64, f64, RGBColor);
+
+/// The marks of `rows`, binned (see the module's documentation).
+pub fn marks(rows: &[DetectionRecord], duration: f64) -> Vec<(f64, f64, f64, u64)> {
+    let mut scale = 1.0;
+    loop {
+        let dt = duration.max(1e-9) / TIME_BINS as f64 * scale;
+        let mut cells: BTreeMap<(i64, i64, i64), usize> = BTreeMap::new();
+        for (i, r) in rows.iter().enumerate() {
+            let key = (
+                (r.time_s / dt).floor() as i64,
+                (r.azimuth_deg / scale).floor() as i64,
+                (r.elevation_deg / scale).floor() as i64,
+            );
+            cells.entry(key).or_insert(i);
+            if cells.len() > MAX_MARKS {
+                break;
+            }
+        }
+        if cells.len() <= MAX_MARKS {
+            let mut kept: Vec<usize> = cells.into_values().collect();
+            kept.sort_unstable();
+            return kept
+                .into_iter()
+                .map(|i| {
+                    let r = &rows[i];
+                    (r.time_s, r.azimuth_deg, r.elevation_deg, i as u64)
+                })
+                .collect();
+        }
+        scale *= 2.0;
+    }
+}
+
+/// Draws `data` (its files, or only `only`) with `truth` and its report, if any, as SVG.
+pub fn plot(
+    data: &PlotData,
+    only: Option<&str>,
+    truth: Option<(&Truth, &Report)>,
+) -> Result<String, PlotError> {
+    let files: Vec<&PlotFile> = data
+        .files
+        .iter()
+        .filter(|f| only.is_none_or(|o| f.name == o))
+        .collect();
+    if files.is_empty() {
+        return Err(PlotError::Empty(match only {
+            Some(o) => format!(
+                "no file {o:?} in the result (it has: {})",
+                data.files
+                    .iter()
+                    .map(|f| f.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            None => "the result holds no detections and no events to draw".into(),
+        }));
+    }
+    let height = ROW * files.len() as u32 + 40;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        let (head, body) = root.split_vertically(40);
+        head.draw_text(
+            &data.heading(),
+            &("sans-serif", 18).into_font().color(&BLACK),
+            (12, 10),
+        )
+        .map_err(draw_err)?;
+        let rows = body.split_evenly((files.len(), 1));
+        for (area, file) in rows.iter().zip(&files) {
+            draw_file(area, file, truth)?;
+        }
+        root.present().map_err(draw_err)?;
+    }
+    Ok(svg)
+}
+
+fn draw_file<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    file: &PlotFile,
+    truth: Option<(&Truth, &Report)>,
+) -> Result<(), PlotError> {
+    let duration = file
+        .duration()
+        .max(truth.map_or(0.0, |t| t.0.duration_s))
+        .max(1.0);
+    let (lo, hi) = file.score_range();
+    let kept = marks(&file.detections, duration);
+    let colour = |i: u64| {
+        let r = &file.detections[i as usize];
+        match r.source {
+            Some(s) => track_colour(s),
+            None => score_colour(if hi > lo {
+                (r.score - lo) / (hi - lo)
+            } else {
+                1.0
+            }),
+        }
+    };
+    let points: Vec<Mark> = kept
+        .iter()
+        .map(|&(t, a, e, i)| (t, a, e, colour(i)))
+        .collect();
+    let mut title = format!(
+        "{}: {} detections{}",
+        file.name,
+        file.detections.len(),
+        if file.events.is_empty() {
+            String::new()
+        } else {
+            format!(", {} events", file.events.len())
+        }
+    );
+    if kept.len() < file.detections.len() {
+        title += &format!(" ({} marks per panel, binned)", kept.len());
+    }
+    if let Some((_, report)) = truth {
+        title += &format!(
+            "; against the truth: mean error {}, events detected {}, {} false per minute",
+            report
+                .mean_error_deg
+                .map_or("-".into(), |e| format!("{e:.2} deg")),
+            report
+                .event_detection_rate
+                .map_or("-".into(), |r| format!("{:.0}%", 100.0 * r)),
+            report
+                .false_per_minute
+                .map_or("-".into(), |r| format!("{r:.1}")),
+        );
+    }
+    if file.detections.first().is_some_and(|r| r.source.is_none()) {
+        title += "; colour: score (dark low, bright high)";
+    } else if !file.detections.is_empty() {
+        title += "; colour: tracked source";
+    }
+    let area = area.titled(&title, ("sans-serif", 15)).map_err(draw_err)?;
+    let (azimuth, rest) = area.split_horizontally(560);
+    let (elevation, sky) = rest.split_horizontally(560);
+    // Azimuth and elevation against time.
+    for (panel, which, range, label) in [
+        (&azimuth, 0usize, -180.0..180.0, "azimuth (deg)"),
+        (&elevation, 1, -90.0..90.0, "elevation (deg)"),
+    ] {
+        let mut chart = ChartBuilder::on(panel)
+            .margin(8)
+            .x_label_area_size(36)
+            .y_label_area_size(48)
+            .build_cartesian_2d(0.0..duration, range)
+            .map_err(draw_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("time (s)")
+            .y_desc(label)
+            .max_light_lines(0)
+            .bold_line_style(RGBColor(225, 225, 225))
+            .x_labels(10)
+            .y_labels(9)
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .draw()
+            .map_err(draw_err)?;
+        let value = |a: f64, e: f64| if which == 0 { a } else { e };
+        if let Some((t, _)) = truth {
+            for s in &t.sources {
+                for &[a, b] in &s.active {
+                    let v = value(s.azimuth_deg, s.elevation_deg);
+                    chart
+                        .draw_series(LineSeries::new([(a, v), (b, v)], BLACK.stroke_width(2)))
+                        .map_err(draw_err)?;
+                }
+            }
+        }
+        for e in &file.events {
+            let v = value(e.azimuth_deg, e.elevation_deg);
+            let c = track_colour(e.source);
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [
+                        (e.start_s, v - 2.5),
+                        (e.end_s.max(e.start_s + duration / 400.0), v + 2.5),
+                    ],
+                    c.mix(0.35).filled(),
+                )))
+                .map_err(draw_err)?;
+        }
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .map(|&(t, a, e, c)| Circle::new((t, value(a, e)), 2, c.filled())),
+            )
+            .map_err(draw_err)?;
+    }
+    // The sky map.
+    let mut chart = ChartBuilder::on(&sky)
+        .margin(8)
+        .x_label_area_size(36)
+        .y_label_area_size(48)
+        .build_cartesian_2d(-180.0..180.0, -90.0..90.0)
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("azimuth (deg)")
+        .y_desc("elevation (deg)")
+        .max_light_lines(0)
+        .bold_line_style(RGBColor(225, 225, 225))
+        .x_labels(7)
+        .y_labels(7)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .draw()
+        .map_err(draw_err)?;
+    if let Some((t, _)) = truth {
+        chart
+            .draw_series(
+                t.sources.iter().map(|s| {
+                    Cross::new((s.azimuth_deg, s.elevation_deg), 7, BLACK.stroke_width(2))
+                }),
+            )
+            .map_err(draw_err)?;
+    }
+    chart
+        .draw_series(
+            points
+                .iter()
+                .map(|&(_, a, e, c)| Circle::new((a, e), 2, c.filled())),
+        )
+        .map_err(draw_err)?;
+    Ok(())
+}
+
+impl PlotFile {
+    /// The last time in the file's rows and events.
+    fn duration(&self) -> f64 {
+        let rows = self.detections.iter().map(|r| r.time_s);
+        let events = self.events.iter().map(|e| e.end_s);
+        rows.chain(events).fold(0.0, f64::max)
+    }
+
+    /// The lowest and highest score.
+    fn score_range(&self) -> (f64, f64) {
+        self.detections
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                (lo.min(r.score), hi.max(r.score))
+            })
+    }
+}
+
+impl PlotData {
+    /// The picture's heading: the array and the threshold, when the result says.
+    fn heading(&self) -> String {
+        let mut s = String::from("ssl plot");
+        if let Some(a) = &self.array {
+            s += &format!(" | array: {a}");
+        }
+        if let Some(t) = &self.threshold {
+            s += &format!(" | threshold: {t}");
+        }
+        s
+    }
+}
