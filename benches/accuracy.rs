@@ -7,7 +7,9 @@
 #[path = "../tests/support/mod.rs"]
 mod support;
 
+use ssl::evaluate::evaluate;
 use ssl::method::Interpolation;
+use ssl::plot::{plot, PlotData, PlotFile};
 use ssl::sim::scene::SignalKind;
 use ssl::{Params, Truth};
 use std::path::PathBuf;
@@ -31,6 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Optional: `paper`, or a tolerance and a residual gate in microseconds, to compare
     // with the defaults (docs/field.md).
     let args = support::harness::args();
+    std::fs::create_dir_all(support::testdata("../docs/plots"))?;
     let params = support::harness::params_from(&args);
 
     println!("# Accuracy benchmark\n");
@@ -64,6 +67,30 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             pooled.cell(),
             cells.join(" | ")
         );
+    }
+    // One picture per condition (the speech-like recording), with the defaults only.
+    if args.is_empty() {
+        println!("\nThe speech-like recording of each condition, drawn by `ssl plot` with its truth (black lines and crosses: the true directions and active intervals; marks: detections, coloured by score):\n");
+        for (row, &(d, el, _)) in TABLE_I.iter().enumerate() {
+            let (wav, truth) = &table[row][0];
+            let mut records = bench.records(wav, &params)?;
+            let name = format!("Table I, {d} m, {el:+} deg, speech-like");
+            records.iter_mut().for_each(|r| r.file = name.clone());
+            let report = evaluate(truth, &records, truth.rt60_s().map_or(0.0, |t| t / 2.0))?;
+            let data = PlotData {
+                files: vec![PlotFile {
+                    name: name.clone(),
+                    detections: records,
+                    events: Vec::new(),
+                }],
+                array: Some("the paper's prism (8 mics)".into()),
+                threshold: None,
+            };
+            let svg = plot(&data, None, Some((truth, &report)))?;
+            let file = format!("plots/table1-{row}.svg");
+            std::fs::write(support::testdata("../docs").join(&file), svg)?;
+            println!("![{name}]({file})\n");
+        }
     }
 
     // Background alone: a minute of the lab's noise, one event at the very end.

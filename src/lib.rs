@@ -22,6 +22,9 @@
 //!     pairs.rs        microphone pairs, numbered once
 //!     search.rs       the consistent delay set with the greatest correlation (eq. 8)
 //!     direction.rs    far-field least-squares direction (eq. 9-13)
+//!     threshold.rs    the threshold calibrated against the background (beyond the paper)
+//!     background.rs   the steady background subtracted from the correlations (beyond)
+//!     sequential.rs   the noise estimate in frame order
 //!     outcome.rs      detections, counters, stage times
 //!     worker.rs       one frame through the stages
 //!     analyzer.rs     a recording's frames in blocks, on several threads, with priming

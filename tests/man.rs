@@ -93,7 +93,14 @@ fn help_and_man_pages_say_only_what_is_true() {
         help.contains("Examples:") && help.contains("<FILE>..."),
         "{help}"
     );
-    for sub in ["analyze", "geometry", "simulate", "evaluate", "plot", "completions"] {
+    for sub in [
+        "analyze",
+        "geometry",
+        "simulate",
+        "evaluate",
+        "plot",
+        "completions",
+    ] {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_ssl"))
             .args([sub, "-V"])
             .output()

@@ -143,8 +143,8 @@ impl Bench {
         Ok((path, sim.truth))
     }
 
-    /// Analyses a recording with `params` and scores it.
-    pub fn score(&self, wav: &Path, truth: &Truth, params: &Params) -> Result<Report> {
+    /// Analyses a recording with `params`: its records.
+    pub fn records(&self, wav: &Path, params: &Params) -> Result<Vec<DetectionRecord>> {
         let geometry = Geometry::from_file(&self.dir.path().join("prism.toml"))?;
         let name = wav.display().to_string();
         let analysis = Analysis::open(&name, &geometry, params)?;
@@ -154,6 +154,12 @@ impl Bench {
             ControlFlow::Continue(())
         });
         result?;
+        Ok(records)
+    }
+
+    /// Analyses a recording with `params` and scores it.
+    pub fn score(&self, wav: &Path, truth: &Truth, params: &Params) -> Result<Report> {
+        let records = self.records(wav, params)?;
         Ok(evaluate(
             truth,
             &records,
