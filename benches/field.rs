@@ -25,21 +25,15 @@ mod support;
 use nalgebra::Vector3;
 use ssl::evaluate::evaluate;
 use ssl::method::direction::angle_between_deg;
-use ssl::sim::scene::{
-    ArraySpec, Colour, DiffuseSpec, FanSpec, NoiseSpec, RoomSpec, SampleFormat, SceneFile,
-    SignalKind, SourceSpec,
-};
+use ssl::sim::scene::{SceneFile, SignalKind, SourceSpec};
 use ssl::track::TrackParams;
 use ssl::{DetectionRecord, Geometry, Params, Truth};
 use std::error::Error;
 use std::path::Path;
-use support::bench::azimuths;
+use support::bench::{azimuths, speech_room};
 use support::harness::analyse_scene;
 
-const CLIPS: [(&str, f64); 2] = [
-    ("cmu_arctic_us_aew_a0001.wav", 3.9),
-    ("cmu_arctic_us_axb_a0004.wav", 2.8),
-];
+use support::{circle, SPEECH as CLIPS};
 
 /// An array: its name, positions, and the distance and elevation of its sources.
 struct Array {
@@ -53,15 +47,6 @@ struct Array {
 }
 
 fn arrays() -> Vec<Array> {
-    let circle = |k: usize, r: f64| -> Vec<Vector3<f64>> {
-        (0..k)
-            .map(|i| {
-                let a = std::f64::consts::TAU * i as f64 / k as f64;
-                Vector3::new(r * a.cos(), r * a.sin(), 0.0)
-            })
-            .collect()
-    };
-    let e = 0.065 / (2.0 * 2f64.sqrt());
     vec![
         Array {
             name: "prism (8 mics, 50 x 40 x 36 cm)",
@@ -79,12 +64,7 @@ fn arrays() -> Vec<Array> {
         },
         Array {
             name: "tetrahedron (4 mics, 6.5 cm edge)",
-            mics: vec![
-                Vector3::new(e, e, e),
-                Vector3::new(e, -e, -e),
-                Vector3::new(-e, e, -e),
-                Vector3::new(-e, -e, e),
-            ],
+            mics: support::tetrahedron(0.065),
             distance: 1.5,
             elevation: 15.0,
             axis: None,
@@ -166,41 +146,9 @@ fn scene(array: &Array, rate: u32, kind: Kind, seed: u64) -> SceneFile {
         t
     };
     let near = kind == Kind::NearFan;
-    SceneFile {
-        sample_rate: rate,
-        duration,
-        seed,
-        format: SampleFormat::Float32,
-        speed_of_sound: None,
-        room: Some(RoomSpec {
-            dimensions: [8.0, 7.0, 3.0],
-            rt60: Some(if near { 0.2 } else { 0.35 }),
-            absorption: None,
-        }),
-        array: ArraySpec {
-            geometry: "array.toml".into(),
-            position: [4.0, 3.5, 0.8],
-            yaw_deg: 0.0,
-        },
-        source: sources,
-        noise: Some(NoiseSpec {
-            snr_db: 10.0,
-            sensor_db: Some(-70.0),
-            fan: vec![FanSpec {
-                position: if near {
-                    [4.7, 4.0, 0.9]
-                } else {
-                    [7.6, 6.6, 2.7]
-                },
-                signal: Colour::Pink,
-                weight_db: 0.0,
-            }],
-            diffuse: Some(DiffuseSpec {
-                signal: Colour::Pink,
-                weight_db: -6.0,
-            }),
-        }),
-    }
+    let mut scene = speech_room(rate, duration, seed, if near { 0.2 } else { 0.35 }, near);
+    scene.source = sources;
+    scene
 }
 
 /// Simulates a scene and analyses it in memory, through the tracker with `track` on
@@ -285,12 +233,7 @@ fn confidently_wrong(records: &[DetectionRecord], truth: &Truth) -> usize {
 fn main() -> Result<(), Box<dyn Error>> {
     let started = std::time::Instant::now();
     let dir = tempfile::tempdir()?;
-    for (clip, _) in CLIPS {
-        std::fs::copy(
-            support::testdata(&format!("speech/{clip}")),
-            dir.path().join(clip),
-        )?;
-    }
+    support::copy_speech(dir.path())?;
     // Optional: other parameters (see `params_from`), and `grid` for the RT60 x SNR grid.
     let mut args = support::harness::args();
     let grid = args.iter().any(|a| a == "grid");

@@ -77,11 +77,7 @@ fn speech_scene_toml(rate: u32, seconds: f64) -> String {
          signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n"
 }
 
-/// The speech clips (in testdata/speech) and their lengths in seconds.
-const CLIPS: [(&str, f64); 2] = [
-    ("cmu_arctic_us_aew_a0001.wav", 3.9),
-    ("cmu_arctic_us_axb_a0004.wav", 2.8),
-];
+use support::SPEECH as CLIPS;
 
 struct Case {
     name: String,
@@ -185,12 +181,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         let array = path("array.toml");
         std::fs::write(&array, geometry_toml(&case.mics, ""))?;
         let scene = if case.speech {
-            for (clip, _) in CLIPS {
-                std::fs::copy(
-                    support::testdata(&format!("speech/{clip}")),
-                    dir.path().join(clip),
-                )?;
-            }
+            support::copy_speech(dir.path())?;
             speech_scene_toml(case.rate, case.seconds)
         } else {
             scene_toml(case.rate, case.seconds)

@@ -17,19 +17,14 @@ mod support;
 
 use nalgebra::Vector3;
 use ssl::evaluate::{evaluate, TrackReport};
-use ssl::sim::scene::{
-    ArraySpec, Colour, DiffuseSpec, FanSpec, NoiseSpec, RoomSpec, SampleFormat, SceneFile,
-    SignalKind, SourceSpec,
-};
+use ssl::sim::scene::{SceneFile, SignalKind, SourceSpec};
 use ssl::track::TrackParams;
 use ssl::Geometry;
 use std::error::Error;
+use support::bench::speech_room;
 use support::harness::analyse_scene;
 
-const CLIPS: [(&str, f64); 2] = [
-    ("cmu_arctic_us_aew_a0001.wav", 3.9),
-    ("cmu_arctic_us_axb_a0004.wav", 2.8),
-];
+use support::{circle, SPEECH as CLIPS};
 
 struct Array {
     name: &'static str,
@@ -40,15 +35,6 @@ struct Array {
 }
 
 fn arrays() -> Vec<Array> {
-    let circle = |k: usize, r: f64| -> Vec<Vector3<f64>> {
-        (0..k)
-            .map(|i| {
-                let a = std::f64::consts::TAU * i as f64 / k as f64;
-                Vector3::new(r * a.cos(), r * a.sin(), 0.0)
-            })
-            .collect()
-    };
-    let e = 0.065 / (2.0 * 2f64.sqrt());
     vec![
         Array {
             name: "prism (8 mics)",
@@ -66,12 +52,7 @@ fn arrays() -> Vec<Array> {
         },
         Array {
             name: "tetrahedron (6.5 cm)",
-            mics: vec![
-                Vector3::new(e, e, e),
-                Vector3::new(e, -e, -e),
-                Vector3::new(-e, e, -e),
-                Vector3::new(-e, -e, e),
-            ],
+            mics: support::tetrahedron(0.065),
             distance: 1.5,
             elevation: 15.0,
             rates: &[16000],
@@ -95,44 +76,6 @@ fn talker(array: &Array, azimuth: f64, clip: usize, active: Vec<[f64; 2]>) -> So
     }
 }
 
-fn room(rate: u32, duration: f64, seed: u64, rt60: f64, near_fan: bool) -> SceneFile {
-    SceneFile {
-        sample_rate: rate,
-        duration,
-        seed,
-        format: SampleFormat::Float32,
-        speed_of_sound: None,
-        room: Some(RoomSpec {
-            dimensions: [8.0, 7.0, 3.0],
-            rt60: Some(rt60),
-            absorption: None,
-        }),
-        array: ArraySpec {
-            geometry: "array.toml".into(),
-            position: [4.0, 3.5, 0.8],
-            yaw_deg: 0.0,
-        },
-        source: Vec::new(),
-        noise: Some(NoiseSpec {
-            snr_db: 10.0,
-            sensor_db: Some(-70.0),
-            fan: vec![FanSpec {
-                position: if near_fan {
-                    [4.7, 4.0, 0.9]
-                } else {
-                    [7.6, 6.6, 2.7]
-                },
-                signal: Colour::Pink,
-                weight_db: 0.0,
-            }],
-            diffuse: Some(DiffuseSpec {
-                signal: Colour::Pink,
-                weight_db: -6.0,
-            }),
-        }),
-    }
-}
-
 /// Four talkers taking twelve turns.
 fn meeting(array: &Array, rate: u32, rt60: f64, seed: u64) -> SceneFile {
     let azimuths = [-135.0, -40.0, 50.0, 140.0];
@@ -145,7 +88,7 @@ fn meeting(array: &Array, rate: u32, rt60: f64, seed: u64) -> SceneFile {
         active[who].push([t, t + length]);
         t += length + gaps[turn % gaps.len()];
     }
-    let mut scene = room(rate, t + 1.5, seed, rt60, false);
+    let mut scene = speech_room(rate, t + 1.5, seed, rt60, false);
     scene.source = (0..4)
         .map(|i| talker(array, azimuths[i], i % 2, active[i].clone()))
         .collect();
@@ -154,7 +97,7 @@ fn meeting(array: &Array, rate: u32, rt60: f64, seed: u64) -> SceneFile {
 
 /// Two talkers at once, `separation` degrees apart, for 2.8 s.
 fn together(array: &Array, rate: u32, separation: f64, seed: u64) -> SceneFile {
-    let mut scene = room(rate, 5.0, seed, 0.35, false);
+    let mut scene = speech_room(rate, 5.0, seed, 0.35, false);
     scene.source = vec![
         talker(array, 20.0, 0, vec![[1.0, 3.8]]),
         talker(array, 20.0 - separation, 1, vec![[1.0, 3.8]]),
@@ -165,7 +108,7 @@ fn together(array: &Array, rate: u32, separation: f64, seed: u64) -> SceneFile {
 /// A minute of noise alone (one talker at the very end, which the noise level needs).
 fn background(array: &Array, rate: u32, near_fan: bool, seed: u64) -> SceneFile {
     let rt60 = if near_fan { 0.2 } else { 0.35 };
-    let mut scene = room(rate, 64.5, seed, rt60, near_fan);
+    let mut scene = speech_room(rate, 64.5, seed, rt60, near_fan);
     scene.source = vec![talker(array, 20.0, 1, vec![[61.0, 63.8]])];
     scene
 }
@@ -185,12 +128,7 @@ fn opt(v: Option<f64>, d: usize) -> String {
 fn main() -> Result<(), Box<dyn Error>> {
     let started = std::time::Instant::now();
     let dir = tempfile::tempdir()?;
-    for (clip, _) in CLIPS {
-        std::fs::copy(
-            support::testdata(&format!("speech/{clip}")),
-            dir.path().join(clip),
-        )?;
-    }
+    support::copy_speech(dir.path())?;
     let params = support::harness::params_from(&support::harness::args());
     let track = Some(TrackParams::default());
     let mut meetings = String::new();

@@ -301,9 +301,7 @@ fn speech_scene(
     distance: f64,
     elevation: f64,
 ) -> (std::path::PathBuf, ssl::Truth) {
-    for clip in ["cmu_arctic_us_aew_a0001.wav", "cmu_arctic_us_axb_a0004.wav"] {
-        std::fs::copy(testdata(&format!("speech/{clip}")), dir.join(clip)).unwrap();
-    }
+    copy_speech(dir).unwrap();
     let mut scene = format!("sample_rate = {rate}\nduration = 15.0\nseed = 3\n[room]\ndimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n[array]\ngeometry = \"{geometry}\"\nposition = [4.0, 3.5, 0.8]\n");
     let events = [
         (-140.0, 1.0, "aew_a0001", 3.9),
@@ -324,14 +322,7 @@ fn speech_scene(
 
 /// A tetrahedron of 6.5 cm edge as `tetra.toml` in `dir`.
 fn tetrahedron_file(dir: &Path) {
-    let e = 0.065 / (2.0 * 2f64.sqrt());
-    let tetra = [
-        nalgebra::Vector3::new(e, e, e),
-        nalgebra::Vector3::new(e, -e, -e),
-        nalgebra::Vector3::new(-e, e, -e),
-        nalgebra::Vector3::new(-e, -e, e),
-    ];
-    write(dir, "tetra.toml", geometry_toml(&tetra, ""));
+    write(dir, "tetra.toml", geometry_toml(&tetrahedron(0.065), ""));
 }
 
 /// `ssl analyze` of `wav` with the array of `geometry` and `extra` arguments, scored.

@@ -10,9 +10,7 @@ use support::*;
 /// Two talkers taking turns, A, B, then A again from the same place, on the prism at
 /// 16 kHz in the paper's room (RT60 0.35 s, fan and diffuse noise 10 dB below): `wav`.
 fn turns(dir: &std::path::Path) -> std::path::PathBuf {
-    for clip in ["cmu_arctic_us_aew_a0001.wav", "cmu_arctic_us_axb_a0004.wav"] {
-        std::fs::copy(testdata(&format!("speech/{clip}")), dir.join(clip)).unwrap();
-    }
+    copy_speech(dir).unwrap();
     write(dir, "prism.toml", geometry_toml(&prism(), ""));
     let mut scene = String::from(
         "sample_rate = 16000\nduration = 12.5\nseed = 11\n[room]\ndimensions = [8.0, 7.0, 3.0]\n\

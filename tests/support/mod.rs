@@ -15,6 +15,41 @@ use ssl::Geometry;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
+/// The CMU ARCTIC sentences in `testdata/speech/` and their lengths (seconds).
+pub const SPEECH: [(&str, f64); 2] = [
+    ("cmu_arctic_us_aew_a0001.wav", 3.9),
+    ("cmu_arctic_us_axb_a0004.wav", 2.8),
+];
+
+/// Copies the [`SPEECH`] clips into `dir` (scene files name them there).
+pub fn copy_speech(dir: &Path) -> std::io::Result<()> {
+    for (clip, _) in SPEECH {
+        std::fs::copy(testdata(&format!("speech/{clip}")), dir.join(clip))?;
+    }
+    Ok(())
+}
+
+/// `k` microphones on a horizontal circle of radius `r` (m), the first on +x.
+pub fn circle(k: usize, r: f64) -> Vec<Vector3<f64>> {
+    (0..k)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / k as f64;
+            Vector3::new(r * a.cos(), r * a.sin(), 0.0)
+        })
+        .collect()
+}
+
+/// A regular tetrahedron of `edge` (m), centred on the origin.
+pub fn tetrahedron(edge: f64) -> Vec<Vector3<f64>> {
+    let e = edge / (2.0 * 2f64.sqrt());
+    vec![
+        Vector3::new(e, e, e),
+        Vector3::new(e, -e, -e),
+        Vector3::new(-e, e, -e),
+        Vector3::new(-e, -e, e),
+    ]
+}
+
 /// The shipped files: `testdata/NAME`.
 pub fn testdata(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
