@@ -54,7 +54,11 @@ pub struct Tracker {
     next_key: u64,
     ready: Vec<Tracked>,
     events: Vec<Event>,
+    /// Per frame, reused: candidate pairings, detections placed, tracks and candidates
+    /// taken (`true` for a track, then its id or key).
     pairs: Vec<(f64, usize, Slot)>,
+    used: Vec<bool>,
+    taken: Vec<(bool, u64)>,
 }
 
 impl Tracker {
@@ -71,6 +75,8 @@ impl Tracker {
             ready: Vec::new(),
             events: Vec::new(),
             pairs: Vec::new(),
+            used: Vec::new(),
+            taken: Vec::new(),
         }
     }
 
@@ -103,8 +109,11 @@ impl Tracker {
         }
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut used = vec![false; detections.len()];
-        let mut taken: Vec<(bool, u64)> = Vec::new();
+        let mut used = std::mem::take(&mut self.used);
+        used.clear();
+        used.resize(detections.len(), false);
+        let mut taken = std::mem::take(&mut self.taken);
+        taken.clear();
         for &(_, i, slot) in &pairs {
             let key = match slot {
                 Slot::Track(id) => (true, id),
@@ -118,6 +127,7 @@ impl Tracker {
             self.join(&detections[i], slot);
         }
         self.pairs = pairs;
+        self.taken = taken;
         for (d, _) in detections.iter().zip(&used).filter(|(_, &u)| !u) {
             let key = self.next_key;
             self.next_key += 1;
@@ -130,6 +140,7 @@ impl Tracker {
             });
             self.join(d, Slot::Candidate(key));
         }
+        self.used = used;
         self.release();
     }
 
