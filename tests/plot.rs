@@ -181,6 +181,14 @@ fn what_is_not_a_result_is_refused_in_one_line() {
     assert_eq!(o.status.code(), Some(1));
     let e = stderr(&o);
     assert!(e.contains("bad.json") && e.lines().count() == 1, "{e}");
+    let text = write(dir.path(), "notes.txt", "garbage\n");
+    let o = plot(&[s(&text)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("not a result of ssl analyze"),
+        "{}",
+        stderr(&o)
+    );
     let empty = write(
         dir.path(),
         "empty.csv",

@@ -64,7 +64,19 @@ pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
     let mut data = PlotData::default();
     let trimmed = text.trim_start();
     if !trimmed.starts_with('{') {
-        let events = trimmed.starts_with("file,source,start_s");
+        let events = trimmed.starts_with("file,source,start_s,");
+        if !events && !trimmed.starts_with("time_s,") {
+            let first = trimmed
+                .lines()
+                .next()
+                .unwrap_or("")
+                .chars()
+                .take(60)
+                .collect::<String>();
+            return Err(bad(format!(
+                "not a result of ssl analyze: its first line is {first:?}, not a CSV header of detections or events"
+            )));
+        }
         let mut reader = csv::Reader::from_reader(text.as_bytes());
         let headers = reader.headers().map_err(|e| bad(e.to_string()))?.clone();
         for (i, row) in reader.records().enumerate() {
