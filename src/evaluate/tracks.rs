@@ -179,9 +179,25 @@ pub(super) fn score_tracks(
                 .any(|s| s.intervals.iter().any(|&iv| matches(e, s, iv)))
         })
         .count();
-    // Several sources at once.
+    // Several sources at once: the (source, window) pairs with a row, in one pass.
+    // The window [w * W, (w + 1) * W) holding t, with the bounds computed as below.
+    let window_of = |t: f64| {
+        let w = (t / OVERLAP_WINDOW_S).floor() as i64;
+        if t >= (w + 1) as f64 * OVERLAP_WINDOW_S {
+            w + 1
+        } else if t < w as f64 * OVERLAP_WINDOW_S {
+            w - 1
+        } else {
+            w
+        }
+    };
+    let seen: std::collections::BTreeSet<(usize, i64)> = dets
+        .iter()
+        .zip(&owner)
+        .filter_map(|(d, o)| o.map(|i| (i, window_of(d.time_s))))
+        .collect();
     let (mut overlap_pairs, mut overlap_detected) = (0, 0);
-    let windows = (duration_s / OVERLAP_WINDOW_S).floor() as usize;
+    let windows = (duration_s / OVERLAP_WINDOW_S).floor() as i64;
     for w in 0..windows {
         let (w0, w1) = (
             w as f64 * OVERLAP_WINDOW_S,
@@ -198,14 +214,8 @@ pub(super) fn score_tracks(
         if on.len() < 2 {
             continue;
         }
-        for &i in &on {
-            overlap_pairs += 1;
-            let hit = dets
-                .iter()
-                .zip(&owner)
-                .any(|(d, o)| *o == Some(i) && d.time_s >= w0 && d.time_s < w1);
-            overlap_detected += hit as usize;
-        }
+        overlap_pairs += on.len();
+        overlap_detected += on.iter().filter(|&&i| seen.contains(&(i, w))).count();
     }
     let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
     TrackReport {

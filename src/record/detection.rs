@@ -1,6 +1,6 @@
 //! One row of `ssl analyze`: a detected source in one frame.
 
-use super::{fixed, OutputError};
+use super::{first_non_finite, fixed, OutputError};
 use crate::method::Detection;
 use serde::{Deserialize, Serialize};
 
@@ -70,8 +70,8 @@ impl DetectionRecord {
             ("z", record.z),
             ("score", record.score),
         ];
-        match values.iter().find(|(_, v)| !v.is_finite()) {
-            Some(&(field, _)) => Err(OutputError::NonFinite {
+        match first_non_finite(&values) {
+            Some(field) => Err(OutputError::NonFinite {
                 field,
                 file: file.to_string(),
                 frame: d.frame,

@@ -1,6 +1,6 @@
 //! One row of `ssl analyze --events`: a stretch of activity of one tracked source.
 
-use super::{fixed, OutputError};
+use super::{first_non_finite, fixed, OutputError};
 use crate::method::direction::angles_deg;
 use crate::track::Event;
 use serde::{Deserialize, Serialize};
@@ -64,8 +64,8 @@ impl EventRecord {
             ("spread_deg", record.spread_deg),
             ("score", record.score),
         ];
-        match values.iter().find(|(_, v)| !v.is_finite()) {
-            Some(&(field, _)) => Err(OutputError::NonFiniteEvent {
+        match first_non_finite(&values) {
+            Some(field) => Err(OutputError::NonFiniteEvent {
                 field,
                 file: file.to_string(),
                 track: e.source,
