@@ -33,7 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Optional: `paper`, or a tolerance and a residual gate in microseconds, to compare
     // with the defaults (docs/field.md).
     let args = support::harness::args();
-    std::fs::create_dir_all(support::testdata("../docs/plots"))?;
+    std::fs::create_dir_all(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/plots"))?;
     let params = support::harness::params_from(&args);
 
     println!("# Accuracy benchmark\n");
@@ -88,7 +88,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             let svg = plot(&data, None, Some((truth, &report)))?;
             let file = format!("plots/table1-{row}.svg");
-            std::fs::write(support::testdata("../docs").join(&file), svg)?;
+            std::fs::write(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("docs")
+                    .join(&file),
+                svg,
+            )?;
             println!("![{name}]({file})\n");
         }
     }
