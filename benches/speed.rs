@@ -90,7 +90,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         let mut output = Duration::ZERO;
         let t = Instant::now();
         let (summary, result) = analysis.run(|_, detection| {
-            if let Some(d) = detection {
+            for d in detection {
                 let t = Instant::now();
                 let record = DetectionRecord::new("speed.wav", d).expect("finite");
                 csv.detection(&record).expect("a sink takes everything");

@@ -16,8 +16,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let analysis = Analysis::open(&wav, &geometry, &Params::default())?;
     println!("{wav}: frames of {} samples", analysis.frame_size());
     println!("  time_s  azimuth  elevation   score");
-    let (summary, result) = analysis.run(|_frame, detection| {
-        if let Some(d) = detection {
+    let (summary, result) = analysis.run(|_frame, detections| {
+        for d in detections {
             println!(
                 "{:8.3} {:8.1} {:10.1} {:7.1}",
                 d.time_s, d.azimuth_deg, d.elevation_deg, d.score

@@ -43,17 +43,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut out = Format::Ndjson.exporter(std::io::stdout().lock(), false);
     out.begin(&RunMetadata::new(&geometry, "tetrahedron", &params))?;
     let mut failed = None;
-    let (_, result) = analysis.run(|_, detection| {
-        let Some(d) = detection else {
-            return ControlFlow::Continue(());
-        };
-        match DetectionRecord::new("memory", d).and_then(|r| out.detection(&r)) {
-            Ok(()) => ControlFlow::Continue(()),
-            Err(e) => {
+    let (_, result) = analysis.run(|_, detections| {
+        for d in detections {
+            if let Err(e) = DetectionRecord::new("memory", d).and_then(|r| out.detection(&r)) {
                 failed = Some(e);
-                ControlFlow::Break(())
+                return ControlFlow::Break(());
             }
         }
+        ControlFlow::Continue(())
     });
     result?;
     if let Some(e) = failed {

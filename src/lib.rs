@@ -62,8 +62,8 @@
 //! let geometry = Geometry::from_file("testdata/prism.toml".as_ref())?;
 //! let analysis = Analysis::open("testdata/example.wav", &geometry, &Params::default())?;
 //! let mut detections = Vec::new();
-//! let (summary, result) = analysis.run(|_frame, detection| {
-//!     detections.extend(detection.cloned());
+//! let (summary, result) = analysis.run(|_frame, found| {
+//!     detections.extend_from_slice(found);
 //!     ControlFlow::Continue(())
 //! });
 //! result?;

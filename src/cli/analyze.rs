@@ -62,19 +62,19 @@ impl Output<'_> {
         output_error(&self.shown, e)
     }
 
-    /// Writes what the tracker has given out (or, without one, `detection`).
+    /// Writes what the tracker has given out (or, without one, `detections`).
     fn write(
         &mut self,
         name: &str,
         tracker: Option<&mut Tracker>,
-        detection: Option<&ssl::Detection>,
+        detections: &[ssl::Detection],
     ) -> Result<(), OutputError> {
         let exporter = self.exporter()?;
         let Some(tracker) = tracker else {
-            return match detection {
-                Some(d) => exporter.detection(&DetectionRecord::new(name, d)?),
-                None => Ok(()),
-            };
+            for d in detections {
+                exporter.detection(&DetectionRecord::new(name, d)?)?;
+            }
+            return Ok(());
         };
         for row in tracker.take_rows() {
             exporter.detection(&DetectionRecord::tracked(
@@ -127,17 +127,18 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         };
         let progress = Progress::new(show_progress, &analysis);
         let name = analysis.name().to_string();
-        let mut tracker = track.clone().map(Tracker::new);
+        let mut tracker = track
+            .clone()
+            .map(|p| Tracker::for_shape(p, &geometry.shape));
         // Frame i's centre is at (i + 1) hops (docs/interface.md, "Frames and time").
         let hop = analysis.frame_size() as f64 / 2.0 / analysis.sample_rate() as f64;
         let mut output_failure = None;
-        let (summary, result) = analysis.run(|index, detection| {
+        let (summary, result) = analysis.run(|index, detections| {
             progress.frame(index);
             if let Some(t) = tracker.as_mut() {
-                let here = detection.map_or(&[][..], std::slice::from_ref);
-                t.push((index as f64 + 1.0) * hop, here);
+                t.push((index as f64 + 1.0) * hop, detections);
             }
-            match out.write(&name, tracker.as_mut(), detection) {
+            match out.write(&name, tracker.as_mut(), detections) {
                 Ok(()) => ControlFlow::Continue(()),
                 Err(e) => {
                     output_failure = Some(e);
@@ -149,7 +150,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         if let Some(t) = tracker.as_mut() {
             t.finish();
             if output_failure.is_none() && summary.stats.frames > 0 {
-                output_failure = out.write(&name, Some(t), None).err();
+                output_failure = out.write(&name, Some(t), &[]).err();
             }
         }
         if let Some(e) = output_failure {

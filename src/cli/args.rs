@@ -5,10 +5,11 @@ use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
 use ssl::method::{
     Interpolation, Params, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S,
-    DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL,
-    DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES,
+    DEFAULT_MAX_SOURCES, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US,
+    DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
+    MAX_AVERAGE_FRAMES, MAX_SOURCES,
 };
-use ssl::track::TrackParams;
+use ssl::track::{TrackParams, DEFAULT_CANDIDATES};
 use ssl::{Format, Named};
 use std::path::PathBuf;
 
@@ -208,6 +209,14 @@ pub struct AnalyzeArgs {
     #[arg(long, conflicts_with = "no_track")]
     pub events: bool,
 
+    /// Also report candidates down to this share of the detection threshold, for the tracker to confirm (a track starts from 2 detections above the threshold, or 4 of which 1 is above it) or drop [default: 0.5 with the calibrated threshold, 1 (none) with --min-score]
+    #[arg(long, value_name = "SHARE", value_parser = candidate_share, conflicts_with_all = ["no_track", "paper"])]
+    pub candidates: Option<f64>,
+
+    /// The most sources reported in one frame (1 to 4); a further source must pass the threshold on its own (1 with --min-score)
+    #[arg(long, value_name = "K", default_value_t = DEFAULT_MAX_SOURCES as u8, value_parser = clap::value_parser!(u8).range(1..=MAX_SOURCES as i64), conflicts_with_all = ["paper", "min_score"])]
+    pub max_sources: u8,
+
     /// A track is confirmed by 2 detections within this many seconds of its first; rows wait up to this long
     #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = positive, conflicts_with = "no_track")]
     pub confirm_s: f64,
@@ -333,6 +342,15 @@ fn positive(s: &str) -> std::result::Result<f64, String> {
     Ok(v)
 }
 
+/// A share of the threshold: over 0, at most 1.
+fn candidate_share(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("{s} is not a number"))?;
+    if !(v > 0.0 && v <= 1.0) {
+        return Err(format!("{v} is not over 0 and at most 1"));
+    }
+    Ok(v)
+}
+
 impl AnalyzeArgs {
     /// The tracker's parameters, or `None` with `--no-track`.
     pub fn track_params(&self) -> Option<TrackParams> {
@@ -372,6 +390,25 @@ impl AnalyzeArgs {
                 1
             } else {
                 self.average_frames as usize
+            },
+            // The steered response only under the calibrated threshold: under a fixed
+            // one, sums of chance peaks pass it (tests/simulate.rs).
+            steered: !self.paper && self.min_score.is_none(),
+            max_sources: if self.paper || self.min_score.is_some() {
+                1
+            } else {
+                self.max_sources as usize
+            },
+            // Candidates only for a tracker to confirm, by default only under the
+            // calibrated threshold (under a fixed one they were mostly reflections).
+            candidates: if self.paper || self.no_track {
+                1.0
+            } else {
+                self.candidates.unwrap_or(if self.min_score.is_some() {
+                    1.0
+                } else {
+                    DEFAULT_CANDIDATES
+                })
             },
             ..Params::default()
         }

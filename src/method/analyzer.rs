@@ -16,7 +16,7 @@
 
 use super::background::Background;
 use super::frames::{FrameBlock, BLOCK};
-use super::outcome::{Detection, FrameStats, Outcome, StageTimes};
+use super::outcome::{Detections, FrameStats, Outcome, StageTimes};
 use super::params::{Params, ParamsError, Setup};
 use super::sequential::Sequential;
 use super::worker::{FrameState, Worker};
@@ -41,7 +41,7 @@ pub(crate) struct Analyzer {
     /// Per frame of the block, whether its correlations can be left out.
     skip: Vec<bool>,
     outcomes: Vec<Outcome>,
-    detections: Vec<Option<Detection>>,
+    detections: Vec<Detections>,
     times: Option<StageTimes>,
 }
 
@@ -66,7 +66,7 @@ impl Analyzer {
             hopeless: vec![false; BLOCK + setup.params.average_frames - 1],
             skip: vec![false; BLOCK],
             outcomes: vec![Outcome::Silent; BLOCK],
-            detections: vec![None; BLOCK],
+            detections: vec![Detections::default(); BLOCK],
             times: None,
             setup,
         })
@@ -131,11 +131,7 @@ impl Analyzer {
     /// Analyses the frames of `block` and returns their detections in frame order (frame
     /// `block.first + i` at `i`). `meanwhile` runs on the calling thread while the pool
     /// works, when there is more than one thread (the caller reads the next block).
-    pub fn analyse(
-        &mut self,
-        block: &FrameBlock,
-        meanwhile: impl FnOnce(),
-    ) -> &[Option<Detection>] {
+    pub fn analyse(&mut self, block: &FrameBlock, meanwhile: impl FnOnce()) -> &[Detections] {
         let count = block.count;
         if rayon::current_num_threads() > 1 {
             rayon::in_place_scope(|scope| {
@@ -195,10 +191,8 @@ impl Analyzer {
         let hopeless = &mut self.hopeless[..carried + count];
         for (c, hopeless) in hopeless.iter_mut().enumerate() {
             // A frame its own weights rule out has no detection (`Worker::decide`).
-            *hopeless = c < carried
-                || !live[c]
-                || states[c].steady
-                || states[c].ceiling < states[c].threshold;
+            *hopeless =
+                c < carried || !live[c] || states[c].steady || states[c].ceiling < states[c].floor;
         }
         for (i, skip) in self.skip[..count].iter_mut().enumerate() {
             let c = carried + i;
@@ -260,6 +254,7 @@ impl Analyzer {
 mod tests {
     use super::*;
     use crate::method::direction::unit_from_angles;
+    use crate::method::outcome::Detection;
     use crate::method::Interpolation;
     use crate::sim::freefield::{render, Place, Scene, Source};
     use crate::sim::signals::Signal;
@@ -278,7 +273,12 @@ mod tests {
             if block.count == 0 {
                 return all;
             }
-            all.extend_from_slice(analyzer.analyse(&block, || {}));
+            all.extend(
+                analyzer
+                    .analyse(&block, || {})
+                    .iter()
+                    .map(|d| d.as_slice().first().copied()),
+            );
         }
     }
 

@@ -13,6 +13,7 @@
 //! | far-field least-squares direction | [`direction`] | eq. (9)-(13) |
 //! | the coherent background, subtracted from the correlations | [`background`] | beyond the paper |
 //! | the detection threshold, calibrated against the background | [`threshold`] | beyond the paper |
+//! | steered response: partial agreement and several sources | [`steered`] | beyond the paper |
 //!
 //! [`Params`] holds the parameters; one frame goes through the stages in `worker.rs`, and
 //! the analyzer (`analyzer.rs`) runs a recording's frames through them in blocks on
@@ -23,6 +24,7 @@
 pub(crate) mod analyzer;
 pub mod background;
 pub mod correlation;
+mod detect;
 pub mod direction;
 pub mod frames;
 mod outcome;
@@ -32,13 +34,16 @@ pub mod peaks;
 pub mod search;
 mod sequential;
 pub mod spectrum;
+pub mod steered;
 pub mod threshold;
 pub mod weighting;
 mod worker;
 
 pub(crate) use analyzer::Analyzer;
 pub use background::DEFAULT_BACKGROUND_S;
-pub use outcome::{Detection, FrameStats, StageTimes};
+pub use outcome::{
+    Detection, Detections, FrameStats, StageTimes, DEFAULT_MAX_SOURCES, MAX_SOURCES,
+};
 pub use params::{
     default_frame_size, frame_size_for_ms, Params, ParamsError, DEFAULT_AVERAGE_FRAMES,
     DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL, DEFAULT_TOLERANCE,

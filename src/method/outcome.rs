@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 use std::time::{Duration, Instant};
 
 /// One detected source in one frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Detection {
     /// Frame index (frame `i` starts at sample `i * N / 2`).
     pub frame: u64,
@@ -23,10 +23,63 @@ pub struct Detection {
     pub score: f64,
     /// Microphones that took part (dead channels are left out).
     pub mics: usize,
+    /// The score over the frame's detection threshold. Under 1: a candidate, reported
+    /// only with [`Params::candidates`](crate::Params::candidates) under 1, for a
+    /// [`Tracker`](crate::track::Tracker) to confirm or drop (infinite with a threshold
+    /// of 0).
+    pub margin: f64,
+}
+
+/// The most sources one frame can give ([`Params::max_sources`](super::Params::max_sources)).
+pub const MAX_SOURCES: usize = 4;
+
+/// The most sources one frame gives by default ([`Params::max_sources`](super::Params::max_sources)).
+pub const DEFAULT_MAX_SOURCES: usize = 2;
+
+/// A frame's detections, strongest first (at most [`MAX_SOURCES`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Detections {
+    count: usize,
+    items: [Detection; MAX_SOURCES],
+}
+
+impl Detections {
+    /// One detection.
+    pub fn one(d: Detection) -> Self {
+        let mut all = Detections::default();
+        all.push(d);
+        all
+    }
+
+    /// Adds `d` (ignored when full).
+    pub fn push(&mut self, d: Detection) {
+        if self.count < MAX_SOURCES {
+            self.items[self.count] = d;
+            self.count += 1;
+        }
+    }
+
+    /// How many.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// None at all.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// The detections, strongest first.
+    pub fn as_slice(&self) -> &[Detection] {
+        &self.items[..self.count]
+    }
 }
 
 /// How a frame ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
+// Outcomes live in a buffer planned once per block: a boxed variant would allocate a
+// frame.
+#[allow(clippy::large_enum_variant)]
 pub(crate) enum Outcome {
     /// Every channel constant.
     Silent,
@@ -39,8 +92,8 @@ pub(crate) enum Outcome {
     /// `true`: the search hit its node budget; then the best set's score per pair when the
     /// frame was searched (`true`), else the most it could have scored per pair.
     BelowThreshold(bool, f64, bool),
-    /// A detection (`true`: the search hit its node budget).
-    Detected(Detection, bool),
+    /// One detection or more (`true`: the search hit its node budget).
+    Detected(Detections, bool),
 }
 
 /// Counters a run reports at the end.
@@ -50,6 +103,8 @@ pub struct FrameStats {
     pub frames: u64,
     /// Frames with a detection.
     pub detections: u64,
+    /// Detections beyond the first in their frame (several sources at once).
+    pub extra_detections: u64,
     /// Frames where every channel was constant (digital silence).
     pub silent_frames: u64,
     /// Per mic: frames where it was constant while others carried signal.
@@ -75,8 +130,8 @@ pub struct FrameStats {
 }
 
 impl FrameStats {
-    /// Counts a frame's outcome and returns its detection.
-    pub(crate) fn tally(&mut self, outcome: Outcome) -> Option<Detection> {
+    /// Counts a frame's outcome and returns its detections.
+    pub(crate) fn tally(&mut self, outcome: Outcome) -> Detections {
         let budget = match outcome {
             Outcome::Inconsistent(b) => {
                 self.inconsistent_frames += 1;
@@ -92,10 +147,14 @@ impl FrameStats {
                 *best = Some(best.map_or(per_pair, |b| b.max(per_pair)));
                 b
             }
-            Outcome::Detected(d, b) => {
+            Outcome::Detected(found, b) => {
                 self.detections += 1;
-                let p = d.score / crate::method::pairs::pair_count(d.mics) as f64;
-                self.best_score_per_pair = Some(self.best_score_per_pair.map_or(p, |b| b.max(p)));
+                self.extra_detections += found.len() as u64 - 1;
+                for d in found.as_slice() {
+                    let p = d.score / crate::method::pairs::pair_count(d.mics) as f64;
+                    self.best_score_per_pair =
+                        Some(self.best_score_per_pair.map_or(p, |b| b.max(p)));
+                }
                 b
             }
             Outcome::Silent | Outcome::Unsolved => false,
@@ -104,8 +163,8 @@ impl FrameStats {
             self.budget_frames += 1;
         }
         match outcome {
-            Outcome::Detected(d, _) => Some(d),
-            _ => None,
+            Outcome::Detected(found, _) => found,
+            _ => Detections::default(),
         }
     }
 }

@@ -69,6 +69,17 @@ pub struct Params {
     /// correlation (beyond the paper, see the `background` module; `None`: none, as in
     /// the paper; default [`DEFAULT_BACKGROUND_S`](super::background::DEFAULT_BACKGROUND_S)).
     pub background_s: Option<f64>,
+    /// The steered response ([`super::steered`], beyond the paper): a direction for
+    /// frames whose pairs do not all agree, and further sources (default on).
+    pub steered: bool,
+    /// The most sources one frame gives, `1..=`[`MAX_SOURCES`](super::MAX_SOURCES) (with
+    /// `steered`; default 1).
+    pub max_sources: usize,
+    /// Candidates scoring down to this share of the detection threshold are reported
+    /// too, with [`Detection::margin`](super::Detection::margin) under 1, for a tracker to
+    /// confirm or drop (default 1: none; `ssl analyze` uses
+    /// [`DEFAULT_CANDIDATES`](crate::track::DEFAULT_CANDIDATES) when it tracks).
+    pub candidates: f64,
 }
 
 impl Params {
@@ -80,6 +91,9 @@ impl Params {
             min_score_per_pair,
             threshold_sigmas: None,
             reverb_level: 0.0,
+            // Under a fixed threshold, sums of chance peaks pass the steered response.
+            steered: false,
+            max_sources: 1,
             ..Params::default()
         }
     }
@@ -95,6 +109,9 @@ impl Params {
             threshold_sigmas: None,
             reverb_level: 0.0,
             background_s: None,
+            steered: false,
+            max_sources: 1,
+            candidates: 1.0,
             ..Params::default()
         }
     }
@@ -122,6 +139,9 @@ impl Default for Params {
             threshold_sigmas: Some(DEFAULT_THRESHOLD_SIGMAS),
             reverb_level: DEFAULT_REVERB_LEVEL,
             background_s: Some(DEFAULT_BACKGROUND_S),
+            steered: true,
+            max_sources: super::DEFAULT_MAX_SOURCES,
+            candidates: 1.0,
         }
     }
 }
@@ -220,6 +240,12 @@ pub enum ParamsError {
     /// The number of frames averaged is 0 or more than [`MAX_AVERAGE_FRAMES`].
     #[error("the number of frames to average must be between 1 and {MAX_AVERAGE_FRAMES}, got {0}")]
     AverageFrames(usize),
+    /// The most sources per frame is out of range.
+    #[error("the most sources per frame must be 1 to 4, got {0}")]
+    MaxSources(usize),
+    /// The candidates' share of the threshold is not in (0, 1].
+    #[error("the candidates' share of the threshold must be over 0 and at most 1, got {0}")]
+    Candidates(f64),
     /// The threshold's allowance for chance is negative or not a number.
     #[error("the threshold's allowance for chance must be a non-negative number of standard deviations, got {0}")]
     ThresholdSigmas(f64),
@@ -292,6 +318,12 @@ impl Setup {
         }
         if !(1..=MAX_AVERAGE_FRAMES).contains(&params.average_frames) {
             return Err(ParamsError::AverageFrames(params.average_frames));
+        }
+        if !(params.candidates > 0.0 && params.candidates <= 1.0) {
+            return Err(ParamsError::Candidates(params.candidates));
+        }
+        if !(1..=super::MAX_SOURCES).contains(&params.max_sources) {
+            return Err(ParamsError::MaxSources(params.max_sources));
         }
         let mut params = params.clone();
         if let Some(us) = params.tolerance_us {

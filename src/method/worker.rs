@@ -8,13 +8,15 @@
 //! state for [`Worker::decide`].
 
 use super::correlation::{peak_ceiling, whiten, Correlator};
-use super::direction::{angles_deg, DirectionSolver};
-use super::outcome::{Clock, Detection, Outcome, StageTimes};
+use super::detect::{detection, direction, solver, Direction};
+use super::direction::DirectionSolver;
+use super::outcome::{Clock, Detections, Outcome, StageTimes};
 use super::pairs::{pair_count, pair_index};
 use super::params::Setup;
 use super::peaks::{find_peaks, Peak};
-use super::search::{Searcher, Solution};
+use super::search::Searcher;
 use super::spectrum::{frame_spectra, ForwardFft};
+use super::steered::{Query, Steer, Steered, FURTHER_SHARE};
 use super::weighting::enhanced_weights;
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
@@ -32,6 +34,10 @@ pub(crate) struct FrameState {
     pub ceiling: f64,
     /// The frame's detection threshold per pair.
     pub threshold: f64,
+    /// The lowest score per pair of a candidate: the threshold times
+    /// [`Params::candidates`](super::Params::candidates). Everything that rules frames
+    /// out compares with this.
+    pub floor: f64,
     /// With the calibrated threshold: nothing in the frame stands above the noise
     /// estimate (see [`super::threshold`]); such a frame gives no detection.
     pub steady: bool,
@@ -71,6 +77,7 @@ impl FrameState {
             weights: vec![1.0; setup.bins()],
             ceiling: 0.0,
             threshold: 0.0,
+            floor: 0.0,
             steady: false,
             mask: 0,
             windows: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
@@ -92,6 +99,11 @@ pub(crate) struct Worker {
     peaks: Vec<Vec<Peak>>,
     searcher: Searcher,
     solvers: HashMap<u64, Option<DirectionSolver>>,
+    /// Every pair's averaged correlation, laid out as [`FrameState`]'s `windows`.
+    averaged: Vec<f32>,
+    steered: Steered,
+    /// The directions found in a frame so far.
+    directions: Vec<nalgebra::Vector3<f64>>,
     /// Leave out correlations that cannot lead to a detection (always, but in a test).
     pub prune: bool,
 }
@@ -118,6 +130,19 @@ impl Worker {
                 .collect(),
             searcher: Searcher::new(setup.params.tolerance, setup.params.max_nodes),
             solvers: HashMap::new(),
+            averaged: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
+            directions: Vec::with_capacity(super::MAX_SOURCES),
+            steered: Steered::new(
+                &setup
+                    .geometry
+                    .mics
+                    .iter()
+                    .map(|m| m.position)
+                    .collect::<Vec<_>>(),
+                setup.rate,
+                setup.speed,
+                &setup.max_lag,
+            ),
             prune: true,
         }
     }
@@ -156,6 +181,7 @@ impl Worker {
         }
         state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.interpolation);
         state.threshold = setup.threshold_per_pair(&state.weights);
+        state.floor = state.threshold * setup.params.candidates;
         state.steady = setup.params.threshold_sigmas.is_some()
             && setup.params.weighting
             && state.ceiling <= setup.steady_ceiling;
@@ -189,7 +215,7 @@ impl Worker {
         }
         clock.lap(|t| &mut t.weighting);
         let alone = setup.params.average_frames == 1 && self.prune && !state.teaches;
-        let threshold = state.threshold * pairs as f64;
+        let threshold = state.floor * pairs as f64;
         let overshoot = setup.params.interpolation.overshoot() as f32;
         let norm = setup.n as f32;
         let whitened = &self.whitened;
@@ -254,7 +280,7 @@ impl Worker {
             return Outcome::Unsolved;
         }
         let pairs = pair_count(k) as f64;
-        let threshold = state.threshold * pairs;
+        let threshold = state.floor * pairs;
         // A frame that could not reach the threshold alone, or (calibrated) has nothing
         // above the noise estimate, has no detection: the average would only carry the
         // frames before it past their end.
@@ -291,7 +317,7 @@ impl Worker {
         let state = span.last().expect("a frame");
         let k = state.live.len();
         let pairs = pair_count(k) as f64;
-        let threshold = state.threshold * pairs;
+        let threshold = state.floor * pairs;
         if let Correlated::Stopped(bound) = state.correlated {
             return Outcome::BelowThreshold(false, bound / pairs, false);
         }
@@ -328,6 +354,7 @@ impl Worker {
                 if frames > 1.0 {
                     self.window.iter_mut().for_each(|s| *s /= frames);
                 }
+                self.averaged[start..start + 2 * half + 1].copy_from_slice(&self.window);
                 let peaks = &mut self.peaks[pair_index(a, b, k)];
                 find_peaks(
                     &self.window,
@@ -346,20 +373,104 @@ impl Worker {
         self.searcher.search(k, &self.peaks);
         clock.lap(|t| &mut t.search);
         let budget = self.searcher.exhausted();
-        let Some(solution) = self.searcher.solution() else {
-            return Outcome::Inconsistent(budget);
-        };
-        if solution.score < threshold {
-            return Outcome::BelowThreshold(budget, solution.score / pairs, true);
-        }
-        let outcome = match direction(&mut self.solvers, setup, state, index, solution) {
-            Direction::Found(detection) => Outcome::Detected(detection, budget),
-            // A set no single source explains is no more consistent than none.
-            Direction::Gated => Outcome::Inconsistent(budget),
-            Direction::None => Outcome::Unsolved,
+        let first = match self.searcher.solution() {
+            None => Outcome::Inconsistent(budget),
+            Some(solution) if solution.score < threshold => {
+                Outcome::BelowThreshold(budget, solution.score / pairs, true)
+            }
+            Some(solution) => match direction(&mut self.solvers, setup, state, index, solution) {
+                Direction::Found(detection) => {
+                    Outcome::Detected(Detections::one(detection), budget)
+                }
+                // A set no single source explains is no more consistent than none.
+                Direction::Gated => Outcome::Inconsistent(budget),
+                Direction::None => Outcome::Unsolved,
+            },
         };
         clock.lap(|t| &mut t.direction);
+        let outcome = self.steer(setup, state, index, threshold, first);
+        clock.lap(|t| &mut t.search);
         outcome
+    }
+
+    /// The steered response ([`super::steered`]): a direction when the consistency
+    /// search found none, and further sources after the first, up to
+    /// [`Params::max_sources`](super::Params::max_sources).
+    fn steer(
+        &mut self,
+        setup: &Setup,
+        state: &FrameState,
+        index: u64,
+        threshold: f64,
+        first: Outcome,
+    ) -> Outcome {
+        let (mut found, budget) = match first {
+            Outcome::Detected(found, budget) => (found, budget),
+            _ if setup.params.steered => (Detections::default(), false),
+            other => return other,
+        };
+        let wanted = if setup.params.steered {
+            setup.params.max_sources
+        } else {
+            1
+        };
+        if found.len() >= wanted {
+            return Outcome::Detected(found, budget);
+        }
+        let Some(solver) = solver(&mut self.solvers, setup, state) else {
+            return first;
+        };
+        let mut directions = std::mem::take(&mut self.directions);
+        directions.clear();
+        directions.extend(found.as_slice().iter().map(|d| d.direction));
+        let k = state.live.len();
+        let needed = pair_count(k).div_ceil(2);
+        let strong = state.threshold * pair_count(k) as f64;
+        while found.len() < wanted {
+            // A further source must pass the detection threshold itself (below it, the
+            // directions found were mostly the first source's reflections) and
+            // [`FURTHER_SHARE`] of the first's score (below that, its side lobes).
+            let floor = match found.as_slice().first() {
+                None => threshold,
+                Some(first) => strong.max(FURTHER_SHARE * first.score),
+            };
+            let Some(Steer {
+                direction: u,
+                score,
+                agreeing,
+            }) = self.steered.search(
+                &mut self.averaged,
+                &Query {
+                    live: &state.live,
+                    mics: setup.mics(),
+                    found: &directions,
+                    tolerance: setup.params.tolerance,
+                    floor,
+                },
+                solver,
+            )
+            else {
+                break;
+            };
+            if score < floor || agreeing < needed {
+                break;
+            }
+            // Delays no single source explains (a source's mixed with a reflection's)
+            // are no more a direction here than in the consistency search.
+            if let Some(gate) = setup.params.residual_gate_us {
+                if solver.residual_m(self.steered.best_lags(), &u) / setup.speed * 1e6 > gate {
+                    break;
+                }
+            }
+            found.push(detection(setup, state, index, u, score));
+            directions.push(u);
+        }
+        self.directions = directions;
+        if found.is_empty() {
+            first
+        } else {
+            Outcome::Detected(found, budget)
+        }
     }
 }
 
@@ -375,46 +486,4 @@ pub(crate) fn span_ceiling(span: &[FrameState]) -> f64 {
     } else {
         0.0
     }
-}
-
-/// The direction of eq. (13) for the frame's set of live microphones (the solver is
-/// made once per set), as a detection.
-/// What the direction stage makes of a consistent set.
-enum Direction {
-    Found(Detection),
-    /// No single source explains the delays (the residual gate).
-    Gated,
-    /// The system gives no direction.
-    None,
-}
-
-fn direction(
-    solvers: &mut HashMap<u64, Option<DirectionSolver>>,
-    setup: &Setup,
-    state: &FrameState,
-    index: u64,
-    solution: &Solution,
-) -> Direction {
-    let mask = state.live.iter().fold(0u64, |acc, &m| acc | (1u64 << m));
-    let solver = solvers
-        .entry(mask)
-        .or_insert_with(|| DirectionSolver::new(&setup.geometry, mask, setup.rate, setup.speed));
-    let Some(u) = solver.as_ref().and_then(|s| s.solve(&solution.lags)) else {
-        return Direction::None;
-    };
-    if let (Some(gate), Some(solver)) = (setup.params.residual_gate_us, solver.as_ref()) {
-        if solver.residual_m(&solution.lags, &u) / setup.speed * 1e6 > gate {
-            return Direction::Gated;
-        }
-    }
-    let (azimuth_deg, elevation_deg) = angles_deg(&u);
-    Direction::Found(Detection {
-        frame: index,
-        time_s: (index as f64 * setup.hop as f64 + setup.n as f64 / 2.0) / setup.rate,
-        azimuth_deg,
-        elevation_deg,
-        direction: u,
-        score: solution.score,
-        mics: state.live.len(),
-    })
 }

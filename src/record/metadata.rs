@@ -117,6 +117,14 @@ pub struct ParametersInfo {
     /// Time constant of the steady background subtracted from the correlations
     /// (seconds), or null for none.
     pub background_s: Option<f64>,
+    /// Whether the steered response is on (directions from most pairs, and further
+    /// sources).
+    pub steered: bool,
+    /// The most sources one frame gives.
+    pub max_sources: usize,
+    /// Candidates are reported down to this share of the threshold, for the tracker (1:
+    /// none).
+    pub candidates: f64,
     /// The tracker's parameters, or null with tracking off.
     pub track: Option<TrackParams>,
 }
@@ -156,6 +164,9 @@ impl RunMetadata {
                 residual_gate_us: params.residual_gate_us,
                 average_frames: params.average_frames,
                 background_s: params.background_s,
+                steered: params.steered,
+                max_sources: params.max_sources,
+                candidates: params.candidates,
                 track: None,
             },
         }

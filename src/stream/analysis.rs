@@ -315,7 +315,7 @@ impl<S: SampleSource> Analysis<S> {
     /// recording, if any (the frames before a read error are analysed first).
     pub fn run(
         mut self,
-        mut sink: impl FnMut(u64, Option<&Detection>) -> ControlFlow<()>,
+        mut sink: impl FnMut(u64, &[Detection]) -> ControlFlow<()>,
     ) -> (Summary, Result<(), AnalysisError>) {
         let result = self.run_blocks(&mut sink);
         let summary = self.summary();
@@ -336,7 +336,7 @@ impl<S: SampleSource> Analysis<S> {
 
     fn run_blocks(
         &mut self,
-        sink: &mut dyn FnMut(u64, Option<&Detection>) -> ControlFlow<()>,
+        sink: &mut dyn FnMut(u64, &[Detection]) -> ControlFlow<()>,
     ) -> Result<(), InputError> {
         let mut current = self.analyzer.block();
         let mut next = self.analyzer.block();
@@ -356,7 +356,7 @@ impl<S: SampleSource> Analysis<S> {
                 }
             });
             for (detection, index) in detections.iter().zip(current.first..) {
-                if sink(index, detection.as_ref()).is_break() {
+                if sink(index, detection.as_slice()).is_break() {
                     return Ok(());
                 }
             }

@@ -28,17 +28,24 @@ mod event;
 mod tracker;
 
 pub use event::Event;
-pub use tracker::{Tracked, Tracker};
+pub use tracker::{Tracked, Tracker, ELEVATION_WEIGHT};
 
 /// The tracker's parameters (see the module's documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TrackParams {
-    /// Detections a candidate needs to become a track.
+    /// Detections at or above the detection threshold a candidate needs to become a
+    /// track.
     pub confirm_hits: usize,
+    /// Or this many detections of any margin, one of them at or above the threshold
+    /// (candidates included, see [`Params::candidates`](crate::Params::candidates)).
+    pub confirm_candidates: usize,
     /// Within this many seconds of its first detection (also the tracker's delay).
     pub confirm_s: f64,
     /// Association gate (degrees) right after a track's last detection.
     pub gate_deg: f64,
+    /// The gate (degrees) of a candidate under the detection threshold (see
+    /// [`Params::candidates`](crate::Params::candidates)): it never widens.
+    pub candidate_gate_deg: f64,
     /// The gate widens by this many degrees per second since a track's last detection.
     pub max_speed_deg_s: f64,
     /// The widest gate (degrees).
@@ -53,8 +60,10 @@ impl Default for TrackParams {
     fn default() -> Self {
         TrackParams {
             confirm_hits: 2,
+            confirm_candidates: 4,
             confirm_s: 0.5,
             gate_deg: 12.0,
+            candidate_gate_deg: 5.0,
             max_speed_deg_s: 60.0,
             max_gate_deg: 25.0,
             end_s: 1.0,
@@ -62,6 +71,10 @@ impl Default for TrackParams {
         }
     }
 }
+
+/// The share of the detection threshold down to which `ssl analyze` reports candidates
+/// for its tracker ([`Params::candidates`](crate::Params::candidates)).
+pub const DEFAULT_CANDIDATES: f64 = 0.5;
 
 /// At most this many tracks are remembered at once (the oldest silent one goes first).
 pub const MAX_TRACKS: usize = 64;
@@ -80,6 +93,7 @@ impl TrackParams {
         let positive = [
             ("the confirmation window", self.confirm_s),
             ("the gate", self.gate_deg),
+            ("the candidates' gate", self.candidate_gate_deg),
             ("the widest gate", self.max_gate_deg),
             ("the end of activity", self.end_s),
             ("the memory of silent tracks", self.forget_s),
@@ -104,6 +118,13 @@ impl TrackParams {
                 TrackParamsError::Invalid,
                 "the detections that confirm a track must be 1 to 1000, got {}",
                 self.confirm_hits
+            );
+        }
+        if self.confirm_candidates == 0 || self.confirm_candidates > 1000 {
+            fail!(
+                TrackParamsError::Invalid,
+                "the candidates that confirm a track must be 1 to 1000, got {}",
+                self.confirm_candidates
             );
         }
         Ok(())

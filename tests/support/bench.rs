@@ -150,7 +150,10 @@ impl Bench {
         let analysis = Analysis::open(&name, &geometry, params)?;
         let mut records = Vec::new();
         let (_, result) = analysis.run(|_, d| {
-            records.extend(d.map(|d| DetectionRecord::new(&name, d).expect("finite")));
+            records.extend(
+                d.iter()
+                    .map(|d| DetectionRecord::new(&name, d).expect("finite")),
+            );
             ControlFlow::Continue(())
         });
         result?;

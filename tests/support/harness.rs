@@ -60,14 +60,19 @@ pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std
 /// The method's parameters a harness runs with: the defaults; `paper` for the paper's
 /// method; otherwise the defaults changed by any of `fixed` (`--min-score` at its
 /// default) or `min=X` (a fixed threshold per pair, without late reverberation),
-/// `rev=X` (late reverberation, after them), `avg=N` (frames
+/// `rev=X` (late reverberation, after them), `sig=X` (the calibrated threshold's sigmas), `steer=0` (no steered response), `k=N` (sources per frame), `avg=N` (frames
 /// averaged), `bg=S` (the coherent background's time constant, 0: none), and a tolerance and a residual gate in microseconds (`0` turns the gate
 /// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
         return ssl::Params::paper();
     }
-    let mut params = ssl::Params::default();
+    // As `ssl analyze`: candidates for the tracker (none without one, see
+    // `analyse_scene`).
+    let mut params = ssl::Params {
+        candidates: ssl::track::DEFAULT_CANDIDATES,
+        ..ssl::Params::default()
+    };
     let mut numbers = Vec::new();
     for arg in args {
         let value = |what: &str| -> f64 {
@@ -77,20 +82,31 @@ pub fn params_from(args: &[String]) -> ssl::Params {
         };
         match arg.split_once('=').map(|(k, _)| k) {
             // The fixed threshold per pair of `--min-score` (default or given), without
-            // late reverberation.
-            None if arg == "fixed" => {
+            // late reverberation, without the steered response or candidates (as
+            // `ssl analyze --min-score`).
+            _ if arg == "fixed" || arg.starts_with("min=") => {
+                if let Some((_, v)) = arg.split_once('=') {
+                    params.min_score_per_pair = v.parse().expect("min takes a number");
+                }
                 let f = ssl::Params::fixed_threshold(params.min_score_per_pair);
-                (params.threshold_sigmas, params.reverb_level) = (f.threshold_sigmas, 0.0);
+                params.threshold_sigmas = f.threshold_sigmas;
+                params.reverb_level = f.reverb_level;
+                params.steered = f.steered;
+                params.max_sources = f.max_sources;
+                params.candidates = 1.0;
             }
-            Some("min") => {
-                params.min_score_per_pair = value("min");
-                params.threshold_sigmas = None;
-                params.reverb_level = 0.0;
-            }
+            // The calibrated threshold's sigmas of chance correlation.
+            Some("sig") => params.threshold_sigmas = Some(value("sig")),
             // The share of late reverberation in the noise estimate.
             Some("rev") => params.reverb_level = value("rev") as f32,
             // The coherent background's time constant (0: none).
             Some("bg") => params.background_s = Some(value("bg")).filter(|&s| s > 0.0),
+            // The steered response (0: off).
+            Some("steer") => params.steered = value("steer") > 0.0,
+            // Candidates down to this share of the threshold.
+            Some("cand") => params.candidates = value("cand"),
+            // The most sources per frame.
+            Some("k") => params.max_sources = value("k") as usize,
             // Frames each correlation is averaged over.
             Some("avg") => params.average_frames = value("avg") as usize,
             _ => numbers.push(
@@ -123,10 +139,19 @@ pub fn analyse_scene(
     use ssl::DetectionRecord;
     let sim = ssl::sim::simulate(scene, dir)?;
     let channels = sim.channels.iter().map(|c| &c[..]).collect();
+    // Without a tracker, no candidates (as `ssl analyze --no-track`).
+    let params = &ssl::Params {
+        candidates: if track.is_some() {
+            params.candidates
+        } else {
+            1.0
+        },
+        ..params.clone()
+    };
     let analysis =
         ssl::Analysis::from_channels("scene", channels, sim.sample_rate, geometry, params)?;
     let hop = analysis.frame_size() as f64 / 2.0 / sim.sample_rate as f64;
-    let mut tracker = track.map(Tracker::new);
+    let mut tracker = track.map(|p| Tracker::for_shape(p, &geometry.shape));
     let record = |t: Tracked| {
         DetectionRecord::tracked("scene", &t.detection, Some(t.source)).expect("finite")
     };
@@ -134,13 +159,13 @@ pub fn analyse_scene(
     let (_, result) = analysis.run(|i, d| {
         match tracker.as_mut() {
             Some(t) => {
-                t.push(
-                    (i as f64 + 1.0) * hop,
-                    d.map_or(&[][..], std::slice::from_ref),
-                );
+                t.push((i as f64 + 1.0) * hop, d);
                 records.extend(t.take_rows().map(record));
             }
-            None => records.extend(d.map(|d| DetectionRecord::new("scene", d).expect("finite"))),
+            None => records.extend(
+                d.iter()
+                    .map(|d| DetectionRecord::new("scene", d).expect("finite")),
+            ),
         }
         std::ops::ControlFlow::Continue(())
     });

@@ -191,7 +191,7 @@ pub fn frame_detections(
     let n = analysis.frame_size();
     let mut all = Vec::new();
     let (_, result) = analysis.run(|_, d| {
-        all.push(d.copied());
+        all.push(d.first().copied());
         std::ops::ControlFlow::Continue(())
     });
     result.unwrap();

@@ -1,0 +1,81 @@
+//! From a frame's delays to its detection: eq. (13) through the solver of the frame's
+//! set of live microphones (made once per set), the residual gate, and the detection's
+//! time, angles and margin over the threshold. The consistency search and the steered
+//! response both end here.
+
+use super::direction::{angles_deg, DirectionSolver};
+use super::outcome::Detection;
+use super::pairs::pair_count;
+use super::params::Setup;
+use super::search::Solution;
+use super::worker::FrameState;
+use std::collections::HashMap;
+
+/// What the direction stage makes of a consistent set.
+pub(crate) enum Direction {
+    Found(Detection),
+    /// No single source explains the delays (the residual gate).
+    Gated,
+    /// The system gives no direction.
+    None,
+}
+
+/// The direction solver for the frame's set of live microphones (made once per set).
+pub(crate) fn solver<'a>(
+    solvers: &'a mut HashMap<u64, Option<DirectionSolver>>,
+    setup: &Setup,
+    state: &FrameState,
+) -> Option<&'a DirectionSolver> {
+    let mask = state.live.iter().fold(0u64, |acc, &m| acc | (1u64 << m));
+    solvers
+        .entry(mask)
+        .or_insert_with(|| DirectionSolver::new(&setup.geometry, mask, setup.rate, setup.speed))
+        .as_ref()
+}
+
+pub(crate) fn direction(
+    solvers: &mut HashMap<u64, Option<DirectionSolver>>,
+    setup: &Setup,
+    state: &FrameState,
+    index: u64,
+    solution: &Solution,
+) -> Direction {
+    let Some(solver) = solver(solvers, setup, state) else {
+        return Direction::None;
+    };
+    let Some(u) = solver.solve(&solution.lags) else {
+        return Direction::None;
+    };
+    if let Some(gate) = setup.params.residual_gate_us {
+        if solver.residual_m(&solution.lags, &u) / setup.speed * 1e6 > gate {
+            return Direction::Gated;
+        }
+    }
+    Direction::Found(detection(setup, state, index, u, solution.score))
+}
+
+/// The detection of direction `u` with `score` in frame `index`.
+pub(crate) fn detection(
+    setup: &Setup,
+    state: &FrameState,
+    index: u64,
+    u: nalgebra::Vector3<f64>,
+    score: f64,
+) -> Detection {
+    let (azimuth_deg, elevation_deg) = angles_deg(&u);
+    let threshold = state.threshold * pair_count(state.live.len()) as f64;
+    Detection {
+        frame: index,
+        time_s: (index as f64 * setup.hop as f64 + setup.n as f64 / 2.0) / setup.rate,
+        azimuth_deg,
+        elevation_deg,
+        direction: u,
+        score,
+        mics: state.live.len(),
+        margin: if threshold > 0.0 {
+            score / threshold
+        } else {
+            f64::INFINITY
+        },
+    }
+}

@@ -1,0 +1,477 @@
+//! Steered response over the averaged correlations (beyond the paper): candidates that
+//! do not need every pair to agree, and further sources in the same frame.
+//!
+//! The consistency search of eq. (8) keeps a direction only when every pair has one of
+//! its M peaks at that direction's delay. With real speech in a reverberant room a pair
+//! or two often has not, and the frame gives nothing; with two talkers at once each
+//! pair's peaks are shared between them. Here each pair's averaged correlation is read
+//! at the delays of every direction of a fixed grid and summed over the pairs (the
+//! steered response power of SRP-PHAT, built from the same weighted correlations), so
+//! a pair that disagrees only lowers the sum.
+//!
+//! - **Grid:** [`GRID_POINTS`] directions spread evenly over the sphere (a Fibonacci
+//!   lattice, no point further than about [`COVER_RAD`] from the nearest). Each pair's
+//!   correlation is first replaced by its running maximum over the lags a direction
+//!   can move within that distance, so no peak falls between grid points.
+//! - **Refinement:** from the best grid point, each pair's highest local peak near the
+//!   point's delay (sub-sample refined) gives its lag, and eq. (13) through the same
+//!   solver as the consistency search gives the direction; twice, the second time within
+//!   the consistency tolerance. Pairs with no peak there keep the delay of the direction
+//!   itself, so they do not pull it.
+//! - **Score:** the sum over the pairs of the refined peaks within the tolerance of the
+//!   final direction's delays (zero for a pair with none): the same quantity, on the
+//!   same scale, as a consistent set's score, so the same threshold applies.
+//! - **Further sources:** every pair's correlation is cleared (its positive part) within
+//!   [`CLEAR_SAMPLES`] plus the tolerance of each found direction's delay, and the grid
+//!   is searched again.
+
+use super::direction::DirectionSolver;
+use super::pairs::pair_index;
+use nalgebra::Vector3;
+
+/// Directions in the grid.
+pub const GRID_POINTS: usize = 1000;
+
+/// The largest angle (radians) from any direction to its nearest grid point, with a
+/// margin: for a Fibonacci lattice of `n` points about `0.7 sqrt(4 pi / n)`.
+pub const COVER_RAD: f64 = 0.085;
+
+/// Half-width (samples, beyond the tolerance) of what is cleared around a found
+/// source's delay before the next is looked for.
+pub const CLEAR_SAMPLES: f32 = 1.0;
+
+/// Further sources are looked for this far (degrees) from those found.
+pub const EXCLUDE_DEG: f64 = 15.0;
+
+/// The grid points ordered by their response before the best apart are picked.
+pub const TOP_POINTS: usize = 64;
+
+/// A further source in a frame scores at least this share of the first: a strong
+/// source's side lobes, left after its delays are cleared, add up to 10-12% of its score
+/// in other directions (measured on the shipped example).
+pub const FURTHER_SHARE: f64 = 0.2;
+
+/// Grid points refined per search: the best, apart by [`SEPARATION_DEG`].
+pub const REFINED: usize = 6;
+
+/// Grid points refined in one search are at least this far apart (degrees).
+pub const SEPARATION_DEG: f64 = 10.0;
+
+/// The grid, its delays per pair, and the buffers of one search.
+pub(crate) struct Steered {
+    points: Vec<Vector3<f64>>,
+    /// Per pair of the array (in the order of [`pair_index`] over all microphones), the
+    /// index into the pair's window (lag `-h-1` at 0) of each grid point's delay.
+    index: Vec<Vec<u16>>,
+    /// Per pair, `x_ab * fs / c` (samples per unit of direction).
+    diffs: Vec<Vector3<f64>>,
+    /// Per pair, the running maximum's half-width (samples).
+    radius: Vec<usize>,
+    /// Per pair, where its window starts in a frame's windows, and its half-length.
+    starts: Vec<(usize, usize)>,
+    pooled: Vec<f32>,
+    scratch: Vec<f32>,
+    power: Vec<f32>,
+    order: Vec<usize>,
+    tried: Vec<Vector3<f64>>,
+    lags: Vec<f64>,
+    best_lags: Vec<f64>,
+}
+
+/// What one search looks at: the live microphones `live` (of `mics`), the directions
+/// `found` so far (cleared first), the tolerance in samples, and the score under which
+/// nothing counts.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Query<'a> {
+    pub live: &'a [usize],
+    pub mics: usize,
+    pub found: &'a [Vector3<f64>],
+    pub tolerance: f32,
+    pub floor: f64,
+}
+
+/// A direction the steered response found, with its score (summed over the pairs).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Steer {
+    pub direction: Vector3<f64>,
+    pub score: f64,
+    /// Pairs with a peak within the tolerance of the direction's delay.
+    pub agreeing: usize,
+}
+
+impl Steered {
+    pub fn new(positions: &[Vector3<f64>], rate: f64, speed: f64, max_lag: &[usize]) -> Self {
+        let mics = positions.len();
+        let n = GRID_POINTS;
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let points: Vec<Vector3<f64>> = (0..n)
+            .map(|i| {
+                let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+                let r = (1.0 - z * z).sqrt();
+                let phi = golden * i as f64;
+                Vector3::new(r * phi.cos(), r * phi.sin(), z)
+            })
+            .collect();
+        let mut diffs = vec![Vector3::zeros(); max_lag.len()];
+        let mut radius = vec![0; max_lag.len()];
+        let mut index = vec![Vec::new(); max_lag.len()];
+        let mut starts = vec![(0, 0); max_lag.len()];
+        let mut start = 0;
+        for a in 0..mics {
+            for b in a + 1..mics {
+                let pair = pair_index(a, b, mics);
+                let half = max_lag[pair] + 1;
+                let x = (positions[b] - positions[a]) * rate / speed;
+                diffs[pair] = x;
+                radius[pair] = (x.norm() * COVER_RAD).ceil() as usize;
+                index[pair] = points
+                    .iter()
+                    .map(|u| {
+                        let lag = u.dot(&x).round() as isize;
+                        (lag.clamp(-(half as isize) + 1, half as isize - 1) + half as isize) as u16
+                    })
+                    .collect();
+                starts[pair] = (start, half);
+                start += 2 * half + 1;
+            }
+        }
+        let widest_radius = radius.iter().copied().max().unwrap_or(0);
+        Steered {
+            power: vec![0.0; points.len()],
+            points,
+            index,
+            diffs,
+            radius,
+            starts,
+            pooled: Vec::with_capacity(
+                max_lag.iter().map(|&h| 2 * h + 3).max().unwrap_or(0) + 2 * widest_radius,
+            ),
+            scratch: Vec::with_capacity(
+                max_lag.iter().map(|&h| 2 * h + 3).max().unwrap_or(0) + 2 * widest_radius,
+            ),
+            order: Vec::with_capacity(GRID_POINTS),
+            tried: Vec::with_capacity(REFINED),
+            lags: Vec::with_capacity(max_lag.len()),
+            best_lags: Vec::with_capacity(max_lag.len()),
+        }
+    }
+
+    /// The lags (per live pair, in the order of [`pair_index`]) behind the direction
+    /// [`Steered::search`] last gave.
+    pub fn best_lags(&self) -> &[f64] {
+        &self.best_lags
+    }
+
+    /// The best direction of the summed correlations `windows` (laid out as a frame's,
+    /// averaged) for `query`, after clearing the delays of the directions found. `None`
+    /// when none can reach its floor.
+    pub fn search(
+        &mut self,
+        windows: &mut [f32],
+        query: &Query,
+        solver: &DirectionSolver,
+    ) -> Option<Steer> {
+        let Query {
+            live,
+            mics,
+            found,
+            tolerance,
+            floor,
+        } = *query;
+        let k = live.len();
+        // Clear what the sources found so far explain.
+        for u in found {
+            for a in 0..k {
+                for b in a + 1..k {
+                    let pair = pair_index(live[a], live[b], mics);
+                    let (start, half) = self.starts[pair];
+                    let w = &mut windows[start..start + 2 * half + 1];
+                    let centre = u.dot(&self.diffs[pair]) as f32 + half as f32;
+                    let reach = tolerance + CLEAR_SAMPLES;
+                    let lo = (centre - reach).ceil().max(0.0) as usize;
+                    let hi = ((centre + reach).floor() as usize).min(w.len() - 1);
+                    for v in w.iter_mut().take(hi + 1).skip(lo) {
+                        *v = v.min(0.0);
+                    }
+                }
+            }
+        }
+        // No direction can score more than the pairs' highest values (a refined peak
+        // rises at most a quarter above its sample): when that cannot reach `floor`,
+        // nothing is searched.
+        let mut bound = 0.0;
+        for a in 0..k {
+            for b in a + 1..k {
+                let pair = pair_index(live[a], live[b], mics);
+                let (start, half) = self.starts[pair];
+                let top = windows[start..start + 2 * half + 1]
+                    .iter()
+                    .copied()
+                    .fold(0.0f32, f32::max);
+                bound += 1.25 * top as f64;
+            }
+        }
+        if bound <= 0.0 || bound < floor {
+            return None;
+        }
+        // The steered response of the grid, from each pair's running maximum.
+        self.power.iter_mut().for_each(|p| *p = 0.0);
+        for a in 0..k {
+            for b in a + 1..k {
+                let pair = pair_index(live[a], live[b], mics);
+                let (start, half) = self.starts[pair];
+                let w = &windows[start..start + 2 * half + 1];
+                running_max(w, self.radius[pair], &mut self.pooled, &mut self.scratch);
+                for (p, &i) in self.power.iter_mut().zip(&self.index[pair]) {
+                    *p += self.pooled[i as usize];
+                }
+            }
+        }
+        let near = EXCLUDE_DEG.to_radians().cos();
+        for (p, u) in self.power.iter_mut().zip(&self.points) {
+            if found.iter().any(|f| f.dot(u) > near) {
+                *p = f32::NEG_INFINITY;
+            }
+        }
+        // The best few grid points, apart from each other, each refined.
+        let mut order = std::mem::take(&mut self.order);
+        order.clear();
+        order.extend(0..self.points.len());
+        let power = &self.power;
+        let by_power = |x: &usize, y: &usize| power[*y].total_cmp(&power[*x]).then(x.cmp(y));
+        let top = TOP_POINTS.min(order.len());
+        if top < order.len() {
+            order.select_nth_unstable_by(top - 1, by_power);
+        }
+        order.truncate(top);
+        order.sort_unstable_by(by_power);
+        let apart = SEPARATION_DEG.to_radians().cos();
+        let mut tried = std::mem::take(&mut self.tried);
+        tried.clear();
+        let mut best: Option<Steer> = None;
+        for &g in &order {
+            if tried.len() == REFINED || !self.power[g].is_finite() {
+                break;
+            }
+            let start = self.points[g];
+            if tried.iter().any(|t| t.dot(&start) > apart) {
+                continue;
+            }
+            tried.push(start);
+            let Some(steer) = self.refine(windows, live, mics, start, tolerance, solver) else {
+                continue;
+            };
+            if found.iter().any(|f| f.dot(&steer.direction) > near) {
+                continue;
+            }
+            if best.is_none_or(|b| steer.score > b.score) {
+                best = Some(steer);
+                self.best_lags.clear();
+                self.best_lags.extend_from_slice(&self.lags);
+            }
+        }
+        self.order = order;
+        self.tried = tried;
+        best
+    }
+
+    /// From grid direction `u`: each pair's peak near the direction's delay, then eq.
+    /// (13); three times, the last two within the tolerance.
+    fn refine(
+        &mut self,
+        windows: &[f32],
+        live: &[usize],
+        mics: usize,
+        mut u: Vector3<f64>,
+        tolerance: f32,
+        solver: &DirectionSolver,
+    ) -> Option<Steer> {
+        let k = live.len();
+        let mut score = (0.0, 0);
+        for pass in 0..3 {
+            self.lags.clear();
+            score = (0.0, 0);
+            for a in 0..k {
+                for b in a + 1..k {
+                    let pair = pair_index(live[a], live[b], mics);
+                    let (start, half) = self.starts[pair];
+                    let w = &windows[start..start + 2 * half + 1];
+                    let expected = u.dot(&self.diffs[pair]);
+                    let reach = if pass == 0 {
+                        self.radius[pair] as f64 + tolerance as f64
+                    } else {
+                        tolerance as f64
+                    };
+                    match local_peak(w, expected + half as f64, reach) {
+                        Some((at, value)) => {
+                            self.lags.push(at - half as f64);
+                            score.0 += value as f64;
+                            score.1 += 1;
+                        }
+                        None => self.lags.push(expected),
+                    }
+                }
+            }
+            if pass < 2 {
+                u = solver.solve(&self.lags)?;
+            }
+        }
+        Some(Steer {
+            direction: u,
+            score: score.0,
+            agreeing: score.1,
+        })
+    }
+}
+
+/// `out[i]` = the largest of 0 and `w[i - r..=i + r]` (van Herk / Gil-Werman: prefix and
+/// suffix maxima over blocks of `2r + 1`, linear in the length whatever `r`).
+fn running_max(w: &[f32], r: usize, out: &mut Vec<f32>, scratch: &mut Vec<f32>) {
+    let n = w.len();
+    let width = 2 * r + 1;
+    // The window padded with r zeros each side: `x[j] = w[j - r]`.
+    let padded = n + 2 * r;
+    let x = |j: usize| if j < r || j >= r + n { 0.0 } else { w[j - r] };
+    // Prefix maxima within each block (in `out`), suffix maxima (in `scratch`).
+    out.clear();
+    scratch.clear();
+    scratch.resize(padded, 0.0);
+    for j in 0..padded {
+        let v = x(j);
+        out.push(if j % width == 0 { v } else { out[j - 1].max(v) });
+    }
+    for j in (0..padded).rev() {
+        let v = x(j);
+        scratch[j] = if j + 1 == padded || (j + 1) % width == 0 {
+            v
+        } else {
+            scratch[j + 1].max(v)
+        };
+    }
+    // The window `x[i..=i + 2r]` spans at most two blocks.
+    for i in 0..n {
+        let m = scratch[i].max(out[i + 2 * r]);
+        out[i] = m.max(0.0);
+    }
+    out.truncate(n);
+}
+
+/// The highest local maximum of `w` with a positive value within `reach` of position
+/// `centre` (both in window indices), refined with a parabola: its position and value.
+fn local_peak(w: &[f32], centre: f64, reach: f64) -> Option<(f64, f32)> {
+    let lo = ((centre - reach).ceil().max(1.0)) as usize;
+    let hi = ((centre + reach).floor().min(w.len() as f64 - 2.0)) as isize;
+    if hi < lo as isize {
+        return None;
+    }
+    let mut best: Option<(usize, f32)> = None;
+    for i in lo..=hi as usize {
+        let v = w[i];
+        if v > 0.0 && v >= w[i - 1] && v > w[i + 1] && best.is_none_or(|(_, b)| v > b) {
+            best = Some((i, v));
+        }
+    }
+    let (i, v) = best?;
+    let (prev, next) = (w[i - 1], w[i + 1]);
+    let denom = prev - 2.0 * v + next;
+    let (delta, value) = if denom < 0.0 {
+        let d = (0.5 * (prev - next) / denom).clamp(-0.5, 0.5);
+        (d, v - 0.25 * (prev - next) * d)
+    } else {
+        (0.0, v)
+    };
+    Some((i as f64 + delta as f64, value))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Geometry;
+    use crate::method::direction::{angle_between_deg, unit_from_angles};
+    use crate::method::pairs::pair_count;
+
+    #[test]
+    fn running_max_is_the_naive_one() {
+        let w: Vec<f32> = (0..37)
+            .map(|i| ((i * 7919) % 23) as f32 - 9.0 + 0.5 * (i as f32).sin())
+            .collect();
+        let (mut out, mut scratch) = (Vec::new(), Vec::new());
+        for r in [0, 1, 2, 5, 13, 40] {
+            running_max(&w, r, &mut out, &mut scratch);
+            let naive: Vec<f32> = (0..w.len())
+                .map(|i| {
+                    let lo = i.saturating_sub(r);
+                    let hi = (i + r).min(w.len() - 1);
+                    w[lo..=hi].iter().copied().fold(0.0f32, f32::max)
+                })
+                .collect();
+            assert_eq!(out, naive, "r = {r}");
+        }
+    }
+
+    /// Correlations with a peak at every pair's delay of source A, weaker ones at
+    /// source B's, and three pairs that disagree with A: the first search finds A with
+    /// the other pairs agreeing, the second (A cleared) finds B.
+    #[test]
+    fn finds_a_source_most_pairs_agree_on_then_the_next() {
+        let geometry = Geometry::from_file(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml"),
+        )
+        .unwrap();
+        let (rate, speed) = (48000.0, 343.0);
+        let positions: Vec<Vector3<f64>> = geometry.mics.iter().map(|m| m.position).collect();
+        let mics = positions.len();
+        let max_lag: Vec<usize> = (0..pair_count(mics))
+            .map(|_| (0.8 * rate / speed) as usize)
+            .collect();
+        let mut steered = Steered::new(&positions, rate, speed, &max_lag);
+        let (a, b) = (unit_from_angles(30.0, 10.0), unit_from_angles(-60.0, -5.0));
+        let mut windows = vec![0.0f32; max_lag.iter().map(|&h| 2 * h + 3).sum()];
+        let mut start = 0;
+        for i in 0..mics {
+            for j in i + 1..mics {
+                let half = max_lag[pair_index(i, j, mics)] + 1;
+                let x = (positions[j] - positions[i]) * rate / speed;
+                let w = &mut windows[start..start + 2 * half + 1];
+                // Pairs 0-2 put A's peak 6 samples off.
+                let off = if pair_index(i, j, mics) < 3 { 6.0 } else { 0.0 };
+                for (u, height, shift) in [(a, 1.0, off), (b, 0.5, 0.0)] {
+                    let lag = u.dot(&x) + shift + half as f64;
+                    for (k, v) in w.iter_mut().enumerate() {
+                        let d = k as f64 - lag;
+                        *v += (height * (-d * d).exp()) as f32;
+                    }
+                }
+                start += 2 * half + 1;
+            }
+        }
+        let live: Vec<usize> = (0..mics).collect();
+        let solver = DirectionSolver::new(&geometry, (1 << mics) - 1, rate, speed).unwrap();
+        let query = |found, floor| Query {
+            live: &live,
+            mics,
+            found,
+            tolerance: 2.0,
+            floor,
+        };
+        let first = steered
+            .search(&mut windows, &query(&[], 0.0), &solver)
+            .unwrap();
+        assert!(angle_between_deg(&first.direction, &a) < 0.5);
+        assert_eq!(first.agreeing, pair_count(mics) - 3);
+        assert!(first.score > 0.9 * (pair_count(mics) - 3) as f64);
+        // A floor above what any direction can score: nothing is searched.
+        assert!(steered
+            .search(&mut windows, &query(&[], 100.0), &solver)
+            .is_none());
+        let second = steered
+            .search(&mut windows, &query(&[first.direction], 0.0), &solver)
+            .unwrap();
+        assert!(
+            angle_between_deg(&second.direction, &b) < 0.5,
+            "{:?}",
+            crate::method::direction::angles_deg(&second.direction)
+        );
+        assert!(second.agreeing >= pair_count(mics) - 3);
+    }
+}

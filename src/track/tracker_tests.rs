@@ -1,0 +1,211 @@
+//! The tracker's tests (on hand-made detections).
+
+use super::*;
+use crate::method::direction::unit_from_angles;
+
+const HOP: f64 = 0.01;
+
+fn detection(frame: u64, azimuth: f64) -> Detection {
+    let direction = unit_from_angles(azimuth, 0.0);
+    Detection {
+        frame,
+        time_s: frame as f64 * HOP,
+        azimuth_deg: azimuth,
+        elevation_deg: 0.0,
+        direction,
+        score: 10.0,
+        mics: 8,
+        margin: 2.0,
+    }
+}
+
+/// Runs `frames` (per frame, the azimuths detected) through a tracker with the
+/// default parameters: the rows (frame, source) and the events.
+fn track(frames: &[Vec<f64>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
+    let frames: Vec<Vec<(f64, f64)>> = frames
+        .iter()
+        .map(|f| f.iter().map(|&a| (a, 2.0)).collect())
+        .collect();
+    track_margins(&frames)
+}
+
+/// As [`track`], with each detection's (azimuth, margin).
+fn track_margins(frames: &[Vec<(f64, f64)>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
+    let mut tracker = Tracker::new(TrackParams::default());
+    let (mut rows, mut events) = (Vec::new(), Vec::new());
+    for (i, found) in frames.iter().enumerate() {
+        let ds: Vec<Detection> = found
+            .iter()
+            .map(|&(a, margin)| Detection {
+                margin,
+                ..detection(i as u64, a)
+            })
+            .collect();
+        tracker.push(i as f64 * HOP, &ds);
+        for r in tracker.take_rows() {
+            // Rows come out at most the confirmation window after their frame.
+            assert!(i as f64 * HOP - r.detection.time_s <= 0.5 + 1e-9);
+            rows.push((r.detection.frame, r.source, r.detection.azimuth_deg));
+        }
+        events.extend(tracker.take_events());
+    }
+    tracker.finish();
+    rows.extend(
+        tracker
+            .take_rows()
+            .map(|r| (r.detection.frame, r.source, r.detection.azimuth_deg)),
+    );
+    events.extend(tracker.take_events());
+    (rows, events)
+}
+
+#[test]
+fn two_talkers_taking_turns_keep_their_ids_and_outliers_are_dropped() {
+    // A at 30 deg for 1 s, B at -60 deg for 1 s, A again after 2 s of silence; a
+    // detection every other frame, and single outliers in the silences.
+    let mut frames = vec![Vec::new(); 560];
+    for (start, azimuth) in [(10, 30.0), (110, -60.0), (410, 31.0)] {
+        for f in (start..start + 100).step_by(2) {
+            frames[f] = vec![azimuth];
+        }
+    }
+    for (f, azimuth) in [(250, 150.0), (300, -150.0), (350, 100.0)] {
+        frames[f] = vec![azimuth];
+    }
+    let (rows, events) = track(&frames);
+    // Every row of the talkers, none of the outliers, in frame order.
+    assert_eq!(rows.len(), 150);
+    assert!(rows.windows(2).all(|w| w[0].0 < w[1].0));
+    assert!(rows.iter().all(|r| r.2 < 90.0));
+    let ids: Vec<u64> = rows.iter().map(|r| r.1).collect();
+    assert!(rows.iter().all(|r| (r.2 > 0.0) == (r.1 == 1)), "{ids:?}");
+    assert!(rows.iter().any(|r| r.1 == 2));
+    // Three stretches: A, B, A again with A's id.
+    assert_eq!(events.len(), 3, "{events:?}");
+    let e: Vec<(u64, u64)> = events.iter().map(|e| (e.source, e.detections)).collect();
+    assert_eq!(e, vec![(1, 50), (2, 50), (1, 50)]);
+    assert!((events[0].start_s - 0.10).abs() < 1e-9);
+    assert!((events[0].end_s - 1.08).abs() < 1e-9);
+    assert!(events.iter().all(|e| e.spread_deg < 1.0));
+}
+
+#[test]
+fn a_source_moving_at_60_degrees_a_second_is_one_track() {
+    // 3 s at 60 deg/s, detected in 2 frames of 3.
+    let frames: Vec<Vec<f64>> = (0..300)
+        .map(|f| {
+            if f % 3 == 2 {
+                Vec::new()
+            } else {
+                vec![-90.0 + 60.0 * f as f64 * HOP]
+            }
+        })
+        .collect();
+    let (rows, events) = track(&frames);
+    assert_eq!(rows.len(), 200);
+    assert!(rows.iter().all(|r| r.1 == 1));
+    assert_eq!(events.len(), 1);
+    // The spread of a 180 deg sweep is large, and says so.
+    assert!(events[0].spread_deg > 45.0, "{}", events[0].spread_deg);
+}
+
+#[test]
+fn two_sources_in_the_same_frames_get_one_row_each() {
+    let frames: Vec<Vec<f64>> = (0..100).map(|_| vec![10.0, 70.0]).collect();
+    let (rows, events) = track(&frames);
+    assert_eq!(rows.len(), 200);
+    for f in 0..100 {
+        let here: Vec<_> = rows.iter().filter(|r| r.0 == f).collect();
+        assert_eq!(here.len(), 2);
+        assert_ne!(here[0].1, here[1].1);
+    }
+    assert_eq!(events.len(), 2);
+}
+
+#[test]
+fn scattered_detections_never_make_a_track() {
+    // One detection every 0.2 s, each 47 deg round from the one before: no two
+    // within a confirmation window are within the gate of each other.
+    let frames: Vec<Vec<f64>> = (0..2000)
+        .map(|f| {
+            if f % 20 == 0 {
+                vec![(f as f64 / 20.0 * 47.0) % 360.0 - 180.0]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let (rows, events) = track(&frames);
+    assert!(rows.is_empty() && events.is_empty());
+}
+
+/// Candidates under the threshold never make a track on their own; four with one
+/// detection above it do; a candidate joins a live track only within the candidates'
+/// gate, and one a little further off starts nothing.
+#[test]
+fn candidates_need_a_detection_above_the_threshold() {
+    let weak: Vec<Vec<(f64, f64)>> = (0..100).map(|_| vec![(40.0, 0.6)]).collect();
+    let (rows, events) = track_margins(&weak);
+    assert!(rows.is_empty() && events.is_empty());
+    // One strong among weak ones: confirmed at the fourth, every row kept.
+    let mut frames: Vec<Vec<(f64, f64)>> = vec![vec![(40.0, 1.5)]];
+    frames.extend((0..3).map(|_| vec![(40.5, 0.6)]));
+    // A candidate 8 deg off the live track: dropped; 3 deg off: joined.
+    frames.push(vec![(48.0, 0.6)]);
+    frames.push(vec![(43.0, 0.6)]);
+    let (rows, events) = track_margins(&frames);
+    let kept: Vec<u64> = rows.iter().map(|r| r.0).collect();
+    assert_eq!(kept, vec![0, 1, 2, 3, 5]);
+    assert!(rows.iter().all(|r| r.1 == 1));
+    assert_eq!(events.len(), 1);
+    assert_eq!(events[0].detections, 5);
+}
+
+/// A planar array knows elevation roughly: its detections 30 deg apart in elevation
+/// at one azimuth are one source, and 30 deg apart in azimuth two.
+#[test]
+fn a_planar_array_is_tracked_by_its_azimuth() {
+    let shape = Shape::Planar {
+        normal: Vector3::z(),
+    };
+    let mut tracker = Tracker::for_shape(TrackParams::default(), &shape);
+    for i in 0..40u64 {
+        let elevation = if i % 2 == 0 { 0.0 } else { 30.0 };
+        let up = Detection {
+            direction: unit_from_angles(50.0, elevation),
+            ..detection(i, 50.0)
+        };
+        let other = Detection {
+            direction: unit_from_angles(80.0, 0.0),
+            ..detection(i, 80.0)
+        };
+        tracker.push(i as f64 * HOP, &[up, other]);
+    }
+    tracker.finish();
+    let mut ids: Vec<(u64, f64)> = tracker
+        .take_rows()
+        .map(|r| (r.source, r.detection.azimuth_deg))
+        .collect();
+    assert_eq!(ids.len(), 80);
+    ids.sort_by_key(|a| a.0);
+    ids.dedup_by(|a, b| a.0 == b.0 && a.1 == b.1);
+    // Two tracks, each with one azimuth (in either order).
+    assert_eq!(ids.len(), 2, "{ids:?}");
+    assert_ne!(ids[0].0, ids[1].0);
+    // Compared in 3-D, the 30 deg jumps would split the first.
+    let mut plain = Tracker::new(TrackParams::default());
+    for i in 0..40u64 {
+        let elevation = if i % 2 == 0 { 0.0 } else { 30.0 };
+        let up = Detection {
+            direction: unit_from_angles(50.0, elevation),
+            ..detection(i, 50.0)
+        };
+        plain.push(i as f64 * HOP, &[up]);
+    }
+    plain.finish();
+    let mut split: Vec<u64> = plain.take_rows().map(|r| r.source).collect();
+    split.dedup();
+    split.sort();
+    split.dedup();
+    assert_eq!(split.len(), 2, "{split:?}");
+}
