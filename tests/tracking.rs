@@ -211,3 +211,15 @@ fn two_talkers_at_once_are_both_followed() {
     assert!(report.mean_error_deg.unwrap() < 1.0);
     assert_eq!(report.false_detections, 0);
 }
+
+/// A talker turning at 45 deg/s around the prism at 16 kHz (free field, real speech):
+/// one track, on the talker's direction at each row's time.
+#[test]
+fn a_moving_talker_is_one_track_on_its_trajectory() {
+    let m = support::moving::moving_talker(&prism_geometry(), 16000, -7.0, 45.0, 5).unwrap();
+    eprintln!("{m:?}");
+    assert_eq!(m.tracks, 1);
+    assert!(m.rows > 100, "{}", m.rows);
+    assert!(m.mean_error_deg.unwrap() < 3.0, "{:?}", m.mean_error_deg);
+    assert!(m.windows > 0.6, "{}", m.windows);
+}

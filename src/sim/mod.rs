@@ -13,7 +13,7 @@
 pub mod freefield;
 pub mod limits;
 mod noise;
-mod recorded;
+pub mod recorded;
 pub mod render;
 pub mod room;
 pub mod scene;

@@ -6,7 +6,7 @@ use std::path::Path;
 
 /// Reads a mono WAV as f64 samples at the scene's rate (resampled when the file has
 /// another rate).
-pub(crate) fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
+pub fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
     let name = path.display().to_string();
     let input = |error| SceneError::Input {
         path: path.to_path_buf(),

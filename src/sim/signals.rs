@@ -27,12 +27,29 @@ pub enum Signal {
     /// Speech-like: noise with a low-pass, speech-shaped spectrum (flat to 500 Hz, then
     /// falling 6 dB per octave) under a 4 Hz syllabic envelope with pauses.
     SpeechLike,
+    /// Recorded samples at the scene's rate (real speech, say), repeated as needed and
+    /// scaled to the level over the whole interval.
+    Recording(Vec<f64>),
 }
 
 /// Fills `active` with `signal` at RMS `level` (clicks: RMS over each 2 ms click),
 /// with 5 ms fades at both ends of continuous signals.
 pub fn generate(signal: &Signal, level: f64, fs: f64, active: &mut [f64], rng: &mut ChaCha8Rng) {
-    match *signal {
+    match signal {
+        Signal::Recording(samples) => {
+            if samples.is_empty() {
+                active.iter_mut().for_each(|v| *v = 0.0);
+                return;
+            }
+            for (i, v) in active.iter_mut().enumerate() {
+                *v = samples[i % samples.len()];
+            }
+            let rms = (active.iter().map(|v| v * v).sum::<f64>() / active.len() as f64).sqrt();
+            if rms > 0.0 {
+                active.iter_mut().for_each(|v| *v *= level / rms);
+            }
+            return;
+        }
         Signal::WhiteNoise => {
             for v in active.iter_mut() {
                 let x: f64 = StandardNormal.sample(rng);

@@ -25,6 +25,9 @@ pub const ELEVATION_WEIGHT: f64 = 0.25;
 /// How much of a new detection a track's direction takes.
 const SMOOTHING: f64 = 0.3;
 
+/// The time over which a track's direction takes [`SMOOTHING`] of a detection.
+const SMOOTHING_FRAME_S: f64 = 0.0107;
+
 struct Track {
     id: u64,
     direction: Vector3<f64>,
@@ -222,7 +225,7 @@ impl Tracker {
                     .iter_mut()
                     .find(|t| t.id == id)
                     .expect("a live track");
-                t.direction = smooth(&t.direction, &d.direction);
+                t.direction = smooth(&t.direction, &d.direction, d.time_s - t.last_s);
                 t.last_s = d.time_s;
                 match t.event.as_mut() {
                     Some(e) => e.add(d),
@@ -236,7 +239,7 @@ impl Tracker {
                     .position(|c| c.key == key)
                     .expect("an open candidate");
                 let c = &mut self.candidates[i];
-                c.direction = smooth(&c.direction, &d.direction);
+                c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
                 c.hits.push(*d);
                 c.strong += (d.margin >= 1.0) as usize;
@@ -387,8 +390,13 @@ impl Tracker {
     }
 }
 
-fn smooth(old: &Vector3<f64>, new: &Vector3<f64>) -> Vector3<f64> {
-    let v = old * (1.0 - SMOOTHING) + new * SMOOTHING;
+/// A track's direction moved toward a detection `since` seconds after its last: by
+/// [`SMOOTHING`] a frame (10.7 ms at the default frame size), more after a gap (a talker
+/// who moved while silent is taken where the detection is).
+fn smooth(old: &Vector3<f64>, new: &Vector3<f64>, since: f64) -> Vector3<f64> {
+    let share = 1.0 - (1.0 - SMOOTHING).powf(since.max(0.0) / SMOOTHING_FRAME_S);
+    let share = share.clamp(SMOOTHING, 1.0);
+    let v = old * (1.0 - share) + new * share;
     let n = v.norm();
     if n > 1e-9 {
         v / n

@@ -135,10 +135,24 @@ pub fn analyse_scene(
     params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
 ) -> Result<(Vec<ssl::DetectionRecord>, ssl::Truth), Box<dyn std::error::Error>> {
+    let sim = ssl::sim::simulate(scene, dir)?;
+    let records = analyse_channels(&sim.channels, sim.sample_rate, geometry, params, track)?;
+    Ok((records, sim.truth))
+}
+
+/// Analyses `channels` in memory as `ssl analyze` does, through a tracker with `track`
+/// (else every frame's detection): the records.
+#[cfg(feature = "simulate")]
+pub fn analyse_channels(
+    channels: &[Vec<f32>],
+    rate: u32,
+    geometry: &ssl::Geometry,
+    params: &ssl::Params,
+    track: Option<ssl::track::TrackParams>,
+) -> Result<Vec<ssl::DetectionRecord>, Box<dyn std::error::Error>> {
     use ssl::track::{Tracked, Tracker};
     use ssl::DetectionRecord;
-    let sim = ssl::sim::simulate(scene, dir)?;
-    let channels = sim.channels.iter().map(|c| &c[..]).collect();
+    let channels = channels.iter().map(|c| &c[..]).collect();
     // Without a tracker, no candidates (as `ssl analyze --no-track`).
     let params = &ssl::Params {
         candidates: if track.is_some() {
@@ -148,9 +162,8 @@ pub fn analyse_scene(
         },
         ..params.clone()
     };
-    let analysis =
-        ssl::Analysis::from_channels("scene", channels, sim.sample_rate, geometry, params)?;
-    let hop = analysis.frame_size() as f64 / 2.0 / sim.sample_rate as f64;
+    let analysis = ssl::Analysis::from_channels("scene", channels, rate, geometry, params)?;
+    let hop = analysis.frame_size() as f64 / 2.0 / rate as f64;
     let mut tracker = track.map(|p| Tracker::for_shape(p, &geometry.shape));
     let record = |t: Tracked| {
         DetectionRecord::tracked("scene", &t.detection, Some(t.source)).expect("finite")
@@ -174,5 +187,5 @@ pub fn analyse_scene(
         t.finish();
         records.extend(t.take_rows().map(record));
     }
-    Ok((records, sim.truth))
+    Ok(records)
 }

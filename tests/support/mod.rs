@@ -5,6 +5,8 @@
 
 pub mod bench;
 pub mod harness;
+#[cfg(feature = "simulate")]
+pub mod moving;
 
 use nalgebra::Vector3;
 use ssl::method::direction::{angle_between_deg, unit_from_angles};
