@@ -213,8 +213,8 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "SHARE", value_parser = candidate_share, conflicts_with_all = ["no_track", "paper"])]
     pub candidates: Option<f64>,
 
-    /// The most sources reported in one frame (1 to 4); a further source must pass the threshold on its own (1 with --min-score)
-    #[arg(long, value_name = "K", default_value_t = DEFAULT_MAX_SOURCES as u8, value_parser = clap::value_parser!(u8).range(1..=MAX_SOURCES as i64), conflicts_with_all = ["paper", "min_score"])]
+    /// The most sources reported in one frame (1 to 4), for the tracker to confirm; a further source must pass the threshold on its own (1 with --min-score or --no-track)
+    #[arg(long, value_name = "K", default_value_t = DEFAULT_MAX_SOURCES as u8, value_parser = clap::value_parser!(u8).range(1..=MAX_SOURCES as i64), conflicts_with_all = ["paper", "min_score", "no_track"])]
     pub max_sources: u8,
 
     /// A track is confirmed by 2 detections within this many seconds of its first; rows wait up to this long
@@ -391,10 +391,11 @@ impl AnalyzeArgs {
             } else {
                 self.average_frames as usize
             },
-            // The steered response only under the calibrated threshold: under a fixed
-            // one, sums of chance peaks pass it (tests/simulate.rs).
-            steered: !self.paper && self.min_score.is_none(),
-            max_sources: if self.paper || self.min_score.is_some() {
+            // The steered response only for the tracker to confirm, and only under the
+            // calibrated threshold: under a fixed one, sums of chance peaks pass it
+            // (tests/simulate.rs; Params::for_tracker).
+            steered: !self.paper && !self.no_track && self.min_score.is_none(),
+            max_sources: if self.paper || self.no_track || self.min_score.is_some() {
                 1
             } else {
                 self.max_sources as usize

@@ -13,9 +13,9 @@ use ssl::sim::scene::{
     SignalKind, SourceSpec,
 };
 use ssl::sim::{simulate, write_wav, Encoding};
+use ssl::track::TrackParams;
 use ssl::{Analysis, DetectionRecord, Geometry, Params, Truth};
 use std::error::Error;
-use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 type Result<T> = std::result::Result<T, Box<dyn Error>>;
@@ -143,26 +143,40 @@ impl Bench {
         Ok((path, sim.truth))
     }
 
-    /// Analyses a recording with `params`: its records.
+    /// Analyses a recording with `params`: its records (every frame's detections).
     pub fn records(&self, wav: &Path, params: &Params) -> Result<Vec<DetectionRecord>> {
+        self.records_tracked(wav, params, None)
+    }
+
+    /// Analyses a recording with `params` through a tracker with `track` (else every
+    /// frame's detections), as `ssl analyze` does: its records.
+    pub fn records_tracked(
+        &self,
+        wav: &Path,
+        params: &Params,
+        track: Option<TrackParams>,
+    ) -> Result<Vec<DetectionRecord>> {
         let geometry = Geometry::from_file(&self.dir.path().join("prism.toml"))?;
         let name = wav.display().to_string();
-        let analysis = Analysis::open(&name, &geometry, params)?;
-        let mut records = Vec::new();
-        let (_, result) = analysis.run(|_, d| {
-            records.extend(
-                d.iter()
-                    .map(|d| DetectionRecord::new(&name, d).expect("finite")),
-            );
-            ControlFlow::Continue(())
-        });
-        result?;
-        Ok(records)
+        let params = super::harness::untracked(params, &track);
+        let analysis = Analysis::open(&name, &geometry, &params)?;
+        super::harness::track_records(analysis, &name, &geometry.shape, track)
     }
 
     /// Analyses a recording with `params` and scores it.
     pub fn score(&self, wav: &Path, truth: &Truth, params: &Params) -> Result<Report> {
-        let records = self.records(wav, params)?;
+        self.score_tracked(wav, truth, params, None)
+    }
+
+    /// Analyses a recording with `params` through a tracker with `track` and scores it.
+    pub fn score_tracked(
+        &self,
+        wav: &Path,
+        truth: &Truth,
+        params: &Params,
+        track: Option<TrackParams>,
+    ) -> Result<Report> {
+        let records = self.records_tracked(wav, params, track)?;
         Ok(evaluate(
             truth,
             &records,

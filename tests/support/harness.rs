@@ -69,10 +69,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
     }
     // As `ssl analyze`: candidates for the tracker (none without one, see
     // `analyse_scene`).
-    let mut params = ssl::Params {
-        candidates: ssl::track::DEFAULT_CANDIDATES,
-        ..ssl::Params::default()
-    };
+    let mut params = ssl::Params::default().for_tracker();
     let mut numbers = Vec::new();
     for arg in args {
         let value = |what: &str| -> f64 {
@@ -150,24 +147,40 @@ pub fn analyse_channels(
     params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
 ) -> Result<Vec<ssl::DetectionRecord>, Box<dyn std::error::Error>> {
+    let channels = channels.iter().map(|c| &c[..]).collect();
+    let params = &untracked(params, &track);
+    let analysis = ssl::Analysis::from_channels("scene", channels, rate, geometry, params)?;
+    track_records(analysis, "scene", &geometry.shape, track)
+}
+
+/// `params` as `ssl analyze` runs them: without a tracker, no candidates, no steered
+/// response, one source a frame (as `--no-track`).
+pub fn untracked(params: &ssl::Params, track: &Option<ssl::track::TrackParams>) -> ssl::Params {
+    match track {
+        Some(_) => params.clone(),
+        None => ssl::Params {
+            candidates: 1.0,
+            steered: false,
+            max_sources: 1,
+            ..params.clone()
+        },
+    }
+}
+
+/// Runs `analysis` as `ssl analyze` does, through a tracker with `track` for an array of
+/// `shape` (else every frame's detection): the records, named `name`.
+pub fn track_records<S: ssl::stream::SampleSource>(
+    analysis: ssl::Analysis<S>,
+    name: &str,
+    shape: &ssl::geometry::Shape,
+    track: Option<ssl::track::TrackParams>,
+) -> Result<Vec<ssl::DetectionRecord>, Box<dyn std::error::Error>> {
     use ssl::track::{Tracked, Tracker};
     use ssl::DetectionRecord;
-    let channels = channels.iter().map(|c| &c[..]).collect();
-    // Without a tracker, no candidates (as `ssl analyze --no-track`).
-    let params = &ssl::Params {
-        candidates: if track.is_some() {
-            params.candidates
-        } else {
-            1.0
-        },
-        ..params.clone()
-    };
-    let analysis = ssl::Analysis::from_channels("scene", channels, rate, geometry, params)?;
-    let hop = analysis.frame_size() as f64 / 2.0 / rate as f64;
-    let mut tracker = track.map(|p| Tracker::for_shape(p, &geometry.shape));
-    let record = |t: Tracked| {
-        DetectionRecord::tracked("scene", &t.detection, Some(t.source)).expect("finite")
-    };
+    let hop = analysis.frame_size() as f64 / 2.0 / analysis.sample_rate() as f64;
+    let mut tracker = track.map(|p| Tracker::for_shape(p, shape));
+    let record =
+        |t: Tracked| DetectionRecord::tracked(name, &t.detection, Some(t.source)).expect("finite");
     let mut records = Vec::new();
     let (_, result) = analysis.run(|i, d| {
         match tracker.as_mut() {
@@ -177,7 +190,7 @@ pub fn analyse_channels(
             }
             None => records.extend(
                 d.iter()
-                    .map(|d| DetectionRecord::new("scene", d).expect("finite")),
+                    .map(|d| DetectionRecord::new(name, d).expect("finite")),
             ),
         }
         std::ops::ControlFlow::Continue(())

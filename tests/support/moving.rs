@@ -63,10 +63,7 @@ pub fn moving_talker(
         seed,
     };
     let channels = render(&scene);
-    let params = Params {
-        candidates: ssl::track::DEFAULT_CANDIDATES,
-        ..Params::default()
-    };
+    let params = Params::default().for_tracker();
     let rows = analyse_channels(
         &channels,
         rate,
