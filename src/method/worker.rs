@@ -354,7 +354,9 @@ impl Worker {
                 if frames > 1.0 {
                     self.window.iter_mut().for_each(|s| *s /= frames);
                 }
-                self.averaged[start..start + 2 * half + 1].copy_from_slice(&self.window);
+                if setup.params.steered {
+                    self.averaged[start..start + 2 * half + 1].copy_from_slice(&self.window);
+                }
                 let peaks = &mut self.peaks[pair_index(a, b, k)];
                 find_peaks(
                     &self.window,

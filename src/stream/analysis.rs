@@ -310,7 +310,8 @@ impl<S: SampleSource> Analysis<S> {
     }
 
     /// Streams every frame through the method. `sink` sees each frame's index and its
-    /// detection, if any, in frame order; [`ControlFlow::Break`] stops the run (a closed
+    /// detections (none, one, or with [`Params::max_sources`](crate::Params::max_sources)
+    /// over 1 several, strongest first), in frame order; [`ControlFlow::Break`] stops the run (a closed
     /// output). Returns the summary of what was analysed and the error that stopped the
     /// recording, if any (the frames before a read error are analysed first).
     pub fn run(

@@ -47,12 +47,8 @@ pub fn moving_talker(
         end_s: end,
         level: 0.05,
     };
-    let centre = geometry
-        .mics
-        .iter()
-        .map(|m| m.position)
-        .sum::<Vector3<f64>>()
-        / geometry.mics.len() as f64;
+    // The mean of the microphone positions, as the renderer takes it.
+    let centre = geometry.centre;
     let scene = Scene {
         sample_rate: rate,
         duration_s: end + 1.0,
