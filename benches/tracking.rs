@@ -106,6 +106,16 @@ fn together(array: &Array, rate: u32, separation: f64, seed: u64) -> SceneFile {
     scene
 }
 
+/// Three talkers at once, `separation` degrees apart: the third says the first one's
+/// sentence 0.5 s after it (two clips are all testdata holds), from 1.5 to 3.8 s.
+fn three(array: &Array, rate: u32, separation: f64, seed: u64) -> SceneFile {
+    let mut scene = together(array, rate, separation, seed);
+    scene
+        .source
+        .push(talker(array, 20.0 + separation, 0, vec![[1.5, 3.8]]));
+    scene
+}
+
 /// A minute of noise alone (one talker at the very end, which the noise level needs).
 fn background(array: &Array, rate: u32, near_fan: bool, seed: u64) -> SceneFile {
     let rt60 = if near_fan { 0.2 } else { 0.35 };
@@ -170,12 +180,18 @@ fn main() -> Result<(), Box<dyn Error>> {
                     opt(t.offset_error_s, 2),
                 );
             }
-            for (j, separation) in [30.0, 60.0, 90.0].into_iter().enumerate() {
+            let scenes = [(30.0, 2), (60.0, 2), (90.0, 2), (60.0, 3)];
+            for (j, (separation, talkers)) in scenes.into_iter().enumerate() {
                 let seed = 200 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
-                let (report, t) = run(&together(array, rate, separation, seed))?;
+                let scene = if talkers == 2 {
+                    together(array, rate, separation, seed)
+                } else {
+                    three(array, rate, separation, seed)
+                };
+                let (report, t) = run(&scene)?;
                 let each: Vec<String> = t.sources.iter().map(|s| format!("{}", s.rows)).collect();
                 at_once += &format!(
-                    "| {} | {} kHz | {separation} deg | {} | {} | {} | {} deg |\n",
+                    "| {} | {} kHz | {talkers}, {separation} deg apart | {} | {} | {} | {} deg |\n",
                     array.name,
                     rate / 1000,
                     pct(t.overlap_detected, t.overlap_pairs),
@@ -224,10 +240,10 @@ fn main() -> Result<(), Box<dyn Error>> {
     println!("| array | rate | RT60 | events recalled | false events per min | tracks per talker | lowest purity | mean error rows / events | onset / offset |");
     println!("|---|---|---|---|---|---|---|---|---|");
     print!("{meetings}");
-    println!("\n## Two talkers at once\n");
-    println!("Both talk for 2.8 s, at azimuth 20 deg and 30, 60 or 90 deg to its right, RT60 0.35 s. A frame gives its dominant talker and, when it passes the threshold on its own, a second; the tracker's candidates (down to half the threshold) add the frames each talker dominates less. Cells: the share of (0.1 s window, talker) pairs with a row of that talker in the window / rows of each talker / tracks / mean error of the rows.\n");
+    println!("\n## Two and three talkers at once\n");
+    println!("Both talk for 2.8 s, at azimuth 20 deg and 30, 60 or 90 deg to its right, RT60 0.35 s; in the last row of each array a third talker, 60 deg to the left of the first, says the first one's sentence from 0.5 s after it (testdata holds two clips). A frame gives its dominant talker and, when it passes the threshold on its own, a second; the tracker's candidates (down to half the threshold) add the frames each talker dominates less. Cells: the share of (0.1 s window, talker) pairs with a row of that talker in the window / rows of each talker / tracks / mean error of the rows.\n");
     println!(
-        "| array | rate | separation | windows detected | rows per talker | tracks | mean error |"
+        "| array | rate | talkers | windows detected | rows per talker | tracks | mean error |"
     );
     println!("|---|---|---|---|---|---|---|");
     print!("{at_once}");
