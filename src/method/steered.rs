@@ -51,6 +51,10 @@ pub const TOP_POINTS: usize = 64;
 /// in other directions (measured on the shipped example).
 pub const FURTHER_SHARE: f64 = 0.2;
 
+/// The most pairs the grid reads, the longest baselines (every pair of arrays up to 12
+/// microphones; 32 microphones have 496). The refinement reads them all.
+pub const GRID_PAIRS: usize = 66;
+
 /// Grid points refined per search: the best, apart by [`SEPARATION_DEG`].
 pub const REFINED: usize = 6;
 
@@ -67,6 +71,8 @@ pub(crate) struct Steered {
     diffs: Vec<Vector3<f64>>,
     /// Per pair, the running maximum's half-width (samples).
     radius: Vec<usize>,
+    /// Per pair, whether the grid reads it (at most [`GRID_PAIRS`], the longest).
+    coarse: Vec<bool>,
     /// Per pair, where its window starts in a frame's windows, and its half-length.
     starts: Vec<(usize, usize)>,
     pooled: Vec<f32>,
@@ -136,7 +142,16 @@ impl Steered {
             }
         }
         let widest_radius = radius.iter().copied().max().unwrap_or(0);
+        // The grid reads the longest baselines only (they resolve directions best);
+        // the refinement reads every pair.
+        let mut by_length: Vec<usize> = (0..diffs.len()).collect();
+        by_length.sort_by(|&x, &y| diffs[y].norm().total_cmp(&diffs[x].norm()).then(x.cmp(&y)));
+        let mut coarse = vec![false; diffs.len()];
+        for &pair in by_length.iter().take(GRID_PAIRS) {
+            coarse[pair] = true;
+        }
         Steered {
+            coarse,
             power: vec![0.0; points.len()],
             points,
             index,
@@ -219,6 +234,9 @@ impl Steered {
         for a in 0..k {
             for b in a + 1..k {
                 let pair = pair_index(live[a], live[b], mics);
+                if !self.coarse[pair] {
+                    continue;
+                }
                 let (start, half) = self.starts[pair];
                 let w = &windows[start..start + 2 * half + 1];
                 running_max(w, self.radius[pair], &mut self.pooled, &mut self.scratch);
