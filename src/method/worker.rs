@@ -99,9 +99,12 @@ pub(crate) struct Worker {
     peaks: Vec<Vec<Peak>>,
     searcher: Searcher,
     solvers: HashMap<u64, Option<DirectionSolver>>,
-    /// Every pair's averaged correlation, laid out as [`FrameState`]'s `windows`.
+    /// Every pair's averaged correlation, laid out as [`FrameState`]'s `windows` (kept
+    /// only for the steered response).
     averaged: Vec<f32>,
-    steered: Steered,
+    /// The steered response's grid and buffers, when it is on (a megabyte at 32
+    /// microphones, per thread).
+    steered: Option<Steered>,
     /// The directions found in a frame so far.
     directions: Vec<nalgebra::Vector3<f64>>,
     /// Leave out correlations that cannot lead to a detection (always, but in a test).
@@ -130,19 +133,16 @@ impl Worker {
                 .collect(),
             searcher: Searcher::new(setup.params.tolerance, setup.params.max_nodes),
             solvers: HashMap::new(),
-            averaged: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
+            averaged: if setup.params.steered {
+                vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()]
+            } else {
+                Vec::new()
+            },
             directions: Vec::with_capacity(super::MAX_SOURCES),
-            steered: Steered::new(
-                &setup
-                    .geometry
-                    .mics
-                    .iter()
-                    .map(|m| m.position)
-                    .collect::<Vec<_>>(),
-                setup.rate,
-                setup.speed,
-                &setup.max_lag,
-            ),
+            steered: setup.params.steered.then(|| {
+                let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
+                Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag)
+            }),
             prune: true,
         }
     }
@@ -391,6 +391,7 @@ impl Worker {
         };
         clock.lap(|t| &mut t.direction);
         let outcome = self.steer(setup, state, index, threshold, first);
+        // The steered response is a search too: its time counts there.
         clock.lap(|t| &mut t.search);
         outcome
     }
@@ -406,18 +407,16 @@ impl Worker {
         threshold: f64,
         first: Outcome,
     ) -> Outcome {
+        let Some(steered) = self.steered.as_mut() else {
+            return first;
+        };
         let (mut found, budget) = match first {
             Outcome::Detected(found, budget) => (found, budget),
-            _ if setup.params.steered => (Detections::default(), false),
-            other => return other,
+            _ => (Detections::default(), false),
         };
-        let wanted = if setup.params.steered {
-            setup.params.max_sources
-        } else {
-            1
-        };
+        let wanted = setup.params.max_sources;
         if found.len() >= wanted {
-            return Outcome::Detected(found, budget);
+            return first;
         }
         let Some(solver) = solver(&mut self.solvers, setup, state) else {
             return first;
@@ -440,7 +439,7 @@ impl Worker {
                 direction: u,
                 score,
                 agreeing,
-            }) = self.steered.search(
+            }) = steered.search(
                 &mut self.averaged,
                 &Query {
                     live: &state.live,
@@ -460,7 +459,7 @@ impl Worker {
             // Delays no single source explains (a source's mixed with a reflection's)
             // are no more a direction here than in the consistency search.
             if let Some(gate) = setup.params.residual_gate_us {
-                if solver.residual_m(self.steered.best_lags(), &u) / setup.speed * 1e6 > gate {
+                if solver.residual_m(steered.best_lags(), &u) / setup.speed * 1e6 > gate {
                     break;
                 }
             }
