@@ -164,4 +164,17 @@ fn every_entry_point_gives_the_same_detections() {
             assert!((row.score - d.score).abs() <= 0.00005 + 1e-9);
         }
     }
+    // With the tracker (the default: the steered response, a second source a frame and
+    // candidates), the same bytes on one thread and two.
+    let tracked = |threads: &str| {
+        let out = ssl()
+            .args(["analyze", name, "-g", geo.to_str().unwrap(), "-j", threads])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", stderr(&out));
+        out.stdout
+    };
+    let one = tracked("1");
+    assert!(parse_csv(&String::from_utf8(one.clone()).unwrap()).len() > 10);
+    assert_eq!(one, tracked("2"));
 }
