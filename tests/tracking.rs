@@ -128,6 +128,20 @@ fn two_talkers_taking_turns_are_two_tracks_and_three_events() {
     assert!(untracked.iter().all(|r| r.source.is_none()));
     eprintln!("{} rows untracked, {} tracked", untracked.len(), rows.len());
     assert!(untracked.len() > 50 && untracked.len() < rows.len());
+    // --keep-unconfirmed: the same tracked rows, and the ones no track confirmed among
+    // them without a source, in frame order.
+    let tracked = parse_csv(&csv(&[]));
+    let kept = parse_csv(&csv(&["--keep-unconfirmed"]));
+    let confirmed: Vec<_> = kept
+        .iter()
+        .filter(|r| r.source.is_some())
+        .cloned()
+        .collect();
+    assert_eq!(confirmed, tracked);
+    let unconfirmed = kept.len() - confirmed.len();
+    eprintln!("{unconfirmed} rows unconfirmed");
+    assert!(unconfirmed > 0);
+    assert!(kept.windows(2).all(|w| w[0].time_s <= w[1].time_s));
 }
 
 #[test]

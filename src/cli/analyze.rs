@@ -77,11 +77,7 @@ impl Output<'_> {
             return Ok(());
         };
         for row in tracker.take_rows() {
-            exporter.detection(&DetectionRecord::tracked(
-                name,
-                &row.detection,
-                Some(row.source),
-            )?)?;
+            exporter.detection(&DetectionRecord::tracked(name, &row.detection, row.source)?)?;
         }
         for event in tracker.take_events() {
             exporter.event(&EventRecord::new(name, &event)?)?;

@@ -217,6 +217,10 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "K", default_value_t = DEFAULT_MAX_SOURCES as u8, value_parser = clap::value_parser!(u8).range(1..=MAX_SOURCES as i64), conflicts_with_all = ["paper", "min_score", "no_track"])]
     pub max_sources: u8,
 
+    /// Also write the detections no track confirmed (isolated ones, a track's outliers), with an empty `source` (null in JSON), in frame order among the others
+    #[arg(long, conflicts_with = "no_track")]
+    pub keep_unconfirmed: bool,
+
     /// A track is confirmed by 2 detections within this many seconds of its first; rows wait up to this long
     #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = positive, conflicts_with = "no_track")]
     pub confirm_s: f64,
@@ -356,6 +360,7 @@ impl AnalyzeArgs {
     pub fn track_params(&self) -> Option<TrackParams> {
         (!self.no_track).then(|| TrackParams {
             confirm_s: self.confirm_s,
+            keep_unconfirmed: self.keep_unconfirmed,
             ..TrackParams::default()
         })
     }

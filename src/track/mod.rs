@@ -9,7 +9,8 @@
 //! - **birth on confirmation:** a detection that joins no track starts a candidate; the
 //!   candidate becomes a track once [`TrackParams::confirm_hits`] detections have joined
 //!   it within [`TrackParams::confirm_s`] of its first, else its detections are dropped
-//!   (isolated outliers never reach the output). A confirmed candidate near a track that
+//!   (isolated outliers never reach the output, unless
+//!   [`TrackParams::keep_unconfirmed`] gives them out without an id). A confirmed candidate near a track that
 //!   has fallen silent (within the gate) takes that track's id again: a talker who pauses
 //!   and speaks again from the same place keeps one id;
 //! - **activity:** a track whose last detection is more than [`TrackParams::end_s`] old
@@ -19,7 +20,8 @@
 //!   forgotten after [`TrackParams::forget_s`] (at most [`MAX_TRACKS`] are remembered).
 //!
 //! Every detection that comes out carries its track's id (`source`, from 1, never reused
-//! within one recording). Rows come out in frame order, at most
+//! within one recording), but for the unconfirmed ones [`TrackParams::keep_unconfirmed`]
+//! keeps. Rows come out in frame order, at most
 //! [`TrackParams::confirm_s`] after their frame: that is the tracker's delay. Memory
 //! holds the open candidates and the rows still waiting, bounded by that delay.
 //! Measured in docs/tracking.md.
@@ -56,6 +58,10 @@ pub struct TrackParams {
     pub end_s: f64,
     /// A silent track is forgotten after this many seconds (its id is never reused).
     pub forget_s: f64,
+    /// Give out the detections no track confirmed too, without a track id, instead of
+    /// dropping them (`--keep-unconfirmed`).
+    #[serde(default)]
+    pub keep_unconfirmed: bool,
 }
 
 impl Default for TrackParams {
@@ -70,6 +76,7 @@ impl Default for TrackParams {
             max_gate_deg: 30.0,
             end_s: 1.0,
             forget_s: 120.0,
+            keep_unconfirmed: false,
         }
     }
 }

@@ -13,8 +13,10 @@ use std::collections::{HashMap, VecDeque};
 pub struct Tracked {
     /// The detection.
     pub detection: Detection,
-    /// Its track's id (from 1, never reused within one recording).
-    pub source: u64,
+    /// Its track's id (from 1, never reused within one recording), or `None` for a
+    /// detection no track confirmed, given out only with
+    /// [`TrackParams::keep_unconfirmed`].
+    pub source: Option<u64>,
 }
 
 /// For a planar array, how much a difference in the angle out of its plane counts
@@ -49,6 +51,9 @@ struct Candidate {
 enum Slot {
     Track(u64),
     Candidate(u64),
+    /// A detection that joins nothing and starts nothing (kept only to be given out
+    /// unconfirmed).
+    Dropped,
 }
 
 /// Follows detections over time (see the [`track`](super) module).
@@ -169,6 +174,8 @@ impl Tracker {
             let key = match slot {
                 Slot::Track(id) => (true, id),
                 Slot::Candidate(k) => (false, k),
+                // Never paired: placed only after association.
+                Slot::Dropped => continue,
             };
             if used[i].is_some() || taken.contains(&key) {
                 continue;
@@ -191,6 +198,9 @@ impl Tracker {
                         && self.distance(&d.direction, &t.direction) <= self.gate(time_s - t.last_s)
                 })
             {
+                if self.params.keep_unconfirmed {
+                    *placed = Some(Slot::Dropped);
+                }
                 continue;
             }
             let key = self.next_key;
@@ -232,6 +242,7 @@ impl Tracker {
                     None => t.event = Some(Accumulator::new(d)),
                 }
             }
+            Slot::Dropped => {}
             Slot::Candidate(key) => {
                 let i = self
                     .candidates
@@ -339,11 +350,13 @@ impl Tracker {
             .retain(|t| t.event.is_some() || now - t.last_s <= forget_s);
     }
 
-    /// Gives out the waiting rows whose fate is known, in order.
+    /// Gives out the waiting rows whose fate is known, in order (those no track
+    /// confirmed only with [`TrackParams::keep_unconfirmed`]).
     fn release(&mut self) {
         while let Some((_, slot)) = self.waiting.front() {
             let source = match *slot {
                 Slot::Track(id) => Some(id),
+                Slot::Dropped => None,
                 Slot::Candidate(key) => {
                     let Some(entry) = self.resolved.get_mut(&key) else {
                         break;
@@ -357,7 +370,7 @@ impl Tracker {
                 }
             };
             let (detection, _) = self.waiting.pop_front().expect("a front");
-            if let Some(source) = source {
+            if source.is_some() || self.params.keep_unconfirmed {
                 self.ready.push(Tracked { detection, source });
             }
         }

@@ -31,7 +31,23 @@ fn track(frames: &[Vec<f64>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
 
 /// As [`track`], with each detection's (azimuth, margin).
 fn track_margins(frames: &[Vec<(f64, f64)>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
-    let mut tracker = Tracker::new(TrackParams::default());
+    let (rows, events) = track_with(TrackParams::default(), frames);
+    let rows = rows
+        .into_iter()
+        .map(|(f, source, a)| (f, source.expect("confirmed"), a))
+        .collect();
+    (rows, events)
+}
+
+/// A row given out: frame, source (none when unconfirmed), azimuth.
+type Row = (u64, Option<u64>, f64);
+
+/// As [`track_margins`], with `params`: the rows (frame, source or none, azimuth).
+fn track_with(
+    params: TrackParams,
+    frames: &[Vec<(f64, f64)>],
+) -> (Vec<Row>, Vec<Event>) {
+    let mut tracker = Tracker::new(params);
     let (mut rows, mut events) = (Vec::new(), Vec::new());
     for (i, found) in frames.iter().enumerate() {
         let ds: Vec<Detection> = found
@@ -161,6 +177,46 @@ fn candidates_need_a_detection_above_the_threshold() {
     assert_eq!(events[0].detections, 5);
 }
 
+/// With `keep_unconfirmed`, the detections dropped by default come out too, without an
+/// id, in frame order among the others; the confirmed rows and the events are the same.
+#[test]
+fn unconfirmed_detections_are_kept_without_an_id_on_request() {
+    // A talker at 30 deg; an isolated detection at -100 deg (never confirmed), a
+    // candidate 8 deg off the live track (its outlier), and a weak candidate alone at
+    // 150 deg (never confirmed, still open at the end).
+    let mut frames: Vec<Vec<(f64, f64)>> = (0..60)
+        .map(|f| {
+            if f % 2 == 0 {
+                vec![(30.0, 2.0)]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    frames[11] = vec![(-100.0, 2.0)];
+    frames[21] = vec![(38.0, 0.6)];
+    frames[59] = vec![(150.0, 0.7)];
+    let (plain, plain_events) = track_with(TrackParams::default(), &frames);
+    let keep = TrackParams {
+        keep_unconfirmed: true,
+        ..TrackParams::default()
+    };
+    let (kept, kept_events) = track_with(keep, &frames);
+    assert_eq!(plain.len(), 30);
+    assert!(plain.iter().all(|r| r.1 == Some(1)));
+    let confirmed: Vec<_> = kept.iter().filter(|r| r.1.is_some()).copied().collect();
+    assert_eq!(confirmed, plain);
+    let unconfirmed: Vec<(u64, f64)> = kept
+        .iter()
+        .filter(|r| r.1.is_none())
+        .map(|r| (r.0, r.2))
+        .collect();
+    assert_eq!(unconfirmed, vec![(11, -100.0), (21, 38.0), (59, 150.0)]);
+    assert!(kept.windows(2).all(|w| w[0].0 < w[1].0));
+    assert_eq!(kept_events.len(), 1);
+    assert_eq!(kept_events[0].detections, plain_events[0].detections);
+}
+
 /// A planar array knows elevation roughly: its detections 30 deg apart in elevation
 /// at one azimuth are one source, and 30 deg apart in azimuth two.
 #[test]
@@ -184,7 +240,7 @@ fn a_planar_array_is_tracked_by_its_azimuth() {
     tracker.finish();
     let mut ids: Vec<(u64, f64)> = tracker
         .take_rows()
-        .map(|r| (r.source, r.detection.azimuth_deg))
+        .map(|r| (r.source.expect("confirmed"), r.detection.azimuth_deg))
         .collect();
     assert_eq!(ids.len(), 80);
     ids.sort_by_key(|a| a.0);
@@ -203,7 +259,7 @@ fn a_planar_array_is_tracked_by_its_azimuth() {
         plain.push(i as f64 * HOP, &[up]);
     }
     plain.finish();
-    let mut split: Vec<u64> = plain.take_rows().map(|r| r.source).collect();
+    let mut split: Vec<u64> = plain.take_rows().filter_map(|r| r.source).collect();
     split.dedup();
     split.sort();
     split.dedup();

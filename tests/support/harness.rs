@@ -180,7 +180,7 @@ pub fn track_records<S: ssl::stream::SampleSource>(
     let hop = analysis.frame_size() as f64 / 2.0 / analysis.sample_rate() as f64;
     let mut tracker = track.map(|p| Tracker::for_shape(p, shape));
     let record =
-        |t: Tracked| DetectionRecord::tracked(name, &t.detection, Some(t.source)).expect("finite");
+        |t: Tracked| DetectionRecord::tracked(name, &t.detection, t.source).expect("finite");
     let mut records = Vec::new();
     let (_, result) = analysis.run(|i, d| {
         match tracker.as_mut() {
