@@ -3,7 +3,7 @@
 //! report. Prints the markdown of docs/tracking.md:
 //! `cargo bench --bench tracking > docs/tracking.md` (about three minutes).
 //!
-//! - Meetings: four talkers around the array (the two CMU ARCTIC clips of
+//! - Meetings: four talkers around the array (the three CMU ARCTIC clips of
 //!   testdata/speech, each talker always saying the same one), twelve turns in round
 //!   robin, each starting 0.3 s before the previous one ends (an overlap) or 0.2-0.6 s
 //!   after it, in the paper's room (8 x 7 x 3 m) at RT60 0.35 and 0.5 s with its fan and
@@ -85,13 +85,13 @@ fn meeting(array: &Array, rate: u32, rt60: f64, seed: u64) -> SceneFile {
     let mut t = 1.0;
     for turn in 0..12 {
         let who = turn % 4;
-        let length = CLIPS[who % 2].1;
+        let length = CLIPS[who % CLIPS.len()].1;
         active[who].push([t, t + length]);
         t += length + gaps[turn % gaps.len()];
     }
     let mut scene = speech_room(rate, t + 1.5, seed, rt60, false);
     scene.source = (0..4)
-        .map(|i| talker(array, azimuths[i], i % 2, active[i].clone()))
+        .map(|i| talker(array, azimuths[i], i % CLIPS.len(), active[i].clone()))
         .collect();
     scene
 }
@@ -106,13 +106,13 @@ fn together(array: &Array, rate: u32, separation: f64, seed: u64) -> SceneFile {
     scene
 }
 
-/// Three talkers at once, `separation` degrees apart: the third says the first one's
-/// sentence 0.5 s after it (two clips are all testdata holds), from 1.5 to 3.8 s.
+/// Three talkers at once, `separation` degrees apart, each saying its own sentence,
+/// for 2.8 s.
 fn three(array: &Array, rate: u32, separation: f64, seed: u64) -> SceneFile {
     let mut scene = together(array, rate, separation, seed);
     scene
         .source
-        .push(talker(array, 20.0 + separation, 0, vec![[1.5, 3.8]]));
+        .push(talker(array, 20.0 + separation, 2, vec![[1.0, 3.8]]));
     scene
 }
 
@@ -234,14 +234,14 @@ fn main() -> Result<(), Box<dyn Error>> {
         }
     }
     println!("# Tracking benchmark\n");
-    println!("Made by `cargo bench --bench tracking > docs/tracking.md` (scenes in `benches/tracking.rs`): real speech (the two CMU ARCTIC sentences of `testdata/speech/`) in the paper's room (8 x 7 x 3 m, a fan near the ceiling and diffuse noise 10 dB below the talkers), analysed with the defaults and tracked as `ssl analyze` does, scored by `ssl evaluate` (`src/evaluate/tracks.rs` defines each figure). Talkers are 2 m from the prism at elevation -7 deg, 1.5 m from the small arrays at +15 deg.\n");
+    println!("Made by `cargo bench --bench tracking > docs/tracking.md` (scenes in `benches/tracking.rs`): real speech (the CMU ARCTIC sentences of `testdata/speech/`) in the paper's room (8 x 7 x 3 m, a fan near the ceiling and diffuse noise 10 dB below the talkers), analysed with the defaults and tracked as `ssl analyze` does, scored by `ssl evaluate` (`src/evaluate/tracks.rs` defines each figure). Talkers are 2 m from the prism at elevation -7 deg, 1.5 m from the small arrays at +15 deg.\n");
     println!("## Meetings\n");
-    println!("Four talkers at azimuths -135, -40, 50 and 140 deg take twelve turns in round robin (each 2.8 or 3.9 s), each turn starting 0.3 s before the previous one ends or 0.2-0.6 s after it. Cells: true events (turns) recalled by an event within 10 deg / false events per minute / tracks per talker / the lowest purity of a talker's dominant track / mean error of the rows / of the events / mean absolute onset / offset error of the events.\n");
+    println!("Four talkers at azimuths -135, -40, 50 and 140 deg take twelve turns in round robin (each 2.8, 3.5 or 3.9 s: the first and the fourth say the same sentence), each turn starting 0.3 s before the previous one ends or 0.2-0.6 s after it. Cells: true events (turns) recalled by an event within 10 deg / false events per minute / tracks per talker / the lowest purity of a talker's dominant track / mean error of the rows / of the events / mean absolute onset / offset error of the events.\n");
     println!("| array | rate | RT60 | events recalled | false events per min | tracks per talker | lowest purity | mean error rows / events | onset / offset |");
     println!("|---|---|---|---|---|---|---|---|---|");
     print!("{meetings}");
     println!("\n## Two and three talkers at once\n");
-    println!("Both talk for 2.8 s, at azimuth 20 deg and 30, 60 or 90 deg to its right, RT60 0.35 s; in the last row of each array a third talker, 60 deg to the left of the first, says the first one's sentence from 0.5 s after it (testdata holds two clips). A frame gives its dominant talker and, when it passes the threshold on its own, a second; the tracker's candidates (down to half the threshold) add the frames each talker dominates less. Cells: the share of (0.1 s window, talker) pairs with a row of that talker in the window / rows of each talker / tracks / mean error of the rows.\n");
+    println!("Both talk for 2.8 s, at azimuth 20 deg and 30, 60 or 90 deg to its right, RT60 0.35 s; in the last row of each array a third talker, 60 deg to the left of the first, says a third sentence at the same time. A frame gives its dominant talker and, when it passes the threshold on its own, a second; the tracker's candidates (down to half the threshold) add the frames each talker dominates less. Cells: the share of (0.1 s window, talker) pairs with a row of that talker in the window / rows of each talker / tracks / mean error of the rows.\n");
     println!(
         "| array | rate | talkers | windows detected | rows per talker | tracks | mean error |"
     );

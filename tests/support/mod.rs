@@ -18,9 +18,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 /// The CMU ARCTIC sentences in `testdata/speech/` and their lengths (seconds).
-pub const SPEECH: [(&str, f64); 2] = [
+pub const SPEECH: [(&str, f64); 3] = [
     ("cmu_arctic_us_aew_a0001.wav", 3.9),
     ("cmu_arctic_us_axb_a0004.wav", 2.8),
+    ("arctic_a0010.wav", 3.5),
 ];
 
 /// Copies the [`SPEECH`] clips into `dir` (scene files name them there).
