@@ -134,6 +134,7 @@ fn scene(array: &Array, rate: u32, kind: Kind, seed: u64) -> SceneFile {
             rate: None,
             frequency: None,
             file: Some(clip.into()),
+            turn_deg_per_s: None,
         });
         t += length + 0.5;
         if background {

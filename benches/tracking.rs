@@ -74,6 +74,7 @@ fn talker(array: &Array, azimuth: f64, clip: usize, active: Vec<[f64; 2]>) -> So
         rate: None,
         frequency: None,
         file: Some(CLIPS[clip].0.into()),
+        turn_deg_per_s: None,
     }
 }
 

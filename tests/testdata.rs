@@ -73,6 +73,8 @@ fn truth(geometry: &Geometry, scene: &Scene) -> Truth {
                 elevation_deg,
                 distance_m: None,
                 active: vec![[s.start_s, s.end_s]],
+                turn_deg_per_s: None,
+                turn_from_s: None,
             }
         })
         .collect();

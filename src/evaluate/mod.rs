@@ -22,6 +22,7 @@ pub use tracks::{SourceTracks, TrackReport, OVERLAP_WINDOW_S};
 
 use crate::method::default_frame_size;
 use crate::method::direction::{angle_between_deg, angles_deg};
+use crate::record::truth::turned;
 use crate::record::{DetectionRecord, Truth};
 use nalgebra::Vector3;
 
@@ -203,16 +204,26 @@ pub fn evaluate(
         .iter()
         .map(|s| Source {
             direction: unit(s.x, s.y, s.z).expect("checked"),
+            turn: s.turn(),
             intervals: s.active.iter().map(|&[a, b]| (a, b)).collect(),
         })
         .collect();
     Ok(score(truth, &sources, &dets, tail_s))
 }
 
-/// A true source as scored: its direction and active intervals.
+/// A true source as scored: its direction (a moving one's when it starts turning), its
+/// turn, and its active intervals.
 struct Source {
     direction: Vector3<f64>,
+    turn: Option<(f64, f64)>,
     intervals: Vec<(f64, f64)>,
+}
+
+impl Source {
+    /// Its direction at time `t` (seconds).
+    fn at(&self, t: f64) -> Vector3<f64> {
+        turned(&self.direction, self.turn, t)
+    }
 }
 
 fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report {
@@ -245,14 +256,14 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             .iter()
             .filter(|d| s.intervals.iter().any(|&iv| inside(d.time_s, iv)))
             .filter(|d| {
-                let own = angle_between_deg(&d.direction, &s.direction);
+                let own = angle_between_deg(&d.direction, &s.at(d.time_s));
                 sources.iter().enumerate().all(|(oi, o)| {
                     oi == si
                         || !o.intervals.iter().any(|&iv| inside(d.time_s, iv))
-                        || angle_between_deg(&d.direction, &o.direction) > own
+                        || angle_between_deg(&d.direction, &o.at(d.time_s)) > own
                 })
             })
-            .map(|d| (d, angle_between_deg(&d.direction, &s.direction)))
+            .map(|d| (d, angle_between_deg(&d.direction, &s.at(d.time_s))))
             .collect();
         let mut errors: Vec<f64> = mine.iter().map(|(_, e)| *e).collect();
         all_errors.extend_from_slice(&errors);
@@ -271,7 +282,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             .filter(|&&iv| {
                 dets.iter().any(|d| {
                     overlaps(d.time_s, iv, 0.0)
-                        && angle_between_deg(&d.direction, &s.direction) < HIT_DEG
+                        && angle_between_deg(&d.direction, &s.at(d.time_s)) < HIT_DEG
                 })
             })
             .count();
@@ -365,6 +376,8 @@ mod tests {
             elevation_deg,
             distance_m: Some(2.0),
             active,
+            turn_deg_per_s: None,
+            turn_from_s: None,
         }
     }
 

@@ -96,7 +96,7 @@ pub(super) fn score_tracks(
                 .iter()
                 .enumerate()
                 .filter(|(_, s)| active(s, d.time_s))
-                .map(|(i, s)| (i, angle_between_deg(&d.direction, &s.direction)))
+                .map(|(i, s)| (i, angle_between_deg(&d.direction, &s.at(d.time_s))))
                 .filter(|(_, e)| *e < HIT_DEG)
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(i, _)| i)
@@ -150,8 +150,11 @@ pub(super) fn score_tracks(
         }
     }
     stretches.extend(open.into_values());
+    // An event's mean direction against its source's at the event's middle (a moving
+    // source's events are long only when it moves little).
+    let middle = |e: &Stretch, s: &Source| s.at((e.start + e.end) / 2.0);
     let matches = |e: &Stretch, s: &Source, (a, b): (f64, f64)| {
-        e.start <= b + tail_s && e.end >= a && angle_between_deg(&e.sum, &s.direction) < HIT_DEG
+        e.start <= b + tail_s && e.end >= a && angle_between_deg(&e.sum, &middle(e, s)) < HIT_DEG
     };
     let (mut true_events, mut recalled) = (0, 0);
     let (mut errors, mut onsets, mut offsets) = (Vec::new(), Vec::new(), Vec::new());
@@ -165,7 +168,7 @@ pub(super) fn score_tracks(
                 .max_by(|x, y| overlap(x).total_cmp(&overlap(y)))
             {
                 recalled += 1;
-                errors.push(angle_between_deg(&e.sum, &s.direction));
+                errors.push(angle_between_deg(&e.sum, &middle(e, s)));
                 onsets.push((e.start - a).abs());
                 offsets.push((e.end - b).abs());
             }
@@ -261,10 +264,12 @@ mod tests {
         let sources = vec![
             Source {
                 direction: unit_from_angles(0.0, 0.0),
+                turn: None,
                 intervals: vec![(1.0, 3.0), (6.0, 8.0)],
             },
             Source {
                 direction: unit_from_angles(90.0, 0.0),
+                turn: None,
                 intervals: vec![(2.0, 5.0)],
             },
         ];

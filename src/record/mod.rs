@@ -13,7 +13,7 @@ mod event;
 mod json;
 mod metadata;
 mod read;
-mod truth;
+pub(crate) mod truth;
 
 pub use self::csv::CsvExporter;
 pub use self::json::{JsonExporter, NdjsonExporter};

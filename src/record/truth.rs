@@ -95,12 +95,42 @@ pub struct TruthSource {
     pub distance_m: Option<f64>,
     /// When it is heard at the array centre: `[start, end]` in seconds.
     pub active: Vec<[f64; 2]>,
+    /// A moving source: how fast its azimuth turns (degrees per second, positive toward
+    /// +y); its direction above is the one it has at `turn_from_s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn_deg_per_s: Option<f64>,
+    /// When a moving source is heard at the array centre from the direction above
+    /// (seconds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn_from_s: Option<f64>,
 }
 
 impl TruthSource {
-    /// The unit vector toward the source.
+    /// The unit vector toward the source (a moving one's when it starts turning).
     pub fn direction(&self) -> Vector3<f64> {
         Vector3::new(self.x, self.y, self.z).normalize()
+    }
+
+    /// The unit vector toward the source at time `t_s` (seconds), as heard at the array
+    /// centre: a moving source's direction turned about the array's z axis.
+    pub fn direction_at(&self, t_s: f64) -> Vector3<f64> {
+        turned(&self.direction(), self.turn(), t_s)
+    }
+
+    /// A moving source's turn (degrees per second) and the time it starts from.
+    pub fn turn(&self) -> Option<(f64, f64)> {
+        self.turn_deg_per_s.zip(self.turn_from_s)
+    }
+}
+
+/// Direction `u` turned about the z axis by `turn = (deg_per_s, from_s)` at time `t_s`.
+pub(crate) fn turned(u: &Vector3<f64>, turn: Option<(f64, f64)>, t_s: f64) -> Vector3<f64> {
+    match turn {
+        Some((rate, from)) => {
+            let (s, c) = (rate * (t_s - from)).to_radians().sin_cos();
+            Vector3::new(c * u.x - s * u.y, s * u.x + c * u.y, u.z)
+        }
+        None => *u,
     }
 }
 

@@ -21,6 +21,10 @@ pub const MAX_DISTANCE_M: f64 = 1000.0;
 pub const MAX_ROOM_M: f64 = 1000.0;
 /// Image sources one scene may render, over all responses (about a minute of work).
 pub const MAX_IMAGES: f64 = 2e9;
+
+/// The fastest a moving source turns (degrees per second, either way): one turn a
+/// second. Its responses are rendered every degree, so a second of it costs 360 of them.
+pub const MAX_TURN_DEG_S: f64 = 360.0;
 /// The speed of sound accepted (m/s).
 pub const SPEED_RANGE: (f64, f64) = (50.0, 5000.0);
 
@@ -89,6 +93,7 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
             s.distance,
             s.rate,
             s.frequency,
+            s.turn_deg_per_s,
         ];
         require!(
             s.position.is_none_or(|p| finite3(&p))
@@ -104,6 +109,16 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
             require!(
                 d > 0.0 && d <= MAX_DISTANCE_M,
                 "{what}: distance must be between 0 and {MAX_DISTANCE_M} m, got {d}"
+            );
+        }
+        if let Some(turn) = s.turn_deg_per_s {
+            require!(
+                s.position.is_none() && s.azimuth_deg.is_some() && s.distance.is_some(),
+                "{what}: turn_deg_per_s moves a source given by azimuth_deg and distance (not position)"
+            );
+            require!(
+                turn.abs() <= MAX_TURN_DEG_S,
+                "{what}: turn_deg_per_s must be at most {MAX_TURN_DEG_S} deg/s either way, got {turn}"
             );
         }
         if s.signal == SignalKind::Clicks {
@@ -166,9 +181,15 @@ pub(crate) fn check_cost(
         scene.sample_rate
     );
     if let Some(volume) = room_volume {
+        // A moving source needs a response per position (see `render`).
+        let positions: f64 = scene
+            .source
+            .iter()
+            .map(|s| super::source::positions(s, scene.duration) as f64)
+            .sum();
         let responses =
-            mics * (scene.source.len() + scene.noise.as_ref().map_or(0, |n| n.fan.len()));
-        let images = image_count(reach_m, volume) * responses as f64;
+            mics as f64 * (positions + scene.noise.as_ref().map_or(0, |n| n.fan.len()) as f64);
+        let images = image_count(reach_m, volume) * responses;
         require!(
             images <= MAX_IMAGES,
             "rendering needs about {images:.1e} image sources ({responses} responses reaching {reach_m:.0} m in a {volume:.0} m^3 room); at most {MAX_IMAGES:.0e} are supported: a shorter rt60, a larger room or fewer sources"

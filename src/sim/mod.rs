@@ -18,6 +18,7 @@ pub mod render;
 pub mod room;
 pub mod scene;
 pub mod signals;
+mod source;
 pub mod wav;
 
 pub use render::{simulate, simulate_file, Simulation};

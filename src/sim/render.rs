@@ -1,17 +1,16 @@
 //! Rendering a scene: place the array in the room, render each source through the
-//! room's impulse responses ([`room`](super::room)), add the noise, and write down the
-//! truth. Same scene and seed, same samples.
+//! room's impulse responses ([`room`](super::room), one source in `source.rs`), add the
+//! noise, and write down the truth. Same scene and seed, same samples.
 
 use super::limits::{check_cost, check_scene, MAX_DISTANCE_M};
 use super::noise::{add_normalised, colour_noise, diffuse_noise, mean_power};
-use super::recorded::read_mono;
 use super::room::{add_tap, Room, SINC_HALF_WIDTH};
-use super::scene::{NoiseSpec, SampleFormat, SceneFile, SignalKind, SourceSpec};
-use super::signals::{generate, Signal};
+use super::scene::{NoiseSpec, SampleFormat, SceneFile};
+use super::source::{self, source_position};
 use super::SceneError;
 use crate::geometry::Geometry;
-use crate::method::direction::{angles_deg, unit_from_angles};
-use crate::record::{fixed, Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
+use crate::method::direction::angles_deg;
+use crate::record::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom};
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -57,7 +56,7 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
     let mut sources = Vec::new();
     let mut level_sum = 0.0;
     for (i, s) in scene.source.iter().enumerate() {
-        let truth = render_source(scene, dir, &placed, (i, s), &mut out, &mut rng)?;
+        let truth = source::render_source(scene, dir, &placed, (i, s), &mut out, &mut rng)?;
         let level = 10f64.powf(s.level_db / 20.0);
         level_sum += level * level;
         sources.push(truth);
@@ -112,16 +111,16 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
 }
 
 /// The array in the room: the room, the microphones in room coordinates, the pose.
-struct Placed {
-    room: Option<Room>,
-    mics: Vec<Vector3<f64>>,
-    centre: Vector3<f64>,
+pub(super) struct Placed {
+    pub(super) room: Option<Room>,
+    pub(super) mics: Vec<Vector3<f64>>,
+    pub(super) centre: Vector3<f64>,
     /// Array frame to room frame.
-    rotation: Matrix3<f64>,
-    fs: f64,
-    c: f64,
+    pub(super) rotation: Matrix3<f64>,
+    pub(super) fs: f64,
+    pub(super) c: f64,
     /// How long reflections last after the direct sound (seconds).
-    tail_s: f64,
+    pub(super) tail_s: f64,
 }
 
 impl Placed {
@@ -197,7 +196,7 @@ impl Placed {
         Ok(far + aperture)
     }
 
-    fn check_inside(&self, what: &str, p: &Vector3<f64>) -> Result<(), SceneError> {
+    pub(super) fn check_inside(&self, what: &str, p: &Vector3<f64>) -> Result<(), SceneError> {
         if let Some(room) = &self.room {
             if !room.contains(p) {
                 fail!(
@@ -216,7 +215,7 @@ impl Placed {
     }
 
     /// Impulse responses from `p` to every microphone (1/r gain, direct path included).
-    fn responses(&self, p: &Vector3<f64>) -> Vec<Vec<f64>> {
+    pub(super) fn responses(&self, p: &Vector3<f64>) -> Vec<Vec<f64>> {
         let (fs, c) = (self.fs, self.c);
         let far = self.mics.iter().map(|m| (m - p).norm()).fold(0.0, f64::max);
         let len = ((far / c + self.tail_s) * fs) as usize + 2 * SINC_HALF_WIDTH + 1;
@@ -234,107 +233,6 @@ impl Placed {
             })
             .collect()
     }
-}
-
-/// Renders source `i` into `out`: its signal in each active interval, through the room;
-/// returns its truth.
-fn render_source(
-    scene: &SceneFile,
-    dir: &Path,
-    placed: &Placed,
-    (i, s): (usize, &SourceSpec),
-    out: &mut [Vec<f64>],
-    rng: &mut ChaCha8Rng,
-) -> Result<TruthSource, SceneError> {
-    let fs = placed.fs;
-    let what = format!("source {}", i + 1);
-    let about = |error| SceneError::About {
-        what: what.clone(),
-        error: Box::new(error),
-    };
-    let position = source_position(s, placed).map_err(about)?;
-    placed.check_inside(&what, &position)?;
-    let distance = (position - placed.centre).norm();
-    if distance < 1e-3 {
-        fail!(SceneError::Invalid, "{what} is at the array centre");
-    }
-    let level = 10f64.powf(s.level_db / 20.0);
-    let signal = match s.signal {
-        SignalKind::White => Some(Signal::WhiteNoise),
-        SignalKind::Pink => Some(Signal::PinkNoise),
-        SignalKind::Speech => Some(Signal::SpeechLike),
-        SignalKind::Clicks => Some(Signal::Clicks {
-            per_second: s.rate.unwrap_or(10.0),
-        }),
-        SignalKind::Tone => Some(Signal::Tone {
-            hz: s.frequency.unwrap_or(1000.0),
-        }),
-        SignalKind::File => None,
-    };
-    let recording = match (&s.signal, &s.file) {
-        (SignalKind::File, Some(f)) => {
-            Some(read_mono(&dir.join(f), scene.sample_rate).map_err(about)?)
-        }
-        (SignalKind::File, None) => fail!(
-            SceneError::Invalid,
-            "{what}: signal = \"file\" needs `file = \"...\"`"
-        ),
-        _ => None,
-    };
-    let len = out[0].len();
-    let responses = placed.responses(&position);
-    let delay_s = distance / placed.c;
-    let mut active = Vec::new();
-    for [a, b] in s.active.clone().unwrap_or(vec![[0.0, scene.duration]]) {
-        if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b && b <= scene.duration) {
-            fail!(
-                SceneError::Invalid,
-                "{what}: active interval [{a}, {b}] must lie within [0, {}] and not be empty",
-                scene.duration
-            );
-        }
-        let start = (a * fs).round() as usize;
-        let n = ((b * fs).round() as usize).min(len) - start;
-        let mut dry = vec![0.0; n];
-        // Scaled so that the direct sound at the array centre (gain 1 / distance) has `level`.
-        match (&signal, &recording) {
-            (Some(sig), _) => generate(sig, level * distance, fs, &mut dry, rng),
-            (None, Some(rec)) => {
-                for (k, v) in dry.iter_mut().enumerate() {
-                    *v = rec[k % rec.len()];
-                }
-                let rms = (dry.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
-                if rms > 0.0 {
-                    dry.iter_mut().for_each(|v| *v *= level * distance / rms);
-                }
-            }
-            _ => unreachable!("a signal or a recording"),
-        }
-        for (m, wet) in convolve(&dry, &responses).into_iter().enumerate() {
-            for (o, v) in out[m][start..].iter_mut().zip(wet) {
-                *o += v;
-            }
-        }
-        active.push([
-            fixed(a + delay_s, 6),
-            fixed((b + delay_s).min(scene.duration), 6),
-        ]);
-    }
-    let u = placed.rotation.transpose() * (position - placed.centre) / distance;
-    let (azimuth_deg, elevation_deg) = angles_deg(&u);
-    Ok(TruthSource {
-        index: i,
-        signal: format!("{:?}", s.signal).to_lowercase(),
-        level_db: s.level_db,
-        position_room: [position.x, position.y, position.z],
-        x: u.x,
-        y: u.y,
-        z: u.z,
-        azimuth_deg,
-        elevation_deg,
-        distance_m: Some(distance),
-        active,
-    })
 }
 
 /// Adds fans and diffuse noise, each normalised to unit power, weighted, then scaled
@@ -421,27 +319,8 @@ fn add_noise(
     })
 }
 
-fn source_position(s: &SourceSpec, placed: &Placed) -> Result<Vector3<f64>, SceneError> {
-    match (s.position, s.azimuth_deg, s.elevation_deg, s.distance) {
-        (Some(p), None, None, None) => Ok(Vector3::from(p)),
-        (None, Some(az), el, Some(d)) => {
-            if !(d.is_finite() && d > 0.0) {
-                fail!(SceneError::Invalid, "distance must be positive, got {d}");
-            }
-            let u = unit_from_angles(az, el.unwrap_or(0.0));
-            Ok(placed.centre + placed.rotation * u * d)
-        }
-        _ => {
-            fail!(
-SceneError::Invalid,
-            "give either `position`, or `azimuth_deg`, `distance` (and optionally `elevation_deg`)"
-        )
-        }
-    }
-}
-
 /// Convolves `x` with each response by FFT; outputs have `x.len() + h.len() - 1` samples.
-fn convolve(x: &[f64], responses: &[Vec<f64>]) -> Vec<Vec<f64>> {
+pub(super) fn convolve(x: &[f64], responses: &[Vec<f64>]) -> Vec<Vec<f64>> {
     let hlen = responses.iter().map(Vec::len).max().unwrap_or(1);
     let n = (x.len() + hlen).next_power_of_two();
     let mut planner = RealFftPlanner::<f64>::new();

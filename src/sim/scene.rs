@@ -124,6 +124,11 @@ pub struct SourceSpec {
     pub frequency: Option<f64>,
     /// Mono WAV file for `signal = "file"`, relative to the scene file.
     pub file: Option<PathBuf>,
+    /// A moving source: its azimuth turns at this rate (degrees per second, positive
+    /// toward +y) from the start of its first active interval, at its `distance` and
+    /// `elevation_deg` from the array centre (needs `azimuth_deg` and `distance`).
+    #[serde(default)]
+    pub turn_deg_per_s: Option<f64>,
 }
 
 fn default_level() -> f64 {

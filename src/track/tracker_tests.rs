@@ -43,10 +43,7 @@ fn track_margins(frames: &[Vec<(f64, f64)>]) -> (Vec<(u64, u64, f64)>, Vec<Event
 type Row = (u64, Option<u64>, f64);
 
 /// As [`track_margins`], with `params`: the rows (frame, source or none, azimuth).
-fn track_with(
-    params: TrackParams,
-    frames: &[Vec<(f64, f64)>],
-) -> (Vec<Row>, Vec<Event>) {
+fn track_with(params: TrackParams, frames: &[Vec<(f64, f64)>]) -> (Vec<Row>, Vec<Event>) {
     let mut tracker = Tracker::new(params);
     let (mut rows, mut events) = (Vec::new(), Vec::new());
     for (i, found) in frames.iter().enumerate() {

@@ -95,6 +95,7 @@ impl Bench {
                     rate: Some(8.0),
                     frequency: None,
                     file: None,
+                    turn_deg_per_s: None,
                 }
             })
             .collect();

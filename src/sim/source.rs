@@ -1,0 +1,204 @@
+//! One source of a scene: its signal in each active interval, where it is (and, when it
+//! turns, where it is at each moment), through the room's responses; and its truth.
+
+use super::recorded::read_mono;
+use super::render::{convolve, Placed};
+use super::scene::{SceneFile, SignalKind, SourceSpec};
+use super::signals::{generate, Signal};
+use super::SceneError;
+use crate::method::direction::{angles_deg, unit_from_angles};
+use crate::record::{fixed, TruthSource};
+use nalgebra::Vector3;
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+
+/// Renders source `i` into `out`: its signal in each active interval, through the room;
+/// returns its truth.
+pub(super) fn render_source(
+    scene: &SceneFile,
+    dir: &Path,
+    placed: &Placed,
+    (i, s): (usize, &SourceSpec),
+    out: &mut [Vec<f64>],
+    rng: &mut ChaCha8Rng,
+) -> Result<TruthSource, SceneError> {
+    let fs = placed.fs;
+    let what = format!("source {}", i + 1);
+    let about = |error| SceneError::About {
+        what: what.clone(),
+        error: Box::new(error),
+    };
+    let position = source_position(s, placed).map_err(about)?;
+    placed.check_inside(&what, &position)?;
+    let distance = (position - placed.centre).norm();
+    if distance < 1e-3 {
+        fail!(SceneError::Invalid, "{what} is at the array centre");
+    }
+    let level = 10f64.powf(s.level_db / 20.0);
+    let signal = match s.signal {
+        SignalKind::White => Some(Signal::WhiteNoise),
+        SignalKind::Pink => Some(Signal::PinkNoise),
+        SignalKind::Speech => Some(Signal::SpeechLike),
+        SignalKind::Clicks => Some(Signal::Clicks {
+            per_second: s.rate.unwrap_or(10.0),
+        }),
+        SignalKind::Tone => Some(Signal::Tone {
+            hz: s.frequency.unwrap_or(1000.0),
+        }),
+        SignalKind::File => None,
+    };
+    let recording = match (&s.signal, &s.file) {
+        (SignalKind::File, Some(f)) => {
+            Some(read_mono(&dir.join(f), scene.sample_rate).map_err(about)?)
+        }
+        (SignalKind::File, None) => fail!(
+            SceneError::Invalid,
+            "{what}: signal = \"file\" needs `file = \"...\"`"
+        ),
+        _ => None,
+    };
+    let len = out[0].len();
+    let turn = s.turn_deg_per_s.filter(|&t| t != 0.0);
+    let turn_from = s
+        .active
+        .as_ref()
+        .and_then(|a| a.first())
+        .map_or(0.0, |a| a[0]);
+    let (az0, el) = (s.azimuth_deg.unwrap_or(0.0), s.elevation_deg.unwrap_or(0.0));
+    // Where a moving source is at time `t` (seconds).
+    let at = |t: f64| {
+        let az = az0 + turn.unwrap_or(0.0) * (t - turn_from);
+        placed.centre + placed.rotation * unit_from_angles(az, el) * distance
+    };
+    let responses = match turn {
+        None => placed.responses(&position),
+        Some(_) => Vec::new(),
+    };
+    let delay_s = distance / placed.c;
+    let mut active = Vec::new();
+    for [a, b] in s.active.clone().unwrap_or(vec![[0.0, scene.duration]]) {
+        if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b && b <= scene.duration) {
+            fail!(
+                SceneError::Invalid,
+                "{what}: active interval [{a}, {b}] must lie within [0, {}] and not be empty",
+                scene.duration
+            );
+        }
+        let start = (a * fs).round() as usize;
+        let n = ((b * fs).round() as usize).min(len) - start;
+        let mut dry = vec![0.0; n];
+        // Scaled so that the direct sound at the array centre (gain 1 / distance) has `level`.
+        match (&signal, &recording) {
+            (Some(sig), _) => generate(sig, level * distance, fs, &mut dry, rng),
+            (None, Some(rec)) => {
+                for (k, v) in dry.iter_mut().enumerate() {
+                    *v = rec[k % rec.len()];
+                }
+                let rms = (dry.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+                if rms > 0.0 {
+                    dry.iter_mut().for_each(|v| *v *= level * distance / rms);
+                }
+            }
+            _ => unreachable!("a signal or a recording"),
+        }
+        match turn {
+            None => add_at(out, start, convolve(&dry, &responses)),
+            Some(turn) => {
+                // Blocks a degree apart (at most 50 ms), each through the responses of
+                // its centre's position, cross-faded by triangles that sum to 1.
+                let hop = block_hop(turn, fs);
+                for centre in (0..n.div_ceil(hop) + 1).map(|j| j * hop) {
+                    let from = centre.saturating_sub(hop);
+                    let to = (centre + hop).min(n);
+                    if from >= to {
+                        continue;
+                    }
+                    let p = at((start + centre) as f64 / fs);
+                    placed.check_inside(&what, &p)?;
+                    let block: Vec<f64> = (from..to)
+                        .map(|k| {
+                            let w = 1.0 - (k as f64 - centre as f64).abs() / hop as f64;
+                            dry[k] * w
+                        })
+                        .collect();
+                    add_at(out, start + from, convolve(&block, &placed.responses(&p)));
+                }
+            }
+        }
+        active.push([
+            fixed(a + delay_s, 6),
+            fixed((b + delay_s).min(scene.duration), 6),
+        ]);
+    }
+    let u = placed.rotation.transpose() * (position - placed.centre) / distance;
+    let (azimuth_deg, elevation_deg) = angles_deg(&u);
+    // A moving source's truth is its direction when it starts turning, and its turn
+    // from that time as heard at the array centre.
+    let turn = turn.map(|t| (t, fixed(turn_from + delay_s, 6)));
+    Ok(TruthSource {
+        index: i,
+        signal: format!("{:?}", s.signal).to_lowercase(),
+        level_db: s.level_db,
+        position_room: [position.x, position.y, position.z],
+        x: u.x,
+        y: u.y,
+        z: u.z,
+        azimuth_deg,
+        elevation_deg,
+        distance_m: Some(distance),
+        active,
+        turn_deg_per_s: turn.map(|t| t.0),
+        turn_from_s: turn.map(|t| t.1),
+    })
+}
+
+/// Adds `wet[m]` to `out[m]` from sample `start` on (what falls past the end is left
+/// out).
+fn add_at(out: &mut [Vec<f64>], start: usize, wet: Vec<Vec<f64>>) {
+    for (m, wet) in wet.into_iter().enumerate() {
+        for (o, v) in out[m][start..].iter_mut().zip(wet) {
+            *o += v;
+        }
+    }
+}
+
+/// Samples between the positions a source turning at `turn` deg/s is rendered from:
+/// a degree, at most 50 ms.
+fn block_hop(turn: f64, fs: f64) -> usize {
+    ((1.0 / turn.abs()).min(0.05) * fs).round().max(1.0) as usize
+}
+
+/// How many positions source `s` is rendered from in a scene of `duration` seconds
+/// (1 unless it moves): what its responses cost.
+pub(crate) fn positions(s: &SourceSpec, duration: f64) -> usize {
+    match s.turn_deg_per_s.filter(|&t| t != 0.0 && t.is_finite()) {
+        None => 1,
+        Some(turn) => {
+            let hop_s = (1.0 / turn.abs()).min(0.05);
+            let intervals = s.active.clone().unwrap_or(vec![[0.0, duration]]);
+            intervals
+                .iter()
+                .map(|[a, b]| ((b - a).max(0.0) / hop_s).ceil() as usize + 2)
+                .sum()
+        }
+    }
+}
+
+pub(super) fn source_position(s: &SourceSpec, placed: &Placed) -> Result<Vector3<f64>, SceneError> {
+    match (s.position, s.azimuth_deg, s.elevation_deg, s.distance) {
+        (Some(p), None, None, None) => Ok(Vector3::from(p)),
+        (None, Some(az), el, Some(d)) => {
+            if !(d.is_finite() && d > 0.0) {
+                fail!(SceneError::Invalid, "distance must be positive, got {d}");
+            }
+            let u = unit_from_angles(az, el.unwrap_or(0.0));
+            Ok(placed.centre + placed.rotation * u * d)
+        }
+        _ => {
+            fail!(
+SceneError::Invalid,
+            "give either `position`, or `azimuth_deg`, `distance` (and optionally `elevation_deg`)"
+        )
+        }
+    }
+}
