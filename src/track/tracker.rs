@@ -1,6 +1,7 @@
 //! The tracker: association, confirmation, activity (see the module's documentation).
 
 use super::event::{Accumulator, Event};
+use super::motion::{smooth, Track};
 use super::{TrackParams, MAX_TRACKS};
 use crate::geometry::Shape;
 use crate::method::direction::angle_between_deg;
@@ -23,19 +24,6 @@ pub struct Tracked {
 /// against one in the plane when detections are associated: its elevation errs by 5-10
 /// deg on real speech where its azimuth errs by 1 (docs/field.md).
 pub const ELEVATION_WEIGHT: f64 = 0.25;
-
-/// How much of a new detection a track's direction takes.
-const SMOOTHING: f64 = 0.3;
-
-/// The time over which a track's direction takes [`SMOOTHING`] of a detection.
-const SMOOTHING_FRAME_S: f64 = 0.0107;
-
-struct Track {
-    id: u64,
-    direction: Vector3<f64>,
-    last_s: f64,
-    event: Option<Accumulator>,
-}
 
 struct Candidate {
     key: u64,
@@ -128,6 +116,12 @@ impl Tracker {
         in_plane.hypot(out)
     }
 
+    /// The fastest a track's direction is predicted to move (radians per second): twice
+    /// [`TrackParams::max_speed_deg_s`].
+    fn max_speed(&self) -> f64 {
+        2.0 * self.params.max_speed_deg_s.to_radians()
+    }
+
     /// The gate around a direction last confirmed `since` seconds ago.
     fn gate(&self, since: f64) -> f64 {
         (self.params.gate_deg + self.params.max_speed_deg_s * since.max(0.0))
@@ -152,7 +146,7 @@ impl Tracker {
                 }
             };
             for t in self.tracks.iter().filter(|t| t.event.is_some()) {
-                let angle = self.distance(&d.direction, &t.direction);
+                let angle = self.distance(&d.direction, &t.predicted(time_s));
                 if angle <= gate(time_s - t.last_s) {
                     pairs.push((angle, i, Slot::Track(t.id)));
                 }
@@ -195,7 +189,8 @@ impl Tracker {
             if d.margin < 1.0
                 && self.tracks.iter().any(|t| {
                     t.event.is_some()
-                        && self.distance(&d.direction, &t.direction) <= self.gate(time_s - t.last_s)
+                        && self.distance(&d.direction, &t.predicted(time_s))
+                            <= self.gate(time_s - t.last_s)
                 })
             {
                 if self.params.keep_unconfirmed {
@@ -228,6 +223,7 @@ impl Tracker {
 
     /// Adds `d` to a track or a candidate (confirming the candidate when it has enough).
     fn join(&mut self, d: &Detection, slot: Slot) {
+        let (max_speed, plane) = (self.max_speed(), self.plane);
         match slot {
             Slot::Track(id) => {
                 let t = self
@@ -235,8 +231,7 @@ impl Tracker {
                     .iter_mut()
                     .find(|t| t.id == id)
                     .expect("a live track");
-                t.direction = smooth(&t.direction, &d.direction, d.time_s - t.last_s);
-                t.last_s = d.time_s;
+                t.update(d, max_speed, plane);
                 match t.event.as_mut() {
                     Some(e) => e.add(d),
                     None => t.event = Some(Accumulator::new(d)),
@@ -273,7 +268,7 @@ impl Tracker {
             .tracks
             .iter()
             .enumerate()
-            .map(|(i, t)| (i, self.distance(&c.direction, &t.direction), t))
+            .map(|(i, t)| (i, self.distance(&c.direction, &t.predicted(now)), t))
             .filter(|(_, angle, t)| *angle <= self.gate(now - t.last_s))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(i, _, _)| i);
@@ -314,12 +309,8 @@ impl Tracker {
                 for d in &c.hits[1..] {
                     event.add(d);
                 }
-                self.tracks.push(Track {
-                    id,
-                    direction: c.direction,
-                    last_s: c.last_s,
-                    event: Some(event),
-                });
+                self.tracks
+                    .push(Track::new(id, c.direction, c.last_s, Some(event)));
                 id
             }
         };
@@ -400,21 +391,6 @@ impl Tracker {
     /// The events completed since the last call, in the order they ended.
     pub fn take_events(&mut self) -> std::vec::Drain<'_, Event> {
         self.events.drain(..)
-    }
-}
-
-/// A track's direction moved toward a detection `since` seconds after its last: by
-/// [`SMOOTHING`] a frame (10.7 ms at the default frame size), more after a gap (a talker
-/// who moved while silent is taken where the detection is).
-fn smooth(old: &Vector3<f64>, new: &Vector3<f64>, since: f64) -> Vector3<f64> {
-    let share = 1.0 - (1.0 - SMOOTHING).powf(since.max(0.0) / SMOOTHING_FRAME_S);
-    let share = share.clamp(SMOOTHING, 1.0);
-    let v = old * (1.0 - share) + new * share;
-    let n = v.norm();
-    if n > 1e-9 {
-        v / n
-    } else {
-        *new
     }
 }
 

@@ -122,6 +122,37 @@ fn a_source_moving_at_60_degrees_a_second_is_one_track() {
     assert!(events[0].spread_deg > 45.0, "{}", events[0].spread_deg);
 }
 
+/// A talker turning at 60 deg/s who pauses for 0.7 s comes back 42 deg on, further
+/// than the widest gate (30 deg) from where it was heard last: the track's velocity
+/// carries it there. A still talker whose directions scatter by 3 deg keeps one track
+/// through the same pause (its scatter is not read as a turn).
+#[test]
+fn a_turning_talker_is_followed_through_a_pause() {
+    let mut frames: Vec<Vec<f64>> = vec![Vec::new(); 220];
+    for (f, frame) in frames.iter_mut().enumerate() {
+        if !(100..170).contains(&f) {
+            *frame = vec![-90.0 + 60.0 * f as f64 * HOP];
+        }
+    }
+    let (rows, events) = track(&frames);
+    assert_eq!(rows.len(), 150);
+    let ids: Vec<u64> = rows.iter().map(|r| r.1).collect();
+    assert!(ids.iter().all(|&id| id == 1), "{ids:?}");
+    assert_eq!(events.len(), 1);
+    let still: Vec<Vec<f64>> = (0..220)
+        .map(|f| {
+            if !(100..170).contains(&f) {
+                vec![20.0 + 3.0 * ((f * 7919) % 13) as f64 / 6.0 - 3.0]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let (rows, _) = track(&still);
+    assert_eq!(rows.len(), 150);
+    assert!(rows.iter().all(|r| r.1 == 1));
+}
+
 #[test]
 fn two_sources_in_the_same_frames_get_one_row_each() {
     let frames: Vec<Vec<f64>> = (0..100).map(|_| vec![10.0, 70.0]).collect();

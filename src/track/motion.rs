@@ -1,0 +1,113 @@
+//! A track's direction over time: smoothed toward its detections, its velocity
+//! measured, its direction predicted on through pauses (see the [`track`](super)
+//! module).
+
+use super::event::Accumulator;
+use crate::method::Detection;
+use nalgebra::Vector3;
+
+/// How much of a new detection a track's direction takes.
+const SMOOTHING: f64 = 0.3;
+
+/// The time over which a track's direction takes [`SMOOTHING`] of a detection.
+const SMOOTHING_FRAME_S: f64 = 0.0107;
+
+/// A track's turn is measured over at least this long (seconds): over a shorter time, a
+/// degree of noise in its direction reads as several degrees per second.
+const VELOCITY_SPAN_S: f64 = 0.5;
+
+/// A track measured turning slower than this (radians per second, 10 deg/s) is taken
+/// as still: the noise of a small array's directions measures about that much, and
+/// the gate follows slower talkers anyway.
+const STILL_SPEED: f64 = 10.0 * std::f64::consts::PI / 180.0;
+
+/// A track is predicted at most this far past its last detection (seconds).
+const PREDICT_S: f64 = 1.0;
+
+pub(super) struct Track {
+    pub id: u64,
+    pub direction: Vector3<f64>,
+    pub last_s: f64,
+    pub event: Option<Accumulator>,
+    /// How its direction moves (per second, tangent to the sphere at `direction`).
+    velocity: Vector3<f64>,
+    /// Its direction and the time the velocity was last measured from.
+    anchor: (Vector3<f64>, f64),
+}
+
+impl Track {
+    pub fn new(id: u64, direction: Vector3<f64>, last_s: f64, event: Option<Accumulator>) -> Self {
+        Track {
+            id,
+            direction,
+            last_s,
+            event,
+            velocity: Vector3::zeros(),
+            anchor: (direction, last_s),
+        }
+    }
+
+    /// Where it is expected at time `t_s`: its direction moved on by its velocity (for
+    /// at most [`PREDICT_S`]).
+    pub fn predicted(&self, t_s: f64) -> Vector3<f64> {
+        let ahead = (t_s - self.last_s).clamp(0.0, PREDICT_S);
+        let v = self.direction + self.velocity * ahead;
+        let n = v.norm();
+        if n > 1e-9 {
+            v / n
+        } else {
+            self.direction
+        }
+    }
+
+    /// Takes detection `d`: its direction moves from the prediction toward `d`'s, and
+    /// the velocity is measured again once [`VELOCITY_SPAN_S`] has passed since the
+    /// last time: none under [`STILL_SPEED`], at most `max_speed` radians per second,
+    /// and for a planar array (normal `plane`) about the normal only.
+    pub fn update(&mut self, d: &Detection, max_speed: f64, plane: Option<Vector3<f64>>) {
+        let predicted = self.predicted(d.time_s);
+        self.direction = smooth(&predicted, &d.direction, d.time_s - self.last_s);
+        self.last_s = d.time_s;
+        let (from, from_s) = self.anchor;
+        let span = d.time_s - from_s;
+        if span >= VELOCITY_SPAN_S {
+            let u = self.direction;
+            let v = (u - from) / span;
+            let mut v = v - u * u.dot(&v);
+            // A planar array's elevations are rough: its tracks turn in its plane.
+            if let Some(n) = plane {
+                let along = n.cross(&u);
+                let norm = along.norm();
+                v = if norm > 1e-9 {
+                    along * (along.dot(&v) / (norm * norm))
+                } else {
+                    Vector3::zeros()
+                };
+            }
+            let speed = v.norm();
+            self.velocity = if speed < STILL_SPEED {
+                Vector3::zeros()
+            } else if speed > max_speed {
+                v * (max_speed / speed)
+            } else {
+                v
+            };
+            self.anchor = (u, d.time_s);
+        }
+    }
+}
+
+/// A track's direction moved toward a detection `since` seconds after its last: by
+/// [`SMOOTHING`] a frame (10.7 ms at the default frame size), more after a gap (a talker
+/// who moved while silent is taken where the detection is).
+pub(super) fn smooth(old: &Vector3<f64>, new: &Vector3<f64>, since: f64) -> Vector3<f64> {
+    let share = 1.0 - (1.0 - SMOOTHING).powf(since.max(0.0) / SMOOTHING_FRAME_S);
+    let share = share.clamp(SMOOTHING, 1.0);
+    let v = old * (1.0 - share) + new * share;
+    let n = v.norm();
+    if n > 1e-9 {
+        v / n
+    } else {
+        *new
+    }
+}
