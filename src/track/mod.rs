@@ -12,12 +12,14 @@
 //!   a talker turning at 60 deg/s who pauses for 0.7 s is 42 deg on, past the widest
 //!   gate, when heard again;
 //! - **birth on confirmation:** a detection that joins no track starts a candidate; the
-//!   candidate becomes a track once [`TrackParams::confirm_hits`] detections have joined
-//!   it within [`TrackParams::confirm_s`] of its first, else its detections are dropped
-//!   (isolated outliers never reach the output, unless
-//!   [`TrackParams::keep_unconfirmed`] gives them out without an id). A confirmed candidate near a track that
-//!   has fallen silent (within the gate) takes that track's id again: a talker who pauses
-//!   and speaks again from the same place keeps one id;
+//!   candidate becomes a track once [`TrackParams::confirm_hits`] detections above the
+//!   threshold have joined it within [`TrackParams::confirm_s`] of its first (or
+//!   [`TrackParams::confirm_candidates`] with one above it, or
+//!   [`TrackParams::confirm_weak`] under it), else its detections are dropped (isolated
+//!   outliers never reach the output, unless [`TrackParams::keep_unconfirmed`] gives them
+//!   out without an id). A confirmed candidate near a track that has fallen silent
+//!   (within the gate) takes that track's id again: a talker who pauses and speaks again
+//!   from the same place keeps one id;
 //! - **activity:** a track whose last detection is more than [`TrackParams::end_s`] old
 //!   has ended its stretch of activity: its [`Event`] is complete. (1 s by default: real
 //!   speech in a reverberant room gives detections in bursts, a word or two at a time,
@@ -47,6 +49,11 @@ pub struct TrackParams {
     /// Or this many detections of any margin, one of them at or above the threshold
     /// (candidates included, see [`Params::candidates`](crate::Params::candidates)).
     pub confirm_candidates: usize,
+    /// Or this many detections of any margin, none of them above the threshold: a run
+    /// of candidates at one direction this dense is a source (a talker that other
+    /// talkers keep under the threshold in every frame), not chance or a side lobe.
+    #[serde(default = "default_confirm_weak")]
+    pub confirm_weak: usize,
     /// Within this many seconds of its first detection (also the tracker's delay).
     pub confirm_s: f64,
     /// Association gate (degrees) right after a track's last detection.
@@ -75,6 +82,7 @@ impl Default for TrackParams {
         TrackParams {
             confirm_hits: 2,
             confirm_candidates: 4,
+            confirm_weak: 12,
             confirm_s: 0.5,
             gate_deg: 12.0,
             candidate_gate_deg: 5.0,
@@ -85,6 +93,10 @@ impl Default for TrackParams {
             keep_unconfirmed: false,
         }
     }
+}
+
+fn default_confirm_weak() -> usize {
+    TrackParams::default().confirm_weak
 }
 
 /// The share of the detection threshold down to which `ssl analyze` reports candidates
@@ -133,6 +145,13 @@ impl TrackParams {
                 TrackParamsError::Invalid,
                 "the detections that confirm a track must be 1 to 1000, got {}",
                 self.confirm_hits
+            );
+        }
+        if self.confirm_weak == 0 || self.confirm_weak > 1000 {
+            fail!(
+                TrackParamsError::Invalid,
+                "the candidates that confirm a track alone must be 1 to 1000, got {}",
+                self.confirm_weak
             );
         }
         if self.confirm_candidates == 0 || self.confirm_candidates > 1000 {

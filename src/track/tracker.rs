@@ -251,6 +251,7 @@ impl Tracker {
                 c.strong += (d.margin >= 1.0) as usize;
                 if c.strong >= self.params.confirm_hits
                     || (c.strong > 0 && c.hits.len() >= self.params.confirm_candidates)
+                    || c.hits.len() >= self.params.confirm_weak
                 {
                     let c = self.candidates.remove(i);
                     self.confirm(c);

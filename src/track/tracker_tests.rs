@@ -183,14 +183,29 @@ fn scattered_detections_never_make_a_track() {
     assert!(rows.is_empty() && events.is_empty());
 }
 
-/// Candidates under the threshold never make a track on their own; four with one
-/// detection above it do; a candidate joins a live track only within the candidates'
-/// gate, and one a little further off starts nothing.
+/// Candidates under the threshold make a track on their own only as a dense run (12
+/// within the confirmation window: here one every 5 frames, 11 in 0.5 s, never does;
+/// one every 4 frames, 13, does); four with one detection above it do; a candidate
+/// joins a live track only within the candidates' gate, and one a little further off
+/// starts nothing.
 #[test]
 fn candidates_need_a_detection_above_the_threshold() {
-    let weak: Vec<Vec<(f64, f64)>> = (0..100).map(|_| vec![(40.0, 0.6)]).collect();
-    let (rows, events) = track_margins(&weak);
+    let every = |n: usize| -> Vec<Vec<(f64, f64)>> {
+        (0..300)
+            .map(|f| {
+                if f % n == 0 {
+                    vec![(40.0, 0.6)]
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect()
+    };
+    let (rows, events) = track_margins(&every(5));
     assert!(rows.is_empty() && events.is_empty());
+    let (rows, events) = track_margins(&every(4));
+    assert_eq!(rows.len(), 75);
+    assert_eq!(events.len(), 1);
     // One strong among weak ones: confirmed at the fourth, every row kept.
     let mut frames: Vec<Vec<(f64, f64)>> = vec![vec![(40.0, 1.5)]];
     frames.extend((0..3).map(|_| vec![(40.5, 0.6)]));
