@@ -24,7 +24,7 @@ use ssl::Geometry;
 use std::error::Error;
 use support::bench::speech_room;
 use support::harness::analyse_scene;
-use support::moving::moving_talker;
+use support::moving::{moving_talker, window_share};
 
 use support::{circle, SPEECH as CLIPS};
 
@@ -233,14 +233,8 @@ fn main() -> Result<(), Box<dyn Error>> {
                     analyse_scene(dir.path(), &scene, &geometry, &params, track.clone())?;
                 let report = evaluate(&truth, &records, 0.175)?;
                 let tracks = report.tracking.as_ref().map_or(0, |t| t.tracks);
-                let (start, end) = (1.0, 1.0 + CLIPS[0].1);
-                let windows = ((end - start) / 0.1).floor() as usize;
-                let seen = (0..windows)
-                    .filter(|&w| {
-                        let a = start + w as f64 * 0.1;
-                        records.iter().any(|r| r.time_s >= a && r.time_s < a + 0.1)
-                    })
-                    .count();
+                let times = records.iter().map(|r| r.time_s);
+                let windows = window_share(times, 1.0, 1.0 + CLIPS[0].1);
                 turning_rows += &format!(
                     "| {} | {} kHz | {speed} deg/s | {} | {} | {} deg | {:.0}% |\n",
                     array.name,
@@ -248,7 +242,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                     records.len(),
                     tracks,
                     opt(report.mean_error_deg, 1),
-                    100.0 * seen as f64 / windows as f64,
+                    100.0 * windows,
                 );
             }
             let mut cells = Vec::new();

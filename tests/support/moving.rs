@@ -77,18 +77,25 @@ pub fn moving_talker(
     let mut ids: Vec<u64> = rows.iter().filter_map(|r| r.source).collect();
     ids.sort_unstable();
     ids.dedup();
-    let windows = ((end - start) / 0.1).floor() as usize;
-    let seen = (0..windows)
-        .filter(|&w| {
-            let (a, b) = (start + w as f64 * 0.1, start + (w + 1) as f64 * 0.1);
-            rows.iter().any(|r| r.time_s >= a && r.time_s < b)
-        })
-        .count();
+    let windows = window_share(rows.iter().map(|r| r.time_s), start, end);
     Ok(Moving {
         rows: rows.len(),
         mean_error_deg: (!errors.is_empty())
             .then(|| errors.iter().sum::<f64>() / errors.len() as f64),
         tracks: ids.len(),
-        windows: seen as f64 / windows as f64,
+        windows,
     })
+}
+
+/// The share of the 0.1 s windows from `start` to `end` (seconds) with a row at one of
+/// `times`.
+pub fn window_share(times: impl Iterator<Item = f64> + Clone, start: f64, end: f64) -> f64 {
+    let windows = ((end - start) / 0.1).floor() as usize;
+    let seen = (0..windows)
+        .filter(|&w| {
+            let a = start + w as f64 * 0.1;
+            times.clone().any(|t| t >= a && t < a + 0.1)
+        })
+        .count();
+    seen as f64 / windows.max(1) as f64
 }
