@@ -95,6 +95,29 @@ fn a_talker_turning_in_a_room_is_one_track_on_its_trajectory() {
     assert!(records.len() > 100);
     assert_eq!(tracking.tracks, 1);
     assert!(report.mean_error_deg.unwrap() < 3.0);
+    // `ssl plot --truth` draws its path, not a line at its first direction: in the
+    // azimuth and elevation panels and on the sky map, a polyline of one point every
+    // 20 ms of its 3.9 s.
+    let result = write(dir.path(), "turning.csv", &text);
+    let o = ssl()
+        .args(["plot", s(&result), "--truth", s(&truth_path)])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg = String::from_utf8(o.stdout).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let long = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("polyline"))
+        .filter(|n| {
+            n.attribute("points")
+                .unwrap_or("")
+                .split_whitespace()
+                .count()
+                > 150
+        })
+        .count();
+    assert_eq!(long, 3, "polylines of the path");
     let mut still = truth.clone();
     still.sources[0].turn_deg_per_s = None;
     let against_start = ssl::evaluate::evaluate(&still, &records, 0.175).unwrap();

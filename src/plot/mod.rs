@@ -252,10 +252,14 @@ fn draw_file<DB: DrawingBackend>(
         if let Some((t, _)) = truth {
             for s in &t.sources {
                 for &[a, b] in &s.active {
-                    let v = value(s.azimuth_deg, s.elevation_deg);
-                    chart
-                        .draw_series(LineSeries::new([(a, v), (b, v)], BLACK.stroke_width(2)))
-                        .map_err(draw_err)?;
+                    for piece in truth_path(s, a, b) {
+                        chart
+                            .draw_series(LineSeries::new(
+                                piece.iter().map(|&(t, az, el)| (t, value(az, el))),
+                                BLACK.stroke_width(2),
+                            ))
+                            .map_err(draw_err)?;
+                    }
                 }
             }
         }
@@ -307,6 +311,19 @@ fn draw_file<DB: DrawingBackend>(
                 }),
             )
             .map_err(draw_err)?;
+        // A moving source's path, from its cross on.
+        for s in t.sources.iter().filter(|s| s.turn().is_some()) {
+            for &[a, b] in &s.active {
+                for piece in truth_path(s, a, b) {
+                    chart
+                        .draw_series(LineSeries::new(
+                            piece.iter().map(|&(_, az, el)| (az, el)),
+                            BLACK.stroke_width(1),
+                        ))
+                        .map_err(draw_err)?;
+                }
+            }
+        }
     }
     chart
         .draw_series(
@@ -348,4 +365,29 @@ impl PlotData {
         }
         s
     }
+}
+
+/// A true source's direction from `a` to `b` seconds as (time, azimuth, elevation),
+/// sampled every 20 ms for a moving source (its two ends for a still one), in pieces
+/// that do not cross azimuth +-180.
+fn truth_path(s: &crate::record::TruthSource, a: f64, b: f64) -> Vec<Vec<(f64, f64, f64)>> {
+    let steps = if s.turn().is_some() {
+        ((b - a) / 0.02).ceil().max(1.0) as usize
+    } else {
+        1
+    };
+    let mut pieces: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new()];
+    for i in 0..=steps {
+        let t = a + (b - a) * i as f64 / steps as f64;
+        let (az, el) = crate::method::direction::angles_deg(&s.direction_at(t));
+        let piece = pieces.last_mut().expect("one piece at least");
+        if piece
+            .last()
+            .is_some_and(|&(_, last, _)| (az - last).abs() > 180.0)
+        {
+            pieces.push(Vec::new());
+        }
+        pieces.last_mut().expect("just pushed").push((t, az, el));
+    }
+    pieces
 }
