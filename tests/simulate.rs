@@ -194,6 +194,9 @@ fn bad_scenes_are_explained() {
         (format!("{base}[[source]]\nposition = [3.0, 2.0, 1.0]\nsignal = \"white\"\nlevel_db = 6\n"), "clips"),
         (format!("{base}[[source]]\nposition = [3.0, 2.0, 1.0]\nsignal = \"white\"\nturn_deg_per_s = 30\n"), "turn_deg_per_s moves a source given by azimuth_deg"),
         (format!("{base}[[source]]\nazimuth_deg = 0\ndistance = 1.0\nsignal = \"white\"\nturn_deg_per_s = 1000\n"), "at most 360 deg/s"),
+        // Starting inside the room, 2.6 m from the array at [2, 2, 1] toward its corner,
+        // and turning toward its wall.
+        (format!("{base}[[source]]\nazimuth_deg = 45\ndistance = 2.6\nsignal = \"white\"\nturn_deg_per_s = -90\n"), "outside the room"),
         ("sample_rate = 16000\nduration = 1.0\n[array]\ngeometry = \"missing.toml\"\nposition = [0.0, 0.0, 0.0]\n".to_string(), "missing.toml"),
     ];
     for (i, (text, needle)) in cases.iter().enumerate() {
