@@ -75,8 +75,19 @@ pub(super) fn render_source(
         Some(_) => Vec::new(),
     };
     let delay_s = distance / placed.c;
+    let intervals = s.active.clone().unwrap_or(vec![[0.0, scene.duration]]);
+    // A turning source's whole path is checked before anything is rendered.
+    if let Some(turn) = turn {
+        let step = block_hop(turn, fs) as f64 / fs;
+        for &[a, b] in &intervals {
+            let blocks = ((b - a).max(0.0) / step).ceil() as usize;
+            for j in 0..=blocks {
+                placed.check_inside(&what, &at(a + j as f64 * step))?;
+            }
+        }
+    }
     let mut active = Vec::new();
-    for [a, b] in s.active.clone().unwrap_or(vec![[0.0, scene.duration]]) {
+    for [a, b] in intervals {
         if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b && b <= scene.duration) {
             fail!(
                 SceneError::Invalid,
