@@ -42,7 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("Array: the paper's 50 x 40 x 36 cm prism, 48 kHz. Room: 8 x 7 x 3 m, RT60 0.35 s (measured T20 of the simulated room), array centre 0.8 m above the floor. Noise: a pink-noise fan near the ceiling in a corner plus diffuse pink noise 6 dB weaker, together 10 dB below the source (for clicks: below the RMS during a click), and sensor noise at -70 dBFS. Each case is one signal type at 8 horizontal angles (one 0.8 s event each, 0.5 s apart, after 1 s of background). Speech-like: low-pass noise under a 4 Hz syllable envelope with pauses; clicks: 2 ms bursts, 8 per second; noise: white.\n");
     println!("Cells: mean angular error of the detections in frames inside the events (deg) / events detected within 10 deg / frames inside events detected within 10 deg. Default parameters throughout unless a row says otherwise.\n");
     println!("Real recorded speech, 16 and 8 kHz, seven small arrays, a fan next to the array and a reverberation-by-noise grid, each with the defaults, the fixed threshold and the paper's method side by side: [field.md](field.md) (`cargo bench --bench field`).\n");
-    println!("Sources rather than frames, on real speech (`ssl analyze` with its tracker, the default): [tracking.md](tracking.md) (`cargo bench --bench tracking`). Meetings of four talkers on the prism and a 6.5 cm tetrahedron: every turn recalled, no false event, one track per talker; two talkers at once: each found in 52-72% of the 0.1 s windows on the prism (44-54% on the tetrahedron), 0.3-0.5 deg; three at once: 38-44% on the prism; a talker turning at 15-60 deg/s, in free field and in the room: 0.3-2.4 deg from its trajectory on the prism and the tetrahedron, one track; background alone: no track. The rows below that say \"tracked\" are the Table I recordings through the tracker.\n");
+    println!("Sources rather than frames, on real speech (`ssl analyze` with its tracker, the default): [tracking.md](tracking.md) (`cargo bench --bench tracking`). Meetings of four talkers on the prism and a 6.5 cm tetrahedron: every turn recalled, no false event, one track per talker; two talkers at once: each found in 61-74% of the 0.1 s windows on the prism (46-54% on the tetrahedron), 0.4-0.5 deg; three at once: 51-57% on the prism; a talker turning at 15-60 deg/s, in free field and in the room: 0.3-2.4 deg from its trajectory on the prism and the tetrahedron, one track; background alone: no track. The rows below that say \"tracked\" are the Table I recordings through the tracker.\n");
 
     // Table I.
     let mut table: Vec<Vec<(PathBuf, Truth)>> = Vec::new();
@@ -264,7 +264,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut variants: Vec<(&str, Params, Option<TrackParams>)> =
         variants.into_iter().map(|(l, p)| (l, p, None)).collect();
     variants.push((
-        "tracked, as `ssl analyze` (candidates down to half the threshold)",
+        "tracked, as `ssl analyze` (candidates down to 0.4 of the threshold)",
         params.clone().for_tracker(),
         Some(TrackParams::default()),
     ));

@@ -209,7 +209,7 @@ pub struct AnalyzeArgs {
     #[arg(long, conflicts_with = "no_track")]
     pub events: bool,
 
-    /// Also report candidates down to this share of the detection threshold, for the tracker to confirm (a track starts from 2 detections above the threshold, 4 of which 1 is above it, or 12 candidates within --confirm-s) or drop [default: 0.5 with the calibrated threshold, 1 (none) with --min-score]
+    /// Also report candidates down to this share of the detection threshold, for the tracker to confirm (a track starts from 2 detections above the threshold, 4 of which 1 is above it, or 12 candidates within --confirm-s) or drop [default: 0.4 with the calibrated threshold, 1 (none) with --min-score]
     #[arg(long, value_name = "SHARE", value_parser = candidate_share, conflicts_with_all = ["no_track", "paper"])]
     pub candidates: Option<f64>,
 
