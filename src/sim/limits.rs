@@ -185,7 +185,7 @@ pub(crate) fn check_cost(
         let positions: f64 = scene
             .source
             .iter()
-            .map(|s| super::source::positions(s, scene.duration) as f64)
+            .map(|s| super::source::positions(s, scene.duration, scene.sample_rate as f64) as f64)
             .sum();
         let responses =
             mics as f64 * (positions + scene.noise.as_ref().map_or(0, |n| n.fan.len()) as f64);

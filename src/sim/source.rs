@@ -75,19 +75,9 @@ pub(super) fn render_source(
         Some(_) => Vec::new(),
     };
     let delay_s = distance / placed.c;
-    let intervals = s.active.clone().unwrap_or(vec![[0.0, scene.duration]]);
-    // A turning source's whole path is checked before anything is rendered.
-    if let Some(turn) = turn {
-        let step = block_hop(turn, fs) as f64 / fs;
-        for &[a, b] in &intervals {
-            let blocks = ((b - a).max(0.0) / step).ceil() as usize;
-            for j in 0..=blocks {
-                placed.check_inside(&what, &at(a + j as f64 * step))?;
-            }
-        }
-    }
-    let mut active = Vec::new();
-    for [a, b] in intervals {
+    // Every interval checked, then as samples: its start and length.
+    let mut spans = Vec::new();
+    for [a, b] in s.active.clone().unwrap_or(vec![[0.0, scene.duration]]) {
         if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b && b <= scene.duration) {
             fail!(
                 SceneError::Invalid,
@@ -96,7 +86,19 @@ pub(super) fn render_source(
             );
         }
         let start = (a * fs).round() as usize;
-        let n = ((b * fs).round() as usize).min(len) - start;
+        spans.push(([a, b], start, ((b * fs).round() as usize).min(len) - start));
+    }
+    // A turning source's whole path is checked before anything is rendered.
+    if let Some(turn) = turn {
+        let hop = block_hop(turn, fs);
+        for &(_, start, n) in &spans {
+            for centre in block_centres(hop, n) {
+                placed.check_inside(&what, &at((start + centre) as f64 / fs))?;
+            }
+        }
+    }
+    let mut active = Vec::new();
+    for ([a, b], start, n) in spans {
         let mut dry = vec![0.0; n];
         // Scaled so that the direct sound at the array centre (gain 1 / distance) has `level`.
         match (&signal, &recording) {
@@ -118,14 +120,13 @@ pub(super) fn render_source(
                 // Blocks a degree apart (at most 50 ms), each through the responses of
                 // its centre's position, cross-faded by triangles that sum to 1.
                 let hop = block_hop(turn, fs);
-                for centre in (0..n.div_ceil(hop) + 1).map(|j| j * hop) {
+                for centre in block_centres(hop, n) {
                     let from = centre.saturating_sub(hop);
                     let to = (centre + hop).min(n);
                     if from >= to {
                         continue;
                     }
                     let p = at((start + centre) as f64 / fs);
-                    placed.check_inside(&what, &p)?;
                     let block: Vec<f64> = (from..to)
                         .map(|k| {
                             let w = 1.0 - (k as f64 - centre as f64).abs() / hop as f64;
@@ -179,17 +180,23 @@ fn block_hop(turn: f64, fs: f64) -> usize {
     ((1.0 / turn.abs()).min(0.05) * fs).round().max(1.0) as usize
 }
 
-/// How many positions source `s` is rendered from in a scene of `duration` seconds
-/// (1 unless it moves): what its responses cost.
-pub(crate) fn positions(s: &SourceSpec, duration: f64) -> usize {
+/// The centres (samples from its start) of the blocks a turning source's interval of
+/// `n` samples is rendered in, `hop` apart: the last at or past its end.
+fn block_centres(hop: usize, n: usize) -> impl Iterator<Item = usize> {
+    (0..n.div_ceil(hop) + 1).map(move |j| j * hop)
+}
+
+/// How many positions source `s` is rendered from in a scene of `duration` seconds at
+/// `fs` (1 unless it moves): what its responses cost.
+pub(crate) fn positions(s: &SourceSpec, duration: f64, fs: f64) -> usize {
     match s.turn_deg_per_s.filter(|&t| t != 0.0 && t.is_finite()) {
         None => 1,
         Some(turn) => {
-            let hop_s = (1.0 / turn.abs()).min(0.05);
+            let hop = block_hop(turn, fs);
             let intervals = s.active.clone().unwrap_or(vec![[0.0, duration]]);
             intervals
                 .iter()
-                .map(|[a, b]| ((b - a).max(0.0) / hop_s).ceil() as usize + 2)
+                .map(|[a, b]| block_centres(hop, ((b - a).max(0.0) * fs) as usize).count())
                 .sum()
         }
     }
