@@ -264,6 +264,43 @@ fn source_from_a_wav_file() {
         .all(|r| ssl::method::direction::angle_between_deg(&r.u, &truth) < 2.0));
 }
 
+/// A recording's own leading and trailing silence is not part of its truth: the truth's
+/// active interval is when it sounds; a synthetic signal keeps its interval whole.
+#[test]
+fn a_recordings_silence_is_left_out_of_its_truth() {
+    let dir = tempdir();
+    prism_file(dir.path());
+    // 0.6 s of file: silence, noise from 0.15 to 0.4 s, silence.
+    let mono = ssl::sim::freefield::render(&ssl::sim::freefield::Scene {
+        sample_rate: 16000,
+        duration_s: 0.6,
+        mics: vec![nalgebra::Vector3::zeros()],
+        speed_of_sound: 343.0,
+        sources: vec![ssl::sim::freefield::Source {
+            place: ssl::sim::freefield::Place::Direction(nalgebra::Vector3::x()),
+            signal: ssl::sim::signals::Signal::WhiteNoise,
+            start_s: 0.15,
+            end_s: 0.4,
+            level: 0.1,
+        }],
+        sensor_noise: 0.0,
+        seed: 2,
+    });
+    let voice = dir.path().join("voice.wav");
+    ssl::sim::write_wav(&voice, &mono, 16000, ssl::sim::Encoding::Int16).unwrap();
+    let scene = "sample_rate = 16000\nduration = 1.5\n[array]\ngeometry = \"prism.toml\"\nposition = [0.0, 0.0, 0.0]\n[[source]]\nazimuth_deg = -60.0\ndistance = 3.43\nsignal = \"file\"\nfile = \"voice.wav\"\nactive = [[0.2, 0.8]]\n[[source]]\nazimuth_deg = 60.0\ndistance = 3.43\nsignal = \"white\"\nactive = [[0.9, 1.4]]\n";
+    let path = write(dir.path(), "file.toml", scene);
+    let wav = dir.path().join("f.wav");
+    let o = run(&["simulate", s(&path), "-o", s(&wav)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let truth = ssl::Truth::from_file(&dir.path().join("f.truth.json")).unwrap();
+    // Heard 10 ms later at the array centre (3.43 m); found to the 10 ms block.
+    let [a, b] = truth.sources[0].active[0];
+    assert!((a - (0.2 + 0.15 + 0.01)).abs() <= 0.011, "{a}");
+    assert!((b - (0.2 + 0.4 + 0.01)).abs() <= 0.011, "{b}");
+    assert_eq!(truth.sources[1].active, vec![[0.91, 1.41]]);
+}
+
 /// Real speech recorded at 16 kHz (CMU ARCTIC, shipped in testdata/speech) as the source
 /// of a 48 kHz scene: resampled, rendered, and localized in the right direction.
 #[test]

@@ -100,6 +100,8 @@ pub(super) fn render_source(
     let mut active = Vec::new();
     for ([a, b], start, n) in spans {
         let mut dry = vec![0.0; n];
+        // A recording's own leading and trailing silence is not part of the truth.
+        let mut sounding = (0, n);
         // Scaled so that the direct sound at the array centre (gain 1 / distance) has `level`.
         match (&signal, &recording) {
             (Some(sig), _) => generate(sig, level * distance, fs, &mut dry, rng),
@@ -111,6 +113,7 @@ pub(super) fn render_source(
                 if rms > 0.0 {
                     dry.iter_mut().for_each(|v| *v *= level * distance / rms);
                 }
+                sounding = sounding_span(&dry, fs).unwrap_or(sounding);
             }
             _ => unreachable!("a signal or a recording"),
         }
@@ -137,9 +140,13 @@ pub(super) fn render_source(
                 }
             }
         }
+        let (from, to) = (
+            a + sounding.0 as f64 / fs,
+            b.min(a + sounding.1 as f64 / fs),
+        );
         active.push([
-            fixed(a + delay_s, 6),
-            fixed((b + delay_s).min(scene.duration), 6),
+            fixed(from + delay_s, 6),
+            fixed((to + delay_s).min(scene.duration), 6),
         ]);
     }
     let u = placed.rotation.transpose() * (position - placed.centre) / distance;
@@ -162,6 +169,29 @@ pub(super) fn render_source(
         turn_deg_per_s: turn.map(|t| t.0),
         turn_from_s: turn.map(|t| t.1),
     })
+}
+
+/// Blocks over which a recording's sounding part is found (seconds).
+pub const SOUNDING_BLOCK_S: f64 = 0.01;
+
+/// A block sounds when its power is at least this far (dB) under the mean power of
+/// the whole interval.
+pub const SOUNDING_DB: f64 = -30.0;
+
+/// The samples `[from, to)` of `x` from its first to its last block of
+/// [`SOUNDING_BLOCK_S`] whose power is within [`SOUNDING_DB`] of `x`'s mean power; none
+/// when `x` is silent.
+pub(crate) fn sounding_span(x: &[f64], fs: f64) -> Option<(usize, usize)> {
+    let mean = x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64;
+    let floor = mean * 10f64.powf(SOUNDING_DB / 10.0);
+    let block = ((SOUNDING_BLOCK_S * fs).round() as usize).max(1);
+    let loud = |(j, c): (usize, &[f64])| {
+        let p = c.iter().map(|v| v * v).sum::<f64>() / c.len() as f64;
+        (mean > 0.0 && p >= floor).then_some(j)
+    };
+    let first = x.chunks(block).enumerate().find_map(loud)?;
+    let last = x.chunks(block).enumerate().rev().find_map(loud)?;
+    Some((first * block, ((last + 1) * block).min(x.len())))
 }
 
 /// Adds `wet[m]` to `out[m]` from sample `start` on (what falls past the end is left
