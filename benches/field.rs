@@ -239,7 +239,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut args = support::harness::args();
     let grid = args.iter().any(|a| a == "grid");
     let track = args.iter().find(|a| a.starts_with("track")).map(|a| {
-        let mut p = TrackParams::default();
+        let mut p = support::harness::track_from(&args);
         if let Some((hits, seconds)) = a.strip_prefix("track=").and_then(|v| v.split_once(',')) {
             p.confirm_hits = hits.parse().expect("track=HITS,SECONDS");
             p.confirm_s = seconds.parse().expect("track=HITS,SECONDS");

@@ -221,7 +221,7 @@ pub struct AnalyzeArgs {
     #[arg(long, conflicts_with = "no_track")]
     pub keep_unconfirmed: bool,
 
-    /// A track is confirmed by 2 detections within this many seconds of its first; rows wait up to this long
+    /// A track is confirmed by 2 detections within this many seconds (of its latest); rows wait up to this long
     #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = positive, conflicts_with = "no_track")]
     pub confirm_s: f64,
 

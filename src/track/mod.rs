@@ -13,11 +13,13 @@
 //!   gate, when heard again;
 //! - **birth on confirmation:** a detection that joins no track starts a candidate; the
 //!   candidate becomes a track once [`TrackParams::confirm_hits`] detections above the
-//!   threshold have joined it within [`TrackParams::confirm_s`] of its first (or
+//!   threshold have joined it within [`TrackParams::confirm_s`] (or
 //!   [`TrackParams::confirm_candidates`] with one above it, or
-//!   [`TrackParams::confirm_weak`] under it), else its detections are dropped (isolated
-//!   outliers never reach the output, unless [`TrackParams::keep_unconfirmed`] gives them
-//!   out without an id). A confirmed candidate near a track that has fallen silent
+//!   [`TrackParams::confirm_weak`] under it), counted over the window of that length
+//!   that ends at its latest detection; a detection that leaves the window unconfirmed
+//!   is dropped (isolated outliers never reach the output, unless
+//!   [`TrackParams::keep_unconfirmed`] gives them out without an id), and a candidate
+//!   with none left is forgotten. A confirmed candidate near a track that has fallen silent
 //!   (within the gate) takes that track's id again: a talker who pauses and speaks again
 //!   from the same place keeps one id;
 //! - **activity:** a track whose last detection is more than [`TrackParams::end_s`] old
@@ -54,7 +56,8 @@ pub struct TrackParams {
     /// talkers keep under the threshold in every frame), not chance or a side lobe.
     #[serde(default = "default_confirm_weak")]
     pub confirm_weak: usize,
-    /// Within this many seconds of its first detection (also the tracker's delay).
+    /// Within this many seconds (a window ending at the candidate's latest detection;
+    /// also the tracker's delay).
     pub confirm_s: f64,
     /// Association gate (degrees) right after a track's last detection.
     pub gate_deg: f64,

@@ -28,17 +28,24 @@ pub const ELEVATION_WEIGHT: f64 = 0.25;
 struct Candidate {
     key: u64,
     direction: Vector3<f64>,
-    first_s: f64,
     last_s: f64,
-    hits: Vec<Detection>,
+    /// Its detections within [`TrackParams::confirm_s`] of the latest frame, oldest
+    /// first, each with the number of its waiting row.
+    hits: VecDeque<(u64, Detection)>,
+}
+
+impl Candidate {
     /// Hits at or above the detection threshold (margin 1 or more).
-    strong: usize,
+    fn strong(&self) -> usize {
+        self.hits.iter().filter(|(_, d)| d.margin >= 1.0).count()
+    }
 }
 
 #[derive(Clone, Copy)]
 enum Slot {
     Track(u64),
-    Candidate(u64),
+    /// A candidate's key and the row's number.
+    Candidate(u64, u64),
     /// A detection that joins nothing and starts nothing (kept only to be given out
     /// unconfirmed).
     Dropped,
@@ -53,11 +60,12 @@ pub struct Tracker {
     candidates: Vec<Candidate>,
     /// Rows not yet given out, in frame order, with what they joined.
     waiting: VecDeque<(Detection, Slot)>,
-    /// Resolved candidates still named by waiting rows: their track's id (or `None`:
-    /// dropped) and how many rows still name them.
-    resolved: HashMap<u64, (Option<u64>, usize)>,
+    /// The fate of waiting candidates' rows, by row number: their track's id, or `None`
+    /// (dropped).
+    resolved: HashMap<u64, Option<u64>>,
     next_id: u64,
     next_key: u64,
+    next_row: u64,
     ready: Vec<Tracked>,
     events: Vec<Event>,
     /// Per frame, reused: candidate pairings, detections placed, tracks and candidates
@@ -79,6 +87,7 @@ impl Tracker {
             resolved: HashMap::new(),
             next_id: 1,
             next_key: 0,
+            next_row: 0,
             ready: Vec::new(),
             events: Vec::new(),
             pairs: Vec::new(),
@@ -154,7 +163,7 @@ impl Tracker {
             for c in &self.candidates {
                 let angle = self.distance(&d.direction, &c.direction);
                 if angle <= gate(time_s - c.last_s) {
-                    pairs.push((angle, i, Slot::Candidate(c.key)));
+                    pairs.push((angle, i, Slot::Candidate(c.key, 0)));
                 }
             }
         }
@@ -167,16 +176,15 @@ impl Tracker {
         for &(_, i, slot) in &pairs {
             let key = match slot {
                 Slot::Track(id) => (true, id),
-                Slot::Candidate(k) => (false, k),
+                Slot::Candidate(k, _) => (false, k),
                 // Never paired: placed only after association.
                 Slot::Dropped => continue,
             };
             if used[i].is_some() || taken.contains(&key) {
                 continue;
             }
-            used[i] = Some(slot);
+            used[i] = Some(self.join(&detections[i], slot));
             taken.push(key);
-            self.join(&detections[i], slot);
         }
         self.pairs = pairs;
         self.taken = taken;
@@ -203,13 +211,10 @@ impl Tracker {
             self.candidates.push(Candidate {
                 key,
                 direction: d.direction,
-                first_s: d.time_s,
                 last_s: d.time_s,
-                hits: Vec::new(),
-                strong: 0,
+                hits: VecDeque::new(),
             });
-            *placed = Some(Slot::Candidate(key));
-            self.join(d, Slot::Candidate(key));
+            *placed = Some(self.join(d, Slot::Candidate(key, 0)));
         }
         // Rows wait in the frame's order of its detections.
         for (d, slot) in detections.iter().zip(&used) {
@@ -221,8 +226,9 @@ impl Tracker {
         self.release();
     }
 
-    /// Adds `d` to a track or a candidate (confirming the candidate when it has enough).
-    fn join(&mut self, d: &Detection, slot: Slot) {
+    /// Adds `d` to a track or a candidate (confirming the candidate when it has enough);
+    /// returns the slot its row waits in (a candidate's with the row's number).
+    fn join(&mut self, d: &Detection, slot: Slot) -> Slot {
         let (max_speed, plane) = (self.max_speed(), self.plane);
         match slot {
             Slot::Track(id) => {
@@ -236,9 +242,12 @@ impl Tracker {
                     Some(e) => e.add(d),
                     None => t.event = Some(Accumulator::new(d)),
                 }
+                slot
             }
-            Slot::Dropped => {}
-            Slot::Candidate(key) => {
+            Slot::Dropped => slot,
+            Slot::Candidate(key, _) => {
+                let row = self.next_row;
+                self.next_row += 1;
                 let i = self
                     .candidates
                     .iter()
@@ -247,15 +256,16 @@ impl Tracker {
                 let c = &mut self.candidates[i];
                 c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
-                c.hits.push(*d);
-                c.strong += (d.margin >= 1.0) as usize;
-                if c.strong >= self.params.confirm_hits
-                    || (c.strong > 0 && c.hits.len() >= self.params.confirm_candidates)
+                c.hits.push_back((row, *d));
+                let strong = c.strong();
+                if strong >= self.params.confirm_hits
+                    || (strong > 0 && c.hits.len() >= self.params.confirm_candidates)
                     || c.hits.len() >= self.params.confirm_weak
                 {
                     let c = self.candidates.remove(i);
                     self.confirm(c);
                 }
+                Slot::Candidate(key, row)
             }
         }
     }
@@ -276,7 +286,7 @@ impl Tracker {
         let id = match near {
             Some(i) => {
                 let t = &mut self.tracks[i];
-                for d in &c.hits {
+                for (_, d) in &c.hits {
                     match t.event.as_mut() {
                         Some(e) => e.add(d),
                         None => t.event = Some(Accumulator::new(d)),
@@ -306,8 +316,8 @@ impl Tracker {
                         self.tracks.remove(oldest);
                     }
                 }
-                let mut event = Accumulator::new(&c.hits[0]);
-                for d in &c.hits[1..] {
+                let mut event = Accumulator::new(&c.hits[0].1);
+                for (_, d) in c.hits.iter().skip(1) {
                     event.add(d);
                 }
                 self.tracks
@@ -315,23 +325,28 @@ impl Tracker {
                 id
             }
         };
-        self.resolved.insert(c.key, (Some(id), c.hits.len()));
+        for (row, _) in &c.hits {
+            self.resolved.insert(*row, Some(id));
+        }
     }
 
-    /// Time passes to `now`: candidates too old are dropped, stretches of activity that
+    /// Time passes to `now`: a candidate's detections older than the confirmation
+    /// window are dropped (and the candidate with its last), stretches of activity that
     /// have been silent long enough end, silent tracks are forgotten.
     fn advance(&mut self, now: f64) {
         let p = &self.params;
         let (confirm_s, end_s, forget_s) = (p.confirm_s, p.end_s, p.forget_s);
-        let mut i = 0;
-        while i < self.candidates.len() {
-            if now - self.candidates[i].first_s > confirm_s {
-                let c = self.candidates.remove(i);
-                self.resolved.insert(c.key, (None, c.hits.len()));
-            } else {
-                i += 1;
+        for c in &mut self.candidates {
+            while c
+                .hits
+                .front()
+                .is_some_and(|(_, d)| now - d.time_s > confirm_s)
+            {
+                let (row, _) = c.hits.pop_front().expect("checked");
+                self.resolved.insert(row, None);
             }
         }
+        self.candidates.retain(|c| !c.hits.is_empty());
         for t in &mut self.tracks {
             if t.event.is_some() && now - t.last_s > end_s {
                 let e = t.event.take().expect("checked");
@@ -349,15 +364,10 @@ impl Tracker {
             let source = match *slot {
                 Slot::Track(id) => Some(id),
                 Slot::Dropped => None,
-                Slot::Candidate(key) => {
-                    let Some(entry) = self.resolved.get_mut(&key) else {
+                Slot::Candidate(_, row) => {
+                    let Some(id) = self.resolved.remove(&row) else {
                         break;
                     };
-                    entry.1 -= 1;
-                    let id = entry.0;
-                    if entry.1 == 0 {
-                        self.resolved.remove(&key);
-                    }
                     id
                 }
             };
@@ -372,7 +382,9 @@ impl Tracker {
     /// ends, and every row still waiting is given out or dropped.
     pub fn finish(&mut self) {
         for c in std::mem::take(&mut self.candidates) {
-            self.resolved.insert(c.key, (None, c.hits.len()));
+            for (row, _) in c.hits {
+                self.resolved.insert(row, None);
+            }
         }
         let mut ending: Vec<Event> = self
             .tracks

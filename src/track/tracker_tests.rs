@@ -220,6 +220,31 @@ fn candidates_need_a_detection_above_the_threshold() {
     assert_eq!(events[0].detections, 5);
 }
 
+/// The dense-run rule counts the candidates within the confirmation window of the
+/// latest (a sliding window): an isolated one long before does not hold the count back,
+/// and is dropped on its own.
+#[test]
+fn a_dense_run_is_counted_over_the_last_confirmation_window() {
+    // One at 0 s, six at 0.30-0.35 s, six at 0.60-0.65 s, all under the threshold:
+    // twelve within 0.5 s (0.15-0.65 s), though not within 0.5 s of the first.
+    let frames: Vec<Vec<(f64, f64)>> = (0..120)
+        .map(|f| {
+            if f == 0 || (30..36).contains(&f) || (60..66).contains(&f) {
+                vec![(40.0, 0.6)]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let (rows, events) = track_margins(&frames);
+    let kept: Vec<u64> = rows.iter().map(|r| r.0).collect();
+    let expected: Vec<u64> = (30..36).chain(60..66).collect();
+    assert_eq!(kept, expected);
+    assert!(rows.iter().all(|r| r.1 == 1));
+    assert_eq!(events.len(), 1);
+    assert_eq!(events[0].detections, 12);
+}
+
 /// With `keep_unconfirmed`, the detections dropped by default come out too, without an
 /// id, in frame order among the others; the confirmed rows and the events are the same.
 #[test]

@@ -106,6 +106,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("k") => params.max_sources = value("k") as usize,
             // Frames each correlation is averaged over.
             Some("avg") => params.average_frames = value("avg") as usize,
+            // The tracker's (see `track_from`).
+            Some("weak" | "confirm") => {}
             _ => numbers.push(
                 arg.parse::<f64>()
                     .unwrap_or_else(|_| panic!("unknown argument {arg}")),
@@ -120,6 +122,21 @@ pub fn params_from(args: &[String]) -> ssl::Params {
         params.residual_gate_us = (gate > 0.0).then_some(gate);
     }
     params
+}
+
+/// The tracker's parameters a harness runs with: the defaults changed by any of
+/// `weak=N` (candidates that confirm a track alone) and `confirm=S` (the confirmation
+/// window, seconds); other arguments are left to `params_from`.
+pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
+    let mut track = ssl::track::TrackParams::default();
+    for (key, value) in args.iter().filter_map(|a| a.split_once('=')) {
+        match key {
+            "weak" => track.confirm_weak = value.parse().expect("weak takes a count"),
+            "confirm" => track.confirm_s = value.parse().expect("confirm takes seconds"),
+            _ => {}
+        }
+    }
+    track
 }
 
 /// Simulates `scene` in `dir` and analyses it in memory as `ssl analyze` does, through a
