@@ -12,6 +12,11 @@
 //! - A talker turning at 15, 30 and 60 deg/s, in free field and in the room.
 //! - A minute of the room's noise alone, with the fan in its corner or 0.9 m from the
 //!   array (RT60 0.2 s).
+//!
+//! `cargo bench --bench tracking -- seed=N rot=DEG` draws the scenes again with their
+//! seeds offset by N and every talker turned by DEG about the array, to see how much
+//! the figures owe to one draw; the method's and the tracker's arguments of
+//! `support::harness` apply too (`cand=X`, `weak=N`, ...).
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -61,11 +66,14 @@ fn arrays() -> Vec<Array> {
     ]
 }
 
+/// Degrees every talker is turned by about the array (`rot=DEG`; 0 by default).
+static ROTATION: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+
 /// A talker: azimuth, and the intervals it speaks in.
 fn talker(array: &Array, azimuth: f64, clip: usize, active: Vec<[f64; 2]>) -> SourceSpec {
     SourceSpec {
         position: None,
-        azimuth_deg: Some(azimuth),
+        azimuth_deg: Some(azimuth + ROTATION.get().copied().unwrap_or(0.0)),
         elevation_deg: Some(array.elevation),
         distance: Some(array.distance),
         signal: SignalKind::File,
@@ -154,6 +162,18 @@ fn main() -> Result<(), Box<dyn Error>> {
     let args = support::harness::args();
     let params = support::harness::params_from(&args);
     let track = Some(support::harness::track_from(&args));
+    // `seed=N` draws every scene again with its seed offset by N (the noise and the
+    // rooms' fine details change; the talkers and their sentences do not).
+    let offset: u64 = args
+        .iter()
+        .find_map(|a| a.strip_prefix("seed="))
+        .map_or(0, |v| v.parse().expect("seed takes a number"));
+    // `rot=DEG` turns every talker by DEG about the array (other reflections).
+    let rotation: f64 = args
+        .iter()
+        .find_map(|a| a.strip_prefix("rot="))
+        .map_or(0.0, |v| v.parse().expect("rot takes degrees"));
+    ROTATION.set(rotation).expect("set once");
     let mut meetings = String::new();
     let mut at_once = String::new();
     let mut quiet = String::new();
@@ -175,7 +195,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             };
         for &rate in array.rates {
             for (j, rt60) in [0.35, 0.5].into_iter().enumerate() {
-                let seed = 100 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
+                let seed = offset + 100 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let (report, t) = run(&meeting(array, rate, rt60, seed))?;
                 meetings += &format!(
                     "| {} | {} kHz | {rt60} s | {} ({}/{}) | {:.1} | {} | {} | {} / {} deg | {} / {} s |\n",
@@ -195,7 +215,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             }
             let scenes = [(30.0, 2), (60.0, 2), (90.0, 2), (60.0, 3)];
             for (j, (separation, talkers)) in scenes.into_iter().enumerate() {
-                let seed = 200 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
+                let seed = offset + 200 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let scene = if talkers == 2 {
                     together(array, rate, separation, seed)
                 } else {
@@ -214,7 +234,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 );
             }
             for (j, speed) in [15.0, 30.0, 60.0].into_iter().enumerate() {
-                let seed = 400 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
+                let seed = offset + 400 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let m = moving_talker(&geometry, rate, array.elevation, speed, seed)?;
                 moving += &format!(
                     "| {} | {} kHz | {speed} deg/s | {} | {} | {} deg | {:.0}% |\n",
@@ -227,7 +247,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 );
             }
             for (j, speed) in [15.0, 30.0, 60.0].into_iter().enumerate() {
-                let seed = 500 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
+                let seed = offset + 500 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let scene = turning(array, rate, speed, seed);
                 let (records, truth) =
                     analyse_scene(dir.path(), &scene, &geometry, &params, track.clone())?;
@@ -247,7 +267,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             }
             let mut cells = Vec::new();
             for (j, near) in [false, true].into_iter().enumerate() {
-                let seed = 300 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
+                let seed = offset + 300 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let (_, t) = run(&background(array, rate, near, seed))?;
                 // The talker at the end is one true event; anything else is false.
                 cells.push(format!(

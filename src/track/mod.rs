@@ -19,7 +19,9 @@
 //!   that ends at its latest detection; a detection that leaves the window unconfirmed
 //!   is dropped (isolated outliers never reach the output, unless
 //!   [`TrackParams::keep_unconfirmed`] gives them out without an id), and a candidate
-//!   with none left is forgotten. A confirmed candidate near a track that has fallen silent
+//!   with none left is forgotten. A candidate at the azimuth of a talking track but far
+//!   from its elevation is that talker's floor or ceiling image and is dropped instead
+//!   ([`image`]). A confirmed candidate near a track that has fallen silent
 //!   (within the gate) takes that track's id again: a talker who pauses and speaks again
 //!   from the same place keeps one id;
 //! - **activity:** a track whose last detection is more than [`TrackParams::end_s`] old
@@ -36,6 +38,7 @@
 //! Measured in docs/tracking.md.
 
 mod event;
+pub mod image;
 mod motion;
 mod tracker;
 

@@ -1,6 +1,7 @@
 //! The tracker: association, confirmation, activity (see the module's documentation).
 
 use super::event::{Accumulator, Event};
+use super::image::{is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
 use super::{TrackParams, MAX_TRACKS};
 use crate::geometry::Shape;
@@ -275,6 +276,17 @@ impl Tracker {
     /// one.
     fn confirm(&mut self, c: Candidate) {
         let now = c.last_s;
+        // A talking track's floor or ceiling image starts nothing (see `image`).
+        if self.tracks.iter().any(|t| {
+            t.event.is_some()
+                && now - t.last_s <= IMAGE_TALKING_S
+                && is_vertical_image(&c.direction, &t.direction)
+        }) {
+            for (row, _) in &c.hits {
+                self.resolved.insert(*row, None);
+            }
+            return;
+        }
         let near = self
             .tracks
             .iter()

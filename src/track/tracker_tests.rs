@@ -245,6 +245,44 @@ fn a_dense_run_is_counted_over_the_last_confirmation_window() {
     assert_eq!(events[0].detections, 12);
 }
 
+/// A talking track's floor image (its azimuth, 60 deg lower) starts no track; once the
+/// talker has been silent for a while, a source there is a source.
+#[test]
+fn a_talkers_floor_image_starts_no_track() {
+    let at = |frame: u64, azimuth: f64, elevation: f64| Detection {
+        elevation_deg: elevation,
+        direction: unit_from_angles(azimuth, elevation),
+        ..detection(frame, azimuth)
+    };
+    let run = |image_from: u64| {
+        let mut tracker = Tracker::new(TrackParams::default());
+        for f in 0..300u64 {
+            let mut ds = Vec::new();
+            if f < 60 {
+                ds.push(at(f, 30.0, 15.0));
+            }
+            if (image_from..image_from + 40).contains(&f) {
+                ds.push(at(f, 31.0, -45.0));
+            }
+            tracker.push(f as f64 * HOP, &ds);
+        }
+        tracker.finish();
+        let rows: Vec<Tracked> = tracker.take_rows().collect();
+        let events: Vec<Event> = tracker.take_events().collect();
+        (rows, events)
+    };
+    // The image while the talker talks: only the talker's rows, one event.
+    let (rows, events) = run(20);
+    assert_eq!(rows.len(), 60);
+    assert!(rows.iter().all(|r| r.detection.elevation_deg == 15.0));
+    assert_eq!(events.len(), 1);
+    // The same direction 1.4 s after the talker's last word: a source of its own.
+    let (rows, events) = run(200);
+    assert_eq!(rows.len(), 100);
+    assert_eq!(events.len(), 2);
+    assert_eq!(rows[60].source, Some(2));
+}
+
 /// With `keep_unconfirmed`, the detections dropped by default come out too, without an
 /// id, in frame order among the others; the confirmed rows and the events are the same.
 #[test]
@@ -316,7 +354,8 @@ fn a_planar_array_is_tracked_by_its_azimuth() {
     // Two tracks, each with one azimuth (in either order).
     assert_eq!(ids.len(), 2, "{ids:?}");
     assert_ne!(ids[0].0, ids[1].0);
-    // Compared in 3-D, the 30 deg jumps would split the first.
+    // Compared in 3-D, the 30 deg jumps would split the first, or (the same azimuth
+    // 30 deg higher: as a floor or ceiling image, see `image`) lose half its rows.
     let mut plain = Tracker::new(TrackParams::default());
     for i in 0..40u64 {
         let elevation = if i % 2 == 0 { 0.0 } else { 30.0 };
@@ -328,8 +367,8 @@ fn a_planar_array_is_tracked_by_its_azimuth() {
     }
     plain.finish();
     let mut split: Vec<u64> = plain.take_rows().filter_map(|r| r.source).collect();
-    split.dedup();
+    let rows = split.len();
     split.sort();
     split.dedup();
-    assert_eq!(split.len(), 2, "{split:?}");
+    assert!(split.len() == 2 || rows == 20, "{split:?}, {rows} rows");
 }

@@ -108,6 +108,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("avg") => params.average_frames = value("avg") as usize,
             // The tracker's (see `track_from`).
             Some("weak" | "confirm") => {}
+            // A benchmark's own (an offset to its scenes' seeds).
+            Some("seed" | "rot") => {}
             _ => numbers.push(
                 arg.parse::<f64>()
                     .unwrap_or_else(|_| panic!("unknown argument {arg}")),

@@ -1,0 +1,70 @@
+//! Vertical reflections: a talker's floor and ceiling images.
+//!
+//! A room's floor and ceiling mirror a talker straight below and above itself: its
+//! images reach the array from the talker's azimuth at another elevation (a talker
+//! 1.5 m away, 0.4 m above the array, has its floor image about 55 deg below it and its
+//! ceiling image about 55 deg above), a few milliseconds after it, with the same
+//! signal. A small array hears them as coherent sources: on the tetrahedron in the
+//! tracking benchmark's room, a talker's floor image scored as high as the talker and
+//! became a track of its own in three of its turns (docs/tracking.md). The tracker
+//! therefore does not start a source at the azimuth of a track that is talking, at an
+//! elevation far from it: such a candidate is that track's reflection.
+//!
+//! The array frame's z axis is taken as vertical (docs/interface.md: z up), so a
+//! mounted array's frame must be level for the rule to hold.
+
+use nalgebra::Vector3;
+
+/// A candidate within this many degrees of a talking track's azimuth (measured in the
+/// horizontal plane)...
+pub const IMAGE_AZIMUTH_DEG: f64 = 6.0;
+
+/// ...and at least this many degrees from its elevation is its vertical reflection.
+pub const IMAGE_ELEVATION_DEG: f64 = 20.0;
+
+/// A track is talking when its last detection is at most this old (seconds).
+pub const IMAGE_TALKING_S: f64 = 0.5;
+
+/// Azimuths are compared only for directions at most this far from the horizontal
+/// plane (degrees): near the zenith an azimuth means little.
+pub const IMAGE_MAX_ELEVATION_DEG: f64 = 80.0;
+
+/// Whether `candidate` looks like a vertical reflection of a source heard from
+/// `source`: the same azimuth (within [`IMAGE_AZIMUTH_DEG`]), an elevation at least
+/// [`IMAGE_ELEVATION_DEG`] away, both within [`IMAGE_MAX_ELEVATION_DEG`] of the
+/// horizontal plane.
+pub fn is_vertical_image(candidate: &Vector3<f64>, source: &Vector3<f64>) -> bool {
+    let elevation = |u: &Vector3<f64>| u.z.clamp(-1.0, 1.0).asin().to_degrees();
+    let (ec, es) = (elevation(candidate), elevation(source));
+    if ec.abs() > IMAGE_MAX_ELEVATION_DEG || es.abs() > IMAGE_MAX_ELEVATION_DEG {
+        return false;
+    }
+    let azimuth = |u: &Vector3<f64>| u.y.atan2(u.x).to_degrees();
+    let mut apart = (azimuth(candidate) - azimuth(source)).abs() % 360.0;
+    if apart > 180.0 {
+        apart = 360.0 - apart;
+    }
+    apart <= IMAGE_AZIMUTH_DEG && (ec - es).abs() >= IMAGE_ELEVATION_DEG
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::method::direction::unit_from_angles;
+
+    #[test]
+    fn images_share_the_azimuth_at_another_elevation() {
+        let talker = unit_from_angles(-90.0, 15.0);
+        // Its floor image as measured on the tetrahedron (docs/tracking.md).
+        assert!(is_vertical_image(&unit_from_angles(-90.2, -46.4), &talker));
+        assert!(is_vertical_image(&unit_from_angles(-86.0, 70.0), &talker));
+        // Another talker beside it, or just above it, is not.
+        assert!(!is_vertical_image(&unit_from_angles(-80.0, -46.4), &talker));
+        assert!(!is_vertical_image(&unit_from_angles(-90.0, 30.0), &talker));
+        // Across the +-180 deg seam.
+        let behind = unit_from_angles(179.0, 10.0);
+        assert!(is_vertical_image(&unit_from_angles(-177.0, -45.0), &behind));
+        // Near the zenith, azimuths are not compared.
+        assert!(!is_vertical_image(&unit_from_angles(-90.0, 85.0), &talker));
+    }
+}
