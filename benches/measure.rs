@@ -187,8 +187,15 @@ fn main() {
     let base = Params::default();
     let variants: Vec<(&str, Params)> = vec![
         (
-            "default (Hann, parabolic, tol 40 us, gate 100 us, weighted, M 8, threshold 0.5/pair)",
+            "default (Hann, cosine peaks, tol 40 us, gate 100 us, weighted, M 8, calibrated threshold)",
             base.clone(),
+        ),
+        (
+            "parabolic peaks",
+            Params {
+                interpolation: Interpolation::Parabolic,
+                ..base.clone()
+            },
         ),
         (
             "window: Hamming",

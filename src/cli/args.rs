@@ -197,9 +197,9 @@ pub struct AnalyzeArgs {
     #[arg(long, default_value = "hann", value_parser = choice::<Window>())]
     pub window: Window,
 
-    /// Sub-sample refinement of correlation peaks
-    #[arg(long, default_value = "parabolic", value_parser = choice::<Interpolation>())]
-    pub interpolation: Interpolation,
+    /// Sub-sample refinement of correlation peaks [default: cosine; parabolic with --paper]
+    #[arg(long, value_parser = choice::<Interpolation>())]
+    pub interpolation: Option<Interpolation>,
 
     /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, and delays rows by up to --confirm-s)
     #[arg(long)]
@@ -389,7 +389,11 @@ impl AnalyzeArgs {
                     DEFAULT_REVERB_LEVEL
                 }),
             window: self.window,
-            interpolation: self.interpolation,
+            interpolation: self.interpolation.unwrap_or(if self.paper {
+                Interpolation::Parabolic
+            } else {
+                Interpolation::Cosine
+            }),
             background_s: (!self.paper && self.background_s > 0.0).then_some(self.background_s),
             average_frames: if self.paper {
                 1

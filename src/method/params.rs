@@ -130,6 +130,8 @@ impl Params {
             steered: false,
             max_sources: 1,
             candidates: 1.0,
+            // As measured before the cosine became the default (docs/accuracy.md).
+            interpolation: Interpolation::Parabolic,
             ..Params::default()
         }
     }
@@ -150,7 +152,7 @@ impl Default for Params {
             speed_of_sound: None,
             min_score_per_pair: DEFAULT_MIN_SCORE_PER_PAIR,
             window: Window::Hann,
-            interpolation: Interpolation::Parabolic,
+            interpolation: Interpolation::Cosine,
             max_nodes: 1_000_000,
             noise: NoiseSettings::default(),
             average_frames: DEFAULT_AVERAGE_FRAMES,

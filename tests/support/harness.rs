@@ -106,6 +106,13 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("k") => params.max_sources = value("k") as usize,
             // Frames each correlation is averaged over.
             Some("avg") => params.average_frames = value("avg") as usize,
+            // The peaks' sub-sample refinement, by name.
+            Some("interp") => {
+                use ssl::Named;
+                let (_, name) = arg.split_once('=').expect("key=value");
+                params.interpolation = ssl::method::peaks::Interpolation::from_name(name)
+                    .unwrap_or_else(|| panic!("{arg}: no such interpolation"));
+            }
             // The tracker's (see `track_from`).
             Some("weak" | "confirm") => {}
             // A benchmark's own (an offset to its scenes' seeds).
