@@ -114,7 +114,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
                     .unwrap_or_else(|| panic!("{arg}: no such interpolation"));
             }
             // The tracker's (see `track_from`).
-            Some("weak" | "confirm") => {}
+            Some("weak" | "confirm" | "gate") => {}
             // A benchmark's own (an offset to its scenes' seeds).
             Some("seed" | "rot") => {}
             _ => numbers.push(
@@ -134,14 +134,16 @@ pub fn params_from(args: &[String]) -> ssl::Params {
 }
 
 /// The tracker's parameters a harness runs with: the defaults changed by any of
-/// `weak=N` (candidates that confirm a track alone) and `confirm=S` (the confirmation
-/// window, seconds); other arguments are left to `params_from`.
+/// `weak=N` (candidates that confirm a track alone), `confirm=S` (the confirmation
+/// window, seconds) and `gate=DEG` (the association gate); other arguments are left to
+/// `params_from`.
 pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
     let mut track = ssl::track::TrackParams::default();
     for (key, value) in args.iter().filter_map(|a| a.split_once('=')) {
         match key {
             "weak" => track.confirm_weak = value.parse().expect("weak takes a count"),
             "confirm" => track.confirm_s = value.parse().expect("confirm takes seconds"),
+            "gate" => track.gate_deg = value.parse().expect("gate takes degrees"),
             _ => {}
         }
     }
