@@ -109,6 +109,17 @@ fn two_talkers_taking_turns_are_two_tracks_and_three_events() {
         "{on_track} of {}",
         rows.len()
     );
+    // The file's entry says what the tracker made of the detections.
+    let stats = &doc["files"][0]["tracking"];
+    assert_eq!(stats["rows"].as_u64(), Some(rows.len() as u64), "{stats}");
+    let mut distinct: Vec<u64> = rows.iter().map(|r| r["source"].as_u64().unwrap()).collect();
+    distinct.sort();
+    distinct.dedup();
+    assert_eq!(
+        stats["tracks"].as_u64(),
+        Some(distinct.len() as u64),
+        "{stats}"
+    );
     // The same events as CSV; without tracking, every frame's detection above the
     // threshold is there and no candidate under it (with tracking, the candidates its
     // tracks confirm add rows).
@@ -141,6 +152,13 @@ fn two_talkers_taking_turns_are_two_tracks_and_three_events() {
     let unconfirmed = kept.len() - confirmed.len();
     eprintln!("{unconfirmed} rows unconfirmed");
     assert!(unconfirmed > 0);
+    // Counted the same with or without them written.
+    assert_eq!(
+        stats["unconfirmed"].as_u64(),
+        Some(unconfirmed as u64),
+        "{stats}"
+    );
+    assert!(stats["reflections"].as_u64().unwrap() <= unconfirmed as u64);
     assert!(kept.windows(2).all(|w| w[0].time_s <= w[1].time_s));
 }
 

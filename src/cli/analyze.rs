@@ -160,7 +160,10 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
             error(e);
             all_ok = false;
         }
-        files.push(FileEntry::new(path, Some(&summary), message));
+        files.push(
+            FileEntry::new(path, Some(&summary), message)
+                .with_tracking(tracker.as_ref().map(Tracker::stats)),
+        );
     }
     let Some(exporter) = out.exporter.take() else {
         // Nothing was analysed: nothing is written, an existing file stays as it was.

@@ -250,6 +250,9 @@ pub struct FileEntry {
     /// Warnings about the recording.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub warnings: Option<Vec<String>>,
+    /// What the tracker made of the detections (absent without tracking).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub tracking: Option<crate::track::TrackStats>,
 }
 
 impl FileEntry {
@@ -270,6 +273,15 @@ impl FileEntry {
                     .map(|w| format!("{}: {w}", s.name))
                     .collect()
             }),
+            tracking: None,
+        }
+    }
+
+    /// The entry with what the tracker made of the file's detections.
+    pub fn with_tracking(self, stats: Option<crate::track::TrackStats>) -> Self {
+        FileEntry {
+            tracking: stats,
+            ..self
         }
     }
 }

@@ -43,7 +43,7 @@ mod motion;
 mod tracker;
 
 pub use event::Event;
-pub use tracker::{Tracked, Tracker, ELEVATION_WEIGHT};
+pub use tracker::{TrackStats, Tracked, Tracker, ELEVATION_WEIGHT};
 
 /// The tracker's parameters (see the module's documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

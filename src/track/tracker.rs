@@ -21,6 +21,22 @@ pub struct Tracked {
     pub source: Option<u64>,
 }
 
+/// What a tracker made of a recording's detections (the JSON document's `files`
+/// entries carry it as `tracking`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct TrackStats {
+    /// Tracks confirmed (ids given).
+    pub tracks: u64,
+    /// Detections given out with a track's id.
+    pub rows: u64,
+    /// Detections no track confirmed: dropped, or given out without an id with
+    /// [`TrackParams::keep_unconfirmed`].
+    pub unconfirmed: u64,
+    /// Of those, the detections of candidates taken for a talking track's floor or
+    /// ceiling image (see [`super::image`]).
+    pub reflections: u64,
+}
+
 /// For a planar array, how much a difference in the angle out of its plane counts
 /// against one in the plane when detections are associated: its elevation errs by 5-10
 /// deg on real speech where its azimuth errs by 1 (docs/field.md).
@@ -69,6 +85,7 @@ pub struct Tracker {
     next_row: u64,
     ready: Vec<Tracked>,
     events: Vec<Event>,
+    stats: TrackStats,
     /// Per frame, reused: candidate pairings, detections placed, tracks and candidates
     /// taken (`true` for a track, then its id or key).
     pairs: Vec<(f64, usize, Slot)>,
@@ -91,6 +108,7 @@ impl Tracker {
             next_row: 0,
             ready: Vec::new(),
             events: Vec::new(),
+            stats: TrackStats::default(),
             pairs: Vec::new(),
             used: Vec::new(),
             taken: Vec::new(),
@@ -204,6 +222,8 @@ impl Tracker {
             {
                 if self.params.keep_unconfirmed {
                     *placed = Some(Slot::Dropped);
+                } else {
+                    self.stats.unconfirmed += 1;
                 }
                 continue;
             }
@@ -285,6 +305,7 @@ impl Tracker {
             for (row, _) in &c.hits {
                 self.resolved.insert(*row, None);
             }
+            self.stats.reflections += c.hits.len() as u64;
             return;
         }
         let near = self
@@ -384,6 +405,10 @@ impl Tracker {
                 }
             };
             let (detection, _) = self.waiting.pop_front().expect("a front");
+            match source {
+                Some(_) => self.stats.rows += 1,
+                None => self.stats.unconfirmed += 1,
+            }
             if source.is_some() || self.params.keep_unconfirmed {
                 self.ready.push(Tracked { detection, source });
             }
@@ -406,6 +431,15 @@ impl Tracker {
         ending.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
         self.events.extend(ending);
         self.release();
+    }
+
+    /// What the tracker has made of the detections so far (complete after
+    /// [`Tracker::finish`]).
+    pub fn stats(&self) -> TrackStats {
+        TrackStats {
+            tracks: self.next_id - 1,
+            ..self.stats
+        }
     }
 
     /// The rows given out since the last call, in frame order.

@@ -269,15 +269,24 @@ fn a_talkers_floor_image_starts_no_track() {
         tracker.finish();
         let rows: Vec<Tracked> = tracker.take_rows().collect();
         let events: Vec<Event> = tracker.take_events().collect();
-        (rows, events)
+        (rows, events, tracker.stats())
     };
     // The image while the talker talks: only the talker's rows, one event.
-    let (rows, events) = run(20);
+    let (rows, events, stats) = run(20);
     assert_eq!(rows.len(), 60);
     assert!(rows.iter().all(|r| r.detection.elevation_deg == 15.0));
     assert_eq!(events.len(), 1);
+    // Every image detection is counted as such (its candidates are refused two by two).
+    let counted = TrackStats {
+        tracks: 1,
+        rows: 60,
+        unconfirmed: 40,
+        reflections: 40,
+    };
+    assert_eq!(stats, counted);
     // The same direction 1.4 s after the talker's last word: a source of its own.
-    let (rows, events) = run(200);
+    let (rows, events, stats) = run(200);
+    assert_eq!((stats.tracks, stats.reflections), (2, 0));
     assert_eq!(rows.len(), 100);
     assert_eq!(events.len(), 2);
     assert_eq!(rows[60].source, Some(2));
