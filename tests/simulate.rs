@@ -212,33 +212,33 @@ fn bad_scenes_are_explained() {
     }
 }
 
-#[test]
-fn source_from_a_wav_file() {
-    let dir = tempdir();
-    prism_file(dir.path());
-    // A mono noise recording as the source signal.
+/// Writes a mono 16 kHz recording of `duration` seconds to `path`: white noise over
+/// `[start, end]` seconds, silence elsewhere.
+fn noise_recording(path: &Path, duration: f64, [start, end]: [f64; 2]) {
     let mono = ssl::sim::freefield::render(&ssl::sim::freefield::Scene {
         sample_rate: 16000,
-        duration_s: 0.5,
+        duration_s: duration,
         mics: vec![nalgebra::Vector3::zeros()],
         speed_of_sound: 343.0,
         sources: vec![ssl::sim::freefield::Source {
             place: ssl::sim::freefield::Place::Direction(nalgebra::Vector3::x()),
             signal: ssl::sim::signals::Signal::WhiteNoise,
-            start_s: 0.0,
-            end_s: 0.5,
+            start_s: start,
+            end_s: end,
             level: 0.1,
         }],
         sensor_noise: 0.0,
         seed: 2,
     });
-    ssl::sim::write_wav(
-        &dir.path().join("voice.wav"),
-        &mono,
-        16000,
-        ssl::sim::Encoding::Int16,
-    )
-    .unwrap();
+    ssl::sim::write_wav(path, &mono, 16000, ssl::sim::Encoding::Int16).unwrap();
+}
+
+#[test]
+fn source_from_a_wav_file() {
+    let dir = tempdir();
+    prism_file(dir.path());
+    // A mono noise recording as the source signal.
+    noise_recording(&dir.path().join("voice.wav"), 0.5, [0.0, 0.5]);
     let scene = "sample_rate = 16000\nduration = 1.0\n[array]\ngeometry = \"prism.toml\"\nposition = [0.0, 0.0, 0.0]\n[[source]]\nazimuth_deg = -60.0\nelevation_deg = 20.0\ndistance = 3.0\nsignal = \"file\"\nfile = \"voice.wav\"\nactive = [[0.2, 0.9]]\n";
     let path = write(dir.path(), "file.toml", scene);
     let wav = dir.path().join("f.wav");
@@ -271,23 +271,7 @@ fn a_recordings_silence_is_left_out_of_its_truth() {
     let dir = tempdir();
     prism_file(dir.path());
     // 0.6 s of file: silence, noise from 0.15 to 0.4 s, silence.
-    let mono = ssl::sim::freefield::render(&ssl::sim::freefield::Scene {
-        sample_rate: 16000,
-        duration_s: 0.6,
-        mics: vec![nalgebra::Vector3::zeros()],
-        speed_of_sound: 343.0,
-        sources: vec![ssl::sim::freefield::Source {
-            place: ssl::sim::freefield::Place::Direction(nalgebra::Vector3::x()),
-            signal: ssl::sim::signals::Signal::WhiteNoise,
-            start_s: 0.15,
-            end_s: 0.4,
-            level: 0.1,
-        }],
-        sensor_noise: 0.0,
-        seed: 2,
-    });
-    let voice = dir.path().join("voice.wav");
-    ssl::sim::write_wav(&voice, &mono, 16000, ssl::sim::Encoding::Int16).unwrap();
+    noise_recording(&dir.path().join("voice.wav"), 0.6, [0.15, 0.4]);
     let scene = "sample_rate = 16000\nduration = 1.5\n[array]\ngeometry = \"prism.toml\"\nposition = [0.0, 0.0, 0.0]\n[[source]]\nazimuth_deg = -60.0\ndistance = 3.43\nsignal = \"file\"\nfile = \"voice.wav\"\nactive = [[0.2, 0.8]]\n[[source]]\nazimuth_deg = 60.0\ndistance = 3.43\nsignal = \"white\"\nactive = [[0.9, 1.4]]\n";
     let path = write(dir.path(), "file.toml", scene);
     let wav = dir.path().join("f.wav");
