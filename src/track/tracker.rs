@@ -300,7 +300,7 @@ impl Tracker {
         if self.tracks.iter().any(|t| {
             t.event.is_some()
                 && now - t.last_s <= IMAGE_TALKING_S
-                && is_vertical_image(&c.direction, &t.direction)
+                && is_vertical_image(&c.direction, &t.predicted(now))
         }) {
             for (row, _) in &c.hits {
                 self.resolved.insert(*row, None);
