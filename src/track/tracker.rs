@@ -61,7 +61,8 @@ impl Candidate {
 #[derive(Clone, Copy)]
 enum Slot {
     Track(u64),
-    /// A candidate's key and the row's number.
+    /// A candidate's key and the row's number (0 until [`Tracker::join`] numbers the
+    /// row: pairings and joins name the candidate only).
     Candidate(u64, u64),
     /// A detection that joins nothing and starts nothing (kept only to be given out
     /// unconfirmed).
