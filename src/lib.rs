@@ -18,6 +18,7 @@
 //!     spectrum.rs     windowed spectra X_i(k), mean power X(k) (eq. 2)
 //!     weighting.rs    noise estimate X_n(k), weights w_e(k) (eq. 4, 5)
 //!     correlation.rs  weighted PHAT cross-correlation (eq. 6)
+//!     dereverb.rs     the reverberation's diffuse part removed before eq. 6 (beyond)
 //!     peaks.rs        the M highest peaks per pair (eq. 7)
 //!     pairs.rs        microphone pairs, numbered once
 //!     search.rs       the consistent delay set with the greatest correlation (eq. 8)

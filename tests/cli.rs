@@ -73,6 +73,21 @@ fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     }
 }
 
+/// The diffuse part is removed by default only for planar and linear arrays: the
+/// example's prism (3-D) gives the same bytes with it off, and other rows with it on.
+#[test]
+fn the_diffuse_part_is_removed_for_a_3d_array_only_when_asked() {
+    let default = example(&[]);
+    let off = example(&["--dereverb", "off"]);
+    let on = example(&["--dereverb", "on"]);
+    for o in [&default, &off, &on] {
+        assert!(o.status.success(), "{}", stderr(o));
+    }
+    assert!(default.stdout.len() > 1000);
+    assert_eq!(default.stdout, off.stdout);
+    assert_ne!(default.stdout, on.stdout);
+}
+
 #[test]
 fn min_score_is_per_microphone_pair() {
     // Frame by frame: averaging over frames already finds the example's one weak frame.

@@ -5,6 +5,7 @@
 mod support;
 
 use ssl::method::direction::unit_from_angles;
+use ssl::method::Dereverb;
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;
 use ssl::{Analysis, Params};
@@ -57,11 +58,26 @@ fn analysing_frames_does_not_allocate() {
         .build()
         .unwrap();
     // As `ssl analyze` runs with its tracker: the steered response, a second source a
-    // frame and candidates too.
-    let params = Params::default().for_tracker();
+    // frame and candidates too; and with the diffuse part removed (on for planar arrays).
+    for dereverb in [Dereverb::Auto, Dereverb::On] {
+        let params = Params {
+            dereverb,
+            ..Params::default().for_tracker()
+        };
+        count_allocations(&pool, &ch, &g, &params);
+    }
+}
+
+/// Analyses `ch` and checks that no frame after the first block allocates.
+fn count_allocations(
+    pool: &rayon::ThreadPool,
+    ch: &[Vec<f32>],
+    g: &ssl::Geometry,
+    params: &Params,
+) {
     let (frames, counts) = pool.install(|| {
         let channels = ch.iter().map(|c| &c[..]).collect();
-        let analysis = Analysis::from_channels("t", channels, 48000, &g, &params).unwrap();
+        let analysis = Analysis::from_channels("t", channels, 48000, g, params).unwrap();
         // Allocations counted when the sink sees each frame (frames arrive a block at a
         // time, after the block is analysed and the next one read).
         let mut counts = Vec::with_capacity(1000);

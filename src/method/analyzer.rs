@@ -41,6 +41,10 @@ pub(crate) struct Analyzer {
     /// Per frame of the block, whether its correlations can be left out.
     skip: Vec<bool>,
     outcomes: Vec<Outcome>,
+    /// Per frame of the block, its dereverberated correlations (swapped into its state)
+    /// and the most they can be.
+    dereverbed: Vec<Vec<f32>>,
+    reach: Vec<f64>,
     detections: Vec<Detections>,
     times: Option<StageTimes>,
 }
@@ -66,6 +70,14 @@ impl Analyzer {
             hopeless: vec![false; BLOCK + setup.params.average_frames - 1],
             skip: vec![false; BLOCK],
             outcomes: vec![Outcome::Silent; BLOCK],
+            reach: vec![0.0; BLOCK],
+            dereverbed: if setup.dereverb {
+                (0..BLOCK)
+                    .map(|_| FrameState::new(&setup).windows)
+                    .collect()
+            } else {
+                Vec::new()
+            },
             detections: vec![Detections::default(); BLOCK],
             times: None,
             setup,
@@ -205,19 +217,54 @@ impl Analyzer {
         }
         // Correlations, in parallel.
         let timing = self.times.is_some();
-        states[carried..]
-            .par_iter_mut()
-            .zip(live[carried..].par_iter())
-            .zip(self.skip[..count].par_iter())
-            .for_each(|((state, &live), &skip)| {
-                if live {
+        if setup.dereverb {
+            // From the spectra of each frame and the ones before it, then into the frames.
+            let (frozen, live) = (&*states, &*live);
+            let skip = &self.skip[..count];
+            self.dereverbed[..count]
+                .par_iter_mut()
+                .zip(self.reach[..count].par_iter_mut())
+                .enumerate()
+                .filter(|(i, _)| live[carried + i] && !skip[*i])
+                .for_each(|(i, (out, reach))| {
                     let mut guard = worker();
                     let (worker, stage_times) = &mut *guard;
-                    worker.correlate(setup, state, skip, timing.then_some(stage_times));
+                    let span = i..=carried + i;
+                    *reach = worker.correlate_dereverbed(
+                        setup,
+                        &frozen[span.clone()],
+                        &live[span],
+                        out,
+                        timing.then_some(stage_times),
+                    );
+                });
+            for (i, out) in self.dereverbed[..count].iter_mut().enumerate() {
+                let state = &mut states[carried + i];
+                state.correlated = if !live[carried + i] {
+                    super::worker::Correlated::No
+                } else if self.skip[i] {
+                    super::worker::Correlated::Skipped
                 } else {
-                    state.correlated = super::worker::Correlated::No;
-                }
-            });
+                    std::mem::swap(&mut state.windows, out);
+                    state.reach = self.reach[i];
+                    super::worker::Correlated::Yes
+                };
+            }
+        } else {
+            states[carried..]
+                .par_iter_mut()
+                .zip(live[carried..].par_iter())
+                .zip(self.skip[..count].par_iter())
+                .for_each(|((state, &live), &skip)| {
+                    if live {
+                        let mut guard = worker();
+                        let (worker, stage_times) = &mut *guard;
+                        worker.correlate(setup, state, skip, timing.then_some(stage_times));
+                    } else {
+                        state.correlated = super::worker::Correlated::No;
+                    }
+                });
+        }
         // The coherent background, in frame order.
         if let Some(background) = self.background.as_mut() {
             background.apply(setup, &mut states[carried..]);

@@ -24,6 +24,7 @@
 pub(crate) mod analyzer;
 pub mod background;
 pub mod correlation;
+pub mod dereverb;
 mod detect;
 pub mod direction;
 pub mod frames;
@@ -41,6 +42,7 @@ mod worker;
 
 pub(crate) use analyzer::Analyzer;
 pub use background::DEFAULT_BACKGROUND_S;
+pub use dereverb::Dereverb;
 pub use outcome::{
     Detection, Detections, FrameStats, StageTimes, DEFAULT_MAX_SOURCES, MAX_SOURCES,
 };

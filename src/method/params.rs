@@ -2,6 +2,7 @@
 //! sample rate.
 
 use super::background::{DEFAULT_BACKGROUND_S, GATE};
+use super::dereverb::Dereverb;
 use super::pairs::{pair_count, pair_index};
 use super::peaks::{Interpolation, MAX_PEAKS};
 use super::spectrum::Window;
@@ -82,6 +83,11 @@ pub struct Params {
     /// confirm or drop (default 1: none; `ssl analyze` uses
     /// [`DEFAULT_CANDIDATES`](crate::track::DEFAULT_CANDIDATES) when it tracks).
     pub candidates: f64,
+    /// When the diffuse part of every pair's cross-spectrum is removed before eq. (6)
+    /// ([`super::dereverb`], beyond the paper), its coherence measured over the frames
+    /// [`Params::average_frames`] averages (default [`Dereverb::Auto`]: for planar and
+    /// linear arrays; `--paper`: never).
+    pub dereverb: Dereverb,
 }
 
 impl Params {
@@ -130,6 +136,7 @@ impl Params {
             steered: false,
             max_sources: 1,
             candidates: 1.0,
+            dereverb: Dereverb::Off,
             // As measured before the cosine became the default (docs/accuracy.md).
             interpolation: Interpolation::Parabolic,
             ..Params::default()
@@ -162,6 +169,7 @@ impl Default for Params {
             steered: false,
             max_sources: 1,
             candidates: 1.0,
+            dereverb: Dereverb::Auto,
         }
     }
 }
@@ -307,6 +315,9 @@ pub(crate) struct Setup {
     /// A frame whose weights' ceiling is under this may teach the coherent background
     /// ([`super::background`]).
     pub background_gate: f64,
+    /// The diffuse part is removed from the cross-spectra ([`Params::dereverb`] for this
+    /// array).
+    pub dereverb: bool,
 }
 
 impl Setup {
@@ -404,6 +415,7 @@ impl Setup {
             let w = steady_weight(params.alpha, params.reverb_level);
             GATE * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
         };
+        let dereverb = params.dereverb.applies(&geometry.shape);
         Ok(Setup {
             geometry: geometry.clone(),
             params,
@@ -415,6 +427,7 @@ impl Setup {
             diffuse_floor,
             steady_ceiling,
             background_gate,
+            dereverb,
         })
     }
 

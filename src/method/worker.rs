@@ -8,6 +8,7 @@
 //! state for [`Worker::decide`].
 
 use super::correlation::{peak_ceiling, whiten, Correlator};
+use super::dereverb::Dereverberator;
 use super::detect::{detection, direction, solver, Direction};
 use super::direction::DirectionSolver;
 use super::outcome::{Clock, Detections, Outcome, StageTimes};
@@ -25,13 +26,17 @@ use std::collections::HashMap;
 /// estimate `X_n(k)` of the frames before it, its weights, and its correlations.
 pub(crate) struct FrameState {
     pub live: Vec<usize>,
-    spectra: Vec<Vec<Complex32>>,
+    pub(super) spectra: Vec<Vec<Complex32>>,
     pub power: Vec<f32>,
     pub noise: Vec<f32>,
     /// `w_e(k)` (all 1 without weighting).
-    weights: Vec<f32>,
-    /// The most any of this frame's correlation values (or refined peaks) can be.
+    pub(super) weights: Vec<f32>,
+    /// The most any correlation value (or refined peak) its own weights allow.
     pub ceiling: f64,
+    /// The most any of its correlation values (or refined peaks) can be: `ceiling`, or
+    /// with the diffuse part removed, that of the weights averaged over the frames its
+    /// cross-spectra sum ([`super::dereverb`]).
+    pub reach: f64,
     /// The frame's detection threshold per pair.
     pub threshold: f64,
     /// The lowest score per pair of a candidate: the threshold times
@@ -42,7 +47,7 @@ pub(crate) struct FrameState {
     /// estimate (see [`super::threshold`]); such a frame gives no detection.
     pub steady: bool,
     /// Bit `m` set when microphone `m` is live.
-    mask: u64,
+    pub(super) mask: u64,
     /// Every pair's correlation at the lags searched and their two neighbours, one pair
     /// after another in the order of [`pair_index`] over all microphones (see
     /// [`Worker::window_starts`]); read only when `correlated` is `Correlated::Yes`.
@@ -76,6 +81,7 @@ impl FrameState {
             noise: vec![0.0; setup.bins()],
             weights: vec![1.0; setup.bins()],
             ceiling: 0.0,
+            reach: 0.0,
             threshold: 0.0,
             floor: 0.0,
             steady: false,
@@ -107,6 +113,8 @@ pub(crate) struct Worker {
     steered: Option<Steered>,
     /// The directions found in a frame so far.
     directions: Vec<nalgebra::Vector3<f64>>,
+    /// The diffuse part removed from the cross-spectra ([`super::dereverb`]), when on.
+    dereverb: Option<Dereverberator>,
     /// Leave out correlations that cannot lead to a detection (always, but in a test).
     pub prune: bool,
 }
@@ -143,8 +151,37 @@ impl Worker {
                 let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
                 Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag)
             }),
+            dereverb: setup.dereverb.then(|| Dereverberator::new(setup)),
             prune: true,
         }
+    }
+
+    /// The correlations of the last frame of `span` with the diffuse part of every
+    /// pair's cross-spectrum removed ([`super::dereverb`]; `live` says which frames of
+    /// `span` are), into `out`, laid out as a frame's windows; returns the most any of
+    /// its values can be (see [`FrameState::reach`]).
+    pub fn correlate_dereverbed(
+        &mut self,
+        setup: &Setup,
+        span: &[FrameState],
+        live: &[bool],
+        out: &mut [f32],
+        times: Option<&mut StageTimes>,
+    ) -> f64 {
+        let mut clock = Clock::new(times);
+        let k = span.last().map_or(0, |s| s.live.len());
+        clock.count((pair_count(k), 0));
+        let dereverb = self.dereverb.as_mut().expect("dereverberation planned");
+        let reach = dereverb.correlate(
+            setup,
+            span,
+            live,
+            &mut self.correlator,
+            &self.window_starts,
+            out,
+        );
+        clock.lap(|t| &mut t.correlation);
+        reach
     }
 
     /// The first stage: live microphones, spectra and `X(k)`. Mic `m`'s samples are
@@ -180,6 +217,7 @@ impl Worker {
             );
         }
         state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.interpolation);
+        state.reach = state.ceiling;
         state.threshold = setup.threshold_per_pair(&state.weights);
         state.floor = state.threshold * setup.params.candidates;
         state.steady = setup.params.threshold_sigmas.is_some()
@@ -476,12 +514,12 @@ impl Worker {
 }
 
 /// The most any pair's averaged correlation can be over the last frame of `span`: the
-/// mean ceiling of its live frames.
+/// mean reach of its live frames.
 pub(crate) fn span_ceiling(span: &[FrameState]) -> f64 {
     let (sum, count) = span
         .iter()
         .filter(|f| !f.live.is_empty())
-        .fold((0.0, 0.0), |(s, c), f| (s + f.ceiling, c + 1.0));
+        .fold((0.0, 0.0), |(s, c), f| (s + f.reach, c + 1.0));
     if count > 0.0 {
         sum / count
     } else {

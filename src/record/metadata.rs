@@ -125,6 +125,10 @@ pub struct ParametersInfo {
     /// Candidates are reported down to this share of the threshold, for the tracker (1:
     /// none).
     pub candidates: f64,
+    /// Whether the reverberation's diffuse part is removed from the cross-spectra for
+    /// this array (`--dereverb`: by default for planar and linear arrays).
+    #[serde(default)]
+    pub dereverb: bool,
     /// The tracker's parameters, or null with tracking off.
     pub track: Option<TrackParams>,
 }
@@ -167,6 +171,7 @@ impl RunMetadata {
                 steered: params.steered,
                 max_sources: params.max_sources,
                 candidates: params.candidates,
+                dereverb: params.dereverb.applies(&geometry.shape),
                 track: None,
             },
         }
