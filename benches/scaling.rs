@@ -22,7 +22,7 @@ use std::error::Error;
 use std::fmt::Write as _;
 use std::path::Path;
 use support::harness::{binary, cores, run_measured, seconds_arg};
-use support::{geometry_toml, prism, sphere_lattice};
+use support::{circle, geometry_toml, prism, sphere_lattice};
 
 /// A free-field scene of white-noise events, each from its own direction.
 fn scene_toml(rate: u32, seconds: f64) -> String {
@@ -48,8 +48,9 @@ fn scene_toml(rate: u32, seconds: f64) -> String {
     s + "[noise]\nsensor_db = -50\n"
 }
 
-/// A reverberant scene of real speech: the two clips taking turns, 0.3 s apart.
-fn speech_scene_toml(rate: u32, seconds: f64) -> String {
+/// A reverberant scene of real speech: the two clips taking turns, 0.3 s apart (above
+/// the array's plane for a planar array, which cannot tell above from below).
+fn speech_scene_toml(rate: u32, seconds: f64, planar: bool) -> String {
     let mut s = format!(
         "sample_rate = {rate}\nduration = {seconds}\nseed = 6\nformat = \"int16\"\n\
          [room]\ndimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n\
@@ -60,7 +61,11 @@ fn speech_scene_toml(rate: u32, seconds: f64) -> String {
     while t + CLIPS[i % 2].1 < seconds {
         let (clip, length) = CLIPS[i % 2];
         let azimuth = -170.0 + (i * 67 % 340) as f64;
-        let elevation = -20.0 + (i * 13 % 40) as f64;
+        let elevation = if planar {
+            5.0 + (i * 13 % 30) as f64
+        } else {
+            -20.0 + (i * 13 % 40) as f64
+        };
         let distance = 1.5 + (i % 4) as f64 * 0.5;
         write!(
             s,
@@ -97,7 +102,23 @@ fn main() -> Result<(), Box<dyn Error>> {
     let exe = binary();
     let cores = cores();
     let prism = prism();
-    let cases = [
+    // A planar array in the room, with and without the diffuse part's removal.
+    let planar = |name: &str, mics: Vec<Vector3<f64>>, rate: u32| {
+        [&[][..], &["--dereverb", "off"][..]].map(|options| Case {
+            name: if options.is_empty() {
+                name.into()
+            } else {
+                "the same, --dereverb off".into()
+            },
+            speech: true,
+            options,
+            mics: mics.clone(),
+            rate,
+            seconds,
+            copies: 1,
+        })
+    };
+    let mut cases = vec![
         Case {
             speech: false,
             options: &[],
@@ -171,6 +192,20 @@ fn main() -> Result<(), Box<dyn Error>> {
             copies: 200,
         },
     ];
+    let at = cases.len() - 3;
+    let circles = [
+        planar(
+            "6-mic circle (r 4.63 cm), reverberant speech, 16 kHz",
+            circle(6, 0.0463),
+            16000,
+        ),
+        planar(
+            "16-mic circle (r 10 cm), reverberant speech, 48 kHz",
+            circle(16, 0.1),
+            48000,
+        ),
+    ];
+    cases.splice(at..at, circles.into_iter().flatten());
     println!(
         "| recording | audio | --threads 1 | --threads {cores} | peak memory | mean error | events found |"
     );
@@ -182,7 +217,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         std::fs::write(&array, geometry_toml(&case.mics, ""))?;
         let scene = if case.speech {
             support::copy_speech(dir.path())?;
-            speech_scene_toml(case.rate, case.seconds)
+            speech_scene_toml(
+                case.rate,
+                case.seconds,
+                case.mics.iter().all(|m| m.z == 0.0),
+            )
         } else {
             scene_toml(case.rate, case.seconds)
         };

@@ -61,7 +61,7 @@ pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std
 /// method; otherwise the defaults changed by any of `fixed` (`--min-score` at its
 /// default) or `min=X` (a fixed threshold per pair, without late reverberation),
 /// `rev=X` (late reverberation, after them), `sig=X` (the calibrated threshold's sigmas), `steer=0` (no steered response), `k=N` (sources per frame), `avg=N` (frames
-/// averaged), `bg=S` (the coherent background's time constant, 0: none), and a tolerance and a residual gate in microseconds (`0` turns the gate
+/// averaged), `ms=X` (the frame length), `drv=auto|on|off` (the diffuse part removed), `bg=S` (the coherent background's time constant, 0: none), and a tolerance and a residual gate in microseconds (`0` turns the gate
 /// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
@@ -104,6 +104,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("cand") => params.candidates = value("cand"),
             // The most sources per frame.
             Some("k") => params.max_sources = value("k") as usize,
+            // The frame length in milliseconds.
+            Some("ms") => params.frame_ms = Some(value("ms")),
             // Frames each correlation is averaged over.
             Some("avg") => params.average_frames = value("avg") as usize,
             // The peaks' sub-sample refinement, by name.
@@ -112,6 +114,13 @@ pub fn params_from(args: &[String]) -> ssl::Params {
                 let (_, name) = arg.split_once('=').expect("key=value");
                 params.interpolation = ssl::method::peaks::Interpolation::from_name(name)
                     .unwrap_or_else(|| panic!("{arg}: no such interpolation"));
+            }
+            // When the diffuse part is removed, by name.
+            Some("drv") => {
+                use ssl::Named;
+                let (_, name) = arg.split_once('=').expect("key=value");
+                params.dereverb = ssl::method::Dereverb::from_name(name)
+                    .unwrap_or_else(|| panic!("{arg}: auto, on or off"));
             }
             // The tracker's (see `track_from`).
             Some("weak" | "confirm" | "gate") => {}
