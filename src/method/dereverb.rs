@@ -273,7 +273,7 @@ fn remove_diffuse(
 const MAX_COHERENCE2: f32 = 1.0 - 1e-6;
 
 /// One bin's cross-spectrum with the diffuse part removed, as a unit phasor (zero when
-/// nothing is left), in double precision: the reference [`remove_diffuse`] is tested
+/// nothing is left), in double precision: the reference `remove_diffuse` is tested
 /// against. `cross` and `power_a`, `power_b` are the pair's cross- and auto-spectra
 /// summed over the frames, `diffuse` its diffuse coherence at the bin. The coherence
 /// `g = cross / sqrt(power_a power_b)` is modelled as `(c e^{-iwT} + G) / (c + 1)`;
