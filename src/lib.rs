@@ -27,6 +27,7 @@
 //!     background.rs   the steady background subtracted from the correlations (beyond)
 //!     sequential.rs   the noise estimate in frame order
 //!     outcome.rs      detections, counters, stage times
+//!     state.rs        one frame's state between the stages
 //!     worker.rs       one frame through the stages
 //!     analyzer.rs     a recording's frames in blocks, on several threads, with priming
 //!   stream/         samples in, detections out, memory flat

@@ -22,8 +22,8 @@
 
 use super::pairs::{pair_count, pair_index};
 use super::params::Setup;
+use super::state::{Correlated, FrameState};
 use super::threshold::STEADY_FRAME;
-use super::worker::{Correlated, FrameState};
 
 /// A frame teaches the background when its weights' ceiling is within this many times
 /// that of a frame at the noise level: the frames that give no detection because they

@@ -8,7 +8,7 @@ use super::outcome::Detection;
 use super::pairs::pair_count;
 use super::params::Setup;
 use super::search::Solution;
-use super::worker::FrameState;
+use super::state::FrameState;
 use std::collections::HashMap;
 
 /// What the direction stage makes of a consistent set.

@@ -35,6 +35,7 @@ pub mod peaks;
 pub mod search;
 mod sequential;
 pub mod spectrum;
+mod state;
 pub mod steered;
 pub mod threshold;
 pub mod weighting;

@@ -5,8 +5,8 @@
 use super::frames::BLOCK;
 use super::outcome::FrameStats;
 use super::params::{Setup, PRIMING_S, REVERB_TAU_S};
+use super::state::FrameState;
 use super::weighting::NoiseEstimator;
-use super::worker::FrameState;
 
 /// What depends on every earlier frame: the noise estimate and the counters.
 pub(crate) struct Sequential {
