@@ -72,10 +72,8 @@ impl Analyzer {
             skip: vec![false; BLOCK],
             outcomes: vec![Outcome::Silent; BLOCK],
             reach: vec![0.0; BLOCK],
-            dereverbed: if setup.dereverb {
-                (0..BLOCK)
-                    .map(|_| FrameState::new(&setup).windows)
-                    .collect()
+            dereverbed: if setup.dereverb.is_some() {
+                vec![vec![0.0; setup.windows_len]; BLOCK]
             } else {
                 Vec::new()
             },
@@ -218,7 +216,7 @@ impl Analyzer {
         }
         // Correlations, in parallel.
         let timing = self.times.is_some();
-        if setup.dereverb {
+        if setup.dereverb.is_some() {
             // From the spectra of each frame and the ones before it, then into the frames.
             let (frozen, live) = (&*states, &*live);
             let skip = &self.skip[..count];

@@ -41,10 +41,9 @@ pub const STRIDE: u64 = 8;
 pub const DEFAULT_BACKGROUND_S: f64 = 2.0;
 
 /// Every pair's background correlation at the lags searched, laid out as the frames'
-/// windows.
+/// windows ([`Setup::window_starts`]).
 pub(crate) struct Background {
     windows: Vec<f32>,
-    starts: Vec<usize>,
     /// Frames learned from, per pair.
     learned: Vec<u32>,
     /// The smallest weight of a new frame in the average.
@@ -56,18 +55,8 @@ impl Background {
     pub fn new(setup: &Setup) -> Option<Self> {
         let tau = setup.params.background_s?;
         let hop_s = setup.hop as f64 / setup.rate;
-        let starts: Vec<usize> = setup
-            .max_lag
-            .iter()
-            .scan(0, |start, &h| {
-                let here = *start;
-                *start += 2 * h + 3;
-                Some(here)
-            })
-            .collect();
         Some(Background {
-            windows: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
-            starts,
+            windows: vec![0.0; setup.windows_len],
             learned: vec![0; pair_count(setup.mics())],
             floor: (STRIDE as f64 * hop_s / tau).min(1.0) as f32,
         })
@@ -93,7 +82,7 @@ impl Background {
             for (i, &a) in live.iter().enumerate() {
                 for &b in &live[i + 1..] {
                     let pair = pair_index(a, b, mics);
-                    let start = self.starts[pair];
+                    let start = setup.window_starts[pair];
                     let len = 2 * setup.max_lag[pair] + 3;
                     let known = &mut self.windows[start..start + len];
                     let frame = &mut state.windows[start..start + len];

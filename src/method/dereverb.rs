@@ -74,9 +74,9 @@ impl Dereverb {
     }
 }
 
-/// The stage's table and buffers, one per thread.
+/// The stage's buffers, one set per thread (the diffuse coherences are the run's,
+/// [`Setup::dereverb`]).
 pub(crate) struct Dereverberator {
-    coherence: DiffuseCoherence,
     /// Per microphone, its power summed over the frames.
     power: Vec<Vec<f32>>,
     /// Two pairs' corrected cross-spectra (one inverse FFT gives both correlations).
@@ -91,7 +91,6 @@ impl Dereverberator {
     pub fn new(setup: &Setup) -> Self {
         let bins = setup.bins();
         Dereverberator {
-            coherence: DiffuseCoherence::new(&setup.geometry, setup.n, setup.rate, setup.speed),
             power: vec![vec![0.0; bins]; setup.mics()],
             cross: [
                 vec![Complex32::default(); bins],
@@ -106,7 +105,7 @@ impl Dereverberator {
     /// as [`Correlator`] computes it), each bin's phase that of the direct sound
     /// ([`direct_phase`]) from the spectra of the frames of `span` that are `live` and
     /// hear both microphones, weighted by `w_e(k)^2` averaged over the live frames.
-    /// Written to `out` laid out as a frame's windows (`starts`, `max_lag`). Returns the
+    /// Written to `out` laid out as a frame's windows ([`Setup::window_starts`]). Returns the
     /// most any value (or refined peak) can be, as [`peak_ceiling`] bounds it for the
     /// averaged weights.
     pub fn correlate(
@@ -115,10 +114,10 @@ impl Dereverberator {
         span: &[FrameState],
         live: &[bool],
         correlator: &mut Correlator,
-        starts: &[usize],
         out: &mut [f32],
     ) -> f64 {
         let state = span.last().expect("a frame");
+        let coherence = setup.dereverb.as_ref().expect("dereverberation planned");
         let mics = setup.mics();
         for &m in &state.live {
             let power = &mut self.power[m];
@@ -160,7 +159,7 @@ impl Dereverberator {
                 {
                     add_cross(cross, &f.spectra[i], &f.spectra[j]);
                 }
-                let diffuse = self.coherence.pair(pair_index(i, j, mics));
+                let diffuse = coherence.pair(pair_index(i, j, mics));
                 remove_diffuse(
                     cross,
                     (&self.power[i], &self.power[j]),
@@ -174,7 +173,7 @@ impl Dereverberator {
             for (which, &(a, b)) in [Some(first), second].iter().flatten().enumerate() {
                 let pair = pair_index(state.live[a], state.live[b], mics);
                 let half = setup.max_lag[pair] + 1;
-                let start = starts[pair];
+                let start = setup.window_starts[pair];
                 correlator.lags_into(which == 1, &mut out[start..start + 2 * half + 1]);
             }
         }
@@ -183,6 +182,7 @@ impl Dereverberator {
 }
 
 /// The diffuse coherence `G_ab(k)` of every pair at every bin, computed once per run.
+#[derive(Debug, Clone)]
 pub(crate) struct DiffuseCoherence {
     /// Per pair (in the order of [`pair_index`] over all microphones), per bin.
     table: Vec<Vec<f32>>,

@@ -2,7 +2,7 @@
 //! sample rate.
 
 use super::background::{DEFAULT_BACKGROUND_S, GATE};
-use super::dereverb::Dereverb;
+use super::dereverb::{Dereverb, DiffuseCoherence};
 use super::pairs::{pair_count, pair_index};
 use super::peaks::{Interpolation, MAX_PEAKS};
 use super::spectrum::Window;
@@ -315,9 +315,14 @@ pub(crate) struct Setup {
     /// A frame whose weights' ceiling is under this may teach the coherent background
     /// ([`super::background`]).
     pub background_gate: f64,
-    /// The diffuse part is removed from the cross-spectra ([`Params::dereverb`] for this
-    /// array).
-    pub dereverb: bool,
+    /// When the diffuse part is removed from the cross-spectra ([`Params::dereverb`]
+    /// for this array): every pair's diffuse coherence at every bin.
+    pub dereverb: Option<DiffuseCoherence>,
+    /// Where each pair's correlation window starts in a frame's windows (pairs in the
+    /// order of [`pair_index`] over all microphones; each holds the lags searched and
+    /// their two neighbours, `2 max_lag + 3` values), and their total length.
+    pub window_starts: Vec<usize>,
+    pub windows_len: usize,
 }
 
 impl Setup {
@@ -415,7 +420,19 @@ impl Setup {
             let w = steady_weight(params.alpha, params.reverb_level);
             GATE * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
         };
-        let dereverb = params.dereverb.applies(&geometry.shape);
+        let dereverb = params
+            .dereverb
+            .applies(&geometry.shape)
+            .then(|| DiffuseCoherence::new(geometry, n, rate, speed));
+        let mut windows_len = 0;
+        let window_starts = max_lag
+            .iter()
+            .map(|&h| {
+                let here = windows_len;
+                windows_len += 2 * h + 3;
+                here
+            })
+            .collect();
         Ok(Setup {
             geometry: geometry.clone(),
             params,
@@ -428,6 +445,8 @@ impl Setup {
             steady_ceiling,
             background_gate,
             dereverb,
+            window_starts,
+            windows_len,
         })
     }
 

@@ -32,7 +32,7 @@ pub(crate) struct FrameState {
     pub(super) mask: u64,
     /// Every pair's correlation at the lags searched and their two neighbours, one pair
     /// after another in the order of [`pair_index`] over all microphones (see
-    /// [`Worker::window_starts`]); read only when `correlated` is `Correlated::Yes`.
+    /// [`Setup::window_starts`]); read only when `correlated` is `Correlated::Yes`.
     pub(super) windows: Vec<f32>,
     pub correlated: Correlated,
     /// The coherent background learns from this frame ([`super::background`]): it is
@@ -68,7 +68,7 @@ impl FrameState {
             floor: 0.0,
             steady: false,
             mask: 0,
-            windows: vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()],
+            windows: vec![0.0; setup.windows_len],
             correlated: Correlated::No,
             teaches: false,
         }

@@ -29,8 +29,6 @@ pub(crate) struct Worker {
     correlator: Correlator,
     /// One pair's correlation at the lags it searches (and their two neighbours).
     window: Vec<f32>,
-    /// Where each pair's window starts in [`FrameState`]'s `windows`.
-    window_starts: Vec<usize>,
     whitened: Vec<Vec<Complex32>>,
     peaks: Vec<Vec<Peak>>,
     searcher: Searcher,
@@ -56,15 +54,6 @@ impl Worker {
             fft: ForwardFft::new(setup.n, setup.params.window),
             correlator: Correlator::new(setup.n),
             window: Vec::with_capacity(setup.n),
-            window_starts: setup
-                .max_lag
-                .iter()
-                .scan(0, |start, &h| {
-                    let here = *start;
-                    *start += 2 * h + 3;
-                    Some(here)
-                })
-                .collect(),
             whitened: vec![vec![Complex32::default(); setup.bins()]; mics],
             peaks: (0..pair_count(mics))
                 .map(|_| Vec::with_capacity(setup.params.peaks))
@@ -72,7 +61,7 @@ impl Worker {
             searcher: Searcher::new(setup.params.tolerance, setup.params.max_nodes),
             solvers: HashMap::new(),
             averaged: if setup.params.steered {
-                vec![0.0; setup.max_lag.iter().map(|&h| 2 * h + 3).sum()]
+                vec![0.0; setup.windows_len]
             } else {
                 Vec::new()
             },
@@ -81,7 +70,7 @@ impl Worker {
                 let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
                 Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag)
             }),
-            dereverb: setup.dereverb.then(|| Dereverberator::new(setup)),
+            dereverb: setup.dereverb.is_some().then(|| Dereverberator::new(setup)),
             prune: true,
         }
     }
@@ -102,14 +91,7 @@ impl Worker {
         let k = span.last().map_or(0, |s| s.live.len());
         clock.count((pair_count(k), 0));
         let dereverb = self.dereverb.as_mut().expect("dereverberation planned");
-        let reach = dereverb.correlate(
-            setup,
-            span,
-            live,
-            &mut self.correlator,
-            &self.window_starts,
-            out,
-        );
+        let reach = dereverb.correlate(setup, span, live, &mut self.correlator, out);
         clock.lap(|t| &mut t.correlation);
         reach
     }
@@ -209,7 +191,7 @@ impl Worker {
             for (which, (a, b)) in [Some(first), second].into_iter().flatten().enumerate() {
                 let pair = pair_index(live[a], live[b], mics);
                 let half = setup.max_lag[pair] + 1;
-                let start = self.window_starts[pair];
+                let start = setup.window_starts[pair];
                 let window = &mut state.windows[start..start + 2 * half + 1];
                 self.correlator.lags_into(which == 1, window);
                 let top = window.iter().copied().fold(f32::NEG_INFINITY, f32::max);
@@ -309,7 +291,7 @@ impl Worker {
                 let (i, j) = (state.live[a], state.live[b]);
                 let pair = pair_index(i, j, mics);
                 let half = setup.max_lag[pair] + 1;
-                let start = self.window_starts[pair];
+                let start = setup.window_starts[pair];
                 let both = (1u64 << i) | (1u64 << j);
                 self.window.clear();
                 self.window.resize(2 * half + 1, 0.0);

@@ -57,6 +57,15 @@ pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std
     Ok((start.elapsed().as_secs_f64(), peak_kb as f64 / 1024.0))
 }
 
+/// The value of `key=NAME` among the names of `T` (one of the library's closed sets).
+fn named<T: ssl::Named>(arg: &str) -> T {
+    let (_, name) = arg.split_once('=').expect("key=value");
+    T::from_name(name).unwrap_or_else(|| {
+        let names: Vec<&str> = T::ALL.iter().map(|c| c.1).collect();
+        panic!("{arg}: one of {}", names.join(", "))
+    })
+}
+
 /// The method's parameters a harness runs with: the defaults; `paper` for the paper's
 /// method; otherwise the defaults changed by any of `fixed` (`--min-score` at its
 /// default) or `min=X` (a fixed threshold per pair, without late reverberation),
@@ -109,19 +118,9 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             // Frames each correlation is averaged over.
             Some("avg") => params.average_frames = value("avg") as usize,
             // The peaks' sub-sample refinement, by name.
-            Some("interp") => {
-                use ssl::Named;
-                let (_, name) = arg.split_once('=').expect("key=value");
-                params.interpolation = ssl::method::peaks::Interpolation::from_name(name)
-                    .unwrap_or_else(|| panic!("{arg}: no such interpolation"));
-            }
+            Some("interp") => params.interpolation = named(arg),
             // When the diffuse part is removed, by name.
-            Some("drv") => {
-                use ssl::Named;
-                let (_, name) = arg.split_once('=').expect("key=value");
-                params.dereverb = ssl::method::Dereverb::from_name(name)
-                    .unwrap_or_else(|| panic!("{arg}: auto, on or off"));
-            }
+            Some("drv") => params.dereverb = named(arg),
             // The tracker's (see `track_from`).
             Some("weak" | "confirm" | "gate") => {}
             // A benchmark's own (an offset to its scenes' seeds).
