@@ -413,6 +413,9 @@ impl AnalyzeArgs {
             // calibrated threshold: under a fixed one, sums of chance peaks pass it
             // (tests/simulate.rs; Params::for_tracker).
             steered: !self.paper && !self.no_track && self.min_score.is_none(),
+            // Further sources from each frame's own correlations, with the steered
+            // response's (src/method/frame_sources.rs).
+            frame_sources: !self.paper && !self.no_track && self.min_score.is_none(),
             max_sources: if self.paper || self.no_track || self.min_score.is_some() {
                 1
             } else {

@@ -14,6 +14,7 @@
 //! | the coherent background, subtracted from the correlations | [`background`] | beyond the paper |
 //! | the detection threshold, calibrated against the background | [`threshold`] | beyond the paper |
 //! | steered response: partial agreement and several sources | [`steered`] | beyond the paper |
+//! | further sources from a frame's own correlations | [`frame_sources`] | beyond the paper |
 //!
 //! [`Params`] holds the parameters; one frame goes through the stages in `worker.rs`, and
 //! the analyzer (`analyzer.rs`) runs a recording's frames through them in blocks on
@@ -27,6 +28,7 @@ pub mod correlation;
 pub mod dereverb;
 mod detect;
 pub mod direction;
+pub mod frame_sources;
 pub mod frames;
 mod outcome;
 pub mod pairs;

@@ -78,6 +78,11 @@ pub struct Params {
     /// `steered`; default 1, [`DEFAULT_MAX_SOURCES`](super::DEFAULT_MAX_SOURCES) with a
     /// tracker).
     pub max_sources: usize,
+    /// When the averaged correlations give a source, the frame's own are searched too
+    /// and what they give beside it is a further source ([`super::frame_sources`],
+    /// beyond the paper; up to [`Params::max_sources`]; default off; on with a tracker,
+    /// [`Params::for_tracker`]).
+    pub frame_sources: bool,
     /// Candidates scoring down to this share of the detection threshold are reported
     /// too, with [`Detection::margin`](super::Detection::margin) under 1, for a tracker to
     /// confirm or drop (default 1: none; `ssl analyze` uses
@@ -117,6 +122,7 @@ impl Params {
         Params {
             steered: true,
             max_sources: super::DEFAULT_MAX_SOURCES,
+            frame_sources: true,
             candidates: crate::track::DEFAULT_CANDIDATES,
             ..self
         }
@@ -168,6 +174,7 @@ impl Default for Params {
             background_s: Some(DEFAULT_BACKGROUND_S),
             steered: false,
             max_sources: 1,
+            frame_sources: false,
             candidates: 1.0,
             dereverb: Dereverb::Auto,
         }

@@ -11,6 +11,7 @@ use super::correlation::{peak_ceiling, whiten, Correlator};
 use super::dereverb::Dereverberator;
 use super::detect::{detection, direction, solver, Direction};
 use super::direction::DirectionSolver;
+use super::frame_sources::add_further;
 use super::outcome::{Clock, Detections, Outcome, StageTimes};
 use super::pairs::{pair_count, pair_index};
 use super::params::Setup;
@@ -209,7 +210,9 @@ impl Worker {
     /// 7), the search (eq. 8), the direction (eq. 13). When the average gives no
     /// detection, the frame's own correlations are tried: averaging steadies the delays
     /// of a sustained source in a reverberant room, but dilutes a click to a fraction of
-    /// its frame's score.
+    /// its frame's score. When the average gives a source and
+    /// [`Params::frame_sources`](super::Params::frame_sources) is on, the frame's own
+    /// correlations are searched too, for further sources ([`super::frame_sources`]).
     ///
     /// A frame whose own weights cannot reach the threshold (its ceiling times its pairs)
     /// has no detection, averaged or not: otherwise the average carries a source past
@@ -244,11 +247,20 @@ impl Worker {
         } else {
             self.decide_over(setup, span, index, &mut clock)
         };
-        if span.len() == 1
-            || matches!(averaged, Outcome::Detected(..))
-            || state.correlated != Correlated::Yes
-        {
+        if span.len() == 1 || state.correlated != Correlated::Yes {
             return averaged;
+        }
+        if let Outcome::Detected(mut found, budget) = averaged {
+            // Further sources from the frame's own correlations ([`super::frame_sources`]).
+            let wanted = setup.params.max_sources;
+            if setup.params.frame_sources && found.len() < wanted {
+                let own = &span[span.len() - 1..];
+                if let Outcome::Detected(more, _) = self.decide_over(setup, own, index, &mut clock)
+                {
+                    add_further(&mut found, &more, wanted);
+                }
+            }
+            return Outcome::Detected(found, budget);
         }
         match self.decide_over(setup, &span[span.len() - 1..], index, &mut clock) {
             own @ Outcome::Detected(..) => own,

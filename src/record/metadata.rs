@@ -122,6 +122,8 @@ pub struct ParametersInfo {
     pub steered: bool,
     /// The most sources one frame gives.
     pub max_sources: usize,
+    /// Whether further sources come from each frame's own correlations too.
+    pub frame_sources: bool,
     /// Candidates are reported down to this share of the threshold, for the tracker (1:
     /// none).
     pub candidates: f64,
@@ -170,6 +172,7 @@ impl RunMetadata {
                 background_s: params.background_s,
                 steered: params.steered,
                 max_sources: params.max_sources,
+                frame_sources: params.frame_sources,
                 candidates: params.candidates,
                 dereverb: params.dereverb.applies(&geometry.shape),
                 track: None,

@@ -69,7 +69,7 @@ fn named<T: ssl::Named>(arg: &str) -> T {
 /// The method's parameters a harness runs with: the defaults; `paper` for the paper's
 /// method; otherwise the defaults changed by any of `fixed` (`--min-score` at its
 /// default) or `min=X` (a fixed threshold per pair, without late reverberation),
-/// `rev=X` (late reverberation, after them), `sig=X` (the calibrated threshold's sigmas), `steer=0` (no steered response), `k=N` (sources per frame), `avg=N` (frames
+/// `rev=X` (late reverberation, after them), `sig=X` (the calibrated threshold's sigmas), `steer=0` (no steered response), `k=N` (sources per frame), `own=0` (no further sources from a frame's own correlations), `avg=N` (frames
 /// averaged), `ms=X` (the frame length), `drv=auto|on|off` (the diffuse part removed), `bg=S` (the coherent background's time constant, 0: none), and a tolerance and a residual gate in microseconds (`0` turns the gate
 /// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
@@ -113,6 +113,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("cand") => params.candidates = value("cand"),
             // The most sources per frame.
             Some("k") => params.max_sources = value("k") as usize,
+            // Further sources from each frame's own correlations (1: on, the default).
+            Some("own") => params.frame_sources = value("own") > 0.0,
             // The frame length in milliseconds.
             Some("ms") => params.frame_ms = Some(value("ms")),
             // Frames each correlation is averaged over.
@@ -198,6 +200,7 @@ pub fn untracked(params: &ssl::Params, track: &Option<ssl::track::TrackParams>) 
             candidates: 1.0,
             steered: false,
             max_sources: 1,
+            frame_sources: false,
             ..params.clone()
         },
     }
