@@ -312,10 +312,80 @@ fn a_frames_own_correlations_find_the_other_talker() {
             shares.push(share);
         }
     }
-    // Measured: 70 / 74 / 78 / 70% of windows without, 76 / 76 / 80 / 78% with.
+    // Measured: 76 / 74 / 78 / 74% of windows without, 76 / 76 / 80 / 78% with (70 / 74 /
+    // 78 / 70% without before the tracker's steady-run rule, which finds some of the same
+    // windows from the candidates).
     let (without, with) = shares
         .chunks(2)
         .fold((0.0, 0.0), |(a, b), p| (a + p[0], b + p[1]));
     assert!(shares.chunks(2).all(|p| p[1] >= p[0]), "{shares:?}");
-    assert!(with >= without + 4.0 * 0.03, "{shares:?}");
+    assert!(with >= without + 0.06, "{shares:?}");
+}
+
+/// Two talkers 90 deg apart on the prism at 48 kHz in a smaller, more reverberant room
+/// (6 x 5 x 2.8 m, RT60 0.45 s), the array turned 20 deg: one talker keeps the other
+/// under the threshold, whose candidates come in steady runs (within 1.5 deg). With the
+/// tracker's steady-run rule (`TrackParams::confirm_tight`) both are tracked; without
+/// it (12 candidates needed) the second is found in fewer windows.
+#[test]
+fn a_steady_run_of_candidates_is_a_talker() {
+    use ssl::sim::scene::SceneFile;
+    let dir = tempdir();
+    for clip in ["cmu_arctic_us_aew_a0002.wav", "cmu_arctic_us_axb_a0005.wav"] {
+        std::fs::copy(testdata(&format!("speech/{clip}")), dir.path().join(clip)).unwrap();
+    }
+    write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
+    let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
+    let mut windows = Vec::new();
+    for seed in [5003, 5004] {
+        let mut scene = format!(
+            "sample_rate = 48000\nduration = 4.8\nseed = {seed}\nformat = \"float32\"\n[room]\n\
+             dimensions = [6.0, 5.0, 2.8]\nrt60 = 0.45\n[array]\ngeometry = \"prism.toml\"\n\
+             position = [2.5, 2.2, 1.0]\nyaw_deg = 20.0\n"
+        );
+        for (az, clip) in [(-30.0, "aew_a0002"), (-120.0, "axb_a0005")] {
+            scene += &format!(
+                "[[source]]\nazimuth_deg = {az}\nelevation_deg = -7\ndistance = 2.0\n\
+                 signal = \"file\"\nfile = \"cmu_arctic_us_{clip}.wav\"\nlevel_db = -26\n\
+                 active = [[1.0, 3.6]]\n"
+            );
+        }
+        scene += "[noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\n\
+                  position = [0.4, 4.5, 2.5]\nsignal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n";
+        let path = write(dir.path(), "steady.toml", &scene);
+        let scene = SceneFile::from_file(&path).unwrap();
+        let params = ssl::Params::default().for_tracker();
+        for tight in [1000, 8] {
+            let track = ssl::track::TrackParams {
+                confirm_tight: tight,
+                ..ssl::track::TrackParams::default()
+            };
+            let (rows, truth) =
+                harness::analyse_scene(dir.path(), &scene, &geometry, &params, Some(track))
+                    .unwrap();
+            let report = ssl::evaluate::evaluate(&truth, &rows, 0.225).unwrap();
+            let t = report.tracking.clone().unwrap();
+            eprintln!(
+                "seed {seed}, confirm_tight {tight}: {} of {} windows, {} tracks, {} false \
+                 events, mean error {:?}",
+                t.overlap_detected,
+                t.overlap_pairs,
+                t.tracks,
+                t.false_events,
+                report.mean_error_deg
+            );
+            assert_eq!(t.false_events, 0);
+            assert!(report.mean_error_deg.unwrap() < 1.0);
+            if tight == 8 {
+                assert_eq!(t.tracks, 2);
+                assert!(t.sources.iter().all(|s| s.tracks == 1));
+            }
+            windows.push(t.overlap_detected);
+        }
+    }
+    // Measured: 16 and 20 of 48 windows without the rule (the first draw tracks one
+    // talker only), 25 and 24 with it.
+    assert!(windows.chunks(2).all(|w| w[1] >= w[0]), "{windows:?}");
+    let gained: usize = windows.chunks(2).map(|w| w[1] - w[0]).sum();
+    assert!(gained >= 8, "{windows:?}");
 }

@@ -56,6 +56,21 @@ impl Candidate {
     fn strong(&self) -> usize {
         self.hits.iter().filter(|(_, d)| d.margin >= 1.0).count()
     }
+
+    /// The largest angle (degrees) between a hit's direction and the hits' mean.
+    fn spread_deg(&self) -> f64 {
+        let sum = self
+            .hits
+            .iter()
+            .fold(Vector3::zeros(), |a: Vector3<f64>, (_, d)| a + d.direction);
+        let Some(mean) = sum.try_normalize(1e-12) else {
+            return 180.0;
+        };
+        self.hits
+            .iter()
+            .map(|(_, d)| d.direction.angle(&mean).to_degrees())
+            .fold(0.0, f64::max)
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -283,6 +298,8 @@ impl Tracker {
                 if strong >= self.params.confirm_hits
                     || (strong > 0 && c.hits.len() >= self.params.confirm_candidates)
                     || c.hits.len() >= self.params.confirm_weak
+                    || (c.hits.len() >= self.params.confirm_tight
+                        && c.spread_deg() <= self.params.tight_deg)
                 {
                     let c = self.candidates.remove(i);
                     self.confirm(c);

@@ -190,11 +190,12 @@ fn scattered_detections_never_make_a_track() {
 /// starts nothing.
 #[test]
 fn candidates_need_a_detection_above_the_threshold() {
+    // Spread over 4 deg (a steadier run confirms sooner: the next test).
     let every = |n: usize| -> Vec<Vec<(f64, f64)>> {
         (0..300)
             .map(|f| {
                 if f % n == 0 {
-                    vec![(40.0, 0.6)]
+                    vec![(if f % (2 * n) == 0 { 38.0 } else { 42.0 }, 0.6)]
                 } else {
                     Vec::new()
                 }
@@ -218,6 +219,34 @@ fn candidates_need_a_detection_above_the_threshold() {
     assert!(rows.iter().all(|r| r.1 == 1));
     assert_eq!(events.len(), 1);
     assert_eq!(events[0].detections, 5);
+}
+
+/// A run of candidates from one direction (all within `tight_deg` of their mean)
+/// confirms a track with fewer of them than a run that wanders.
+#[test]
+fn a_steady_run_of_candidates_confirms_a_track() {
+    let run = |spread: f64, count: u64| -> Vec<Vec<(f64, f64)>> {
+        (0..100)
+            .map(|f| {
+                if f % 5 == 0 && f / 5 < count {
+                    let side = if f % 10 == 0 { 1.0 } else { -1.0 };
+                    vec![(40.0 + side * spread, 0.6)]
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect()
+    };
+    let params = TrackParams::default();
+    assert_eq!((params.confirm_tight, params.tight_deg), (8, 1.5));
+    // Eight within 1 deg of their mean within 0.5 s: a source.
+    let (rows, events) = track_margins(&run(1.0, 8));
+    assert_eq!(rows.len(), 8);
+    assert!(rows.iter().all(|r| r.1 == 1));
+    assert_eq!(events.len(), 1);
+    // Seven are not enough, nor eight 2 deg either side of their mean.
+    assert!(track_margins(&run(1.0, 7)).0.is_empty());
+    assert!(track_margins(&run(2.0, 8)).0.is_empty());
 }
 
 /// The dense-run rule counts the candidates within the confirmation window of the

@@ -144,7 +144,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
 }
 
 /// The tracker's parameters a harness runs with: the defaults changed by any of
-/// `weak=N` (candidates that confirm a track alone), `confirm=S` (the confirmation
+/// `weak=N` (candidates that confirm a track alone), `tight=N` and `tightdeg=DEG` (a
+/// steady run of candidates that does), `confirm=S` (the confirmation
 /// window, seconds) and `gate=DEG` (the association gate); other arguments are left to
 /// `params_from`.
 pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
@@ -152,6 +153,8 @@ pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
     for (key, value) in args.iter().filter_map(|a| a.split_once('=')) {
         match key {
             "weak" => track.confirm_weak = value.parse().expect("weak takes a count"),
+            "tight" => track.confirm_tight = value.parse().expect("tight takes a count"),
+            "tightdeg" => track.tight_deg = value.parse().expect("tightdeg takes degrees"),
             "confirm" => track.confirm_s = value.parse().expect("confirm takes seconds"),
             "gate" => track.gate_deg = value.parse().expect("gate takes degrees"),
             _ => {}
