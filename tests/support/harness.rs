@@ -124,7 +124,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             // When the diffuse part is removed, by name.
             Some("drv") => params.dereverb = named(arg),
             // The tracker's (see `track_from`).
-            Some("weak" | "confirm" | "gate") => {}
+            Some("weak" | "tight" | "tightdeg" | "confirm" | "gate") => {}
             // A benchmark's own (an offset to its scenes' seeds).
             Some("seed" | "rot") => {}
             _ => numbers.push(
