@@ -14,6 +14,7 @@
 //!     shape.rs        3-D, planar or linear, and the side rules
 //!   method/         the paper's method
 //!     params.rs       parameters, defaults, validation against array and rate
+//!     setup.rs        what a run needs: params checked, lags, thresholds, layout
 //!     frames.rs       frames of N samples, 50% overlap (Sec. II)
 //!     spectrum.rs     windowed spectra X_i(k), mean power X(k) (eq. 2)
 //!     weighting.rs    noise estimate X_n(k), weights w_e(k) (eq. 4, 5)
@@ -23,11 +24,14 @@
 //!     pairs.rs        microphone pairs, numbered once
 //!     search.rs       the consistent delay set with the greatest correlation (eq. 8)
 //!     direction.rs    far-field least-squares direction (eq. 9-13)
+//!     detect.rs       from a set of delays to a detection (solver, residual gate)
+//!     steered.rs      steered response: partial agreement, further sources (beyond)
 //!     threshold.rs    the threshold calibrated against the background (beyond the paper)
 //!     background.rs   the steady background subtracted from the correlations (beyond)
 //!     sequential.rs   the noise estimate in frame order
 //!     outcome.rs      detections, counters, stage times
 //!     state.rs        one frame's state between the stages
+//!     frame_sources.rs further sources from a frame's own correlations (beyond)
 //!     worker.rs       one frame through the stages
 //!     analyzer.rs     a recording's frames in blocks, on several threads, with priming
 //!   stream/         samples in, detections out, memory flat

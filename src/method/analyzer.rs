@@ -17,8 +17,9 @@
 use super::background::Background;
 use super::frames::{FrameBlock, BLOCK};
 use super::outcome::{Detections, FrameStats, Outcome, StageTimes};
-use super::params::{Params, ParamsError, Setup};
+use super::params::{Params, ParamsError};
 use super::sequential::Sequential;
+use super::setup::Setup;
 use super::state::{Correlated, FrameState};
 use super::worker::Worker;
 use crate::geometry::Geometry;

@@ -21,7 +21,7 @@
 //! Measured in docs/field.md.
 
 use super::pairs::{pair_count, pair_index};
-use super::params::Setup;
+use super::setup::Setup;
 use super::state::{Correlated, FrameState};
 use super::threshold::STEADY_FRAME;
 

@@ -29,7 +29,7 @@
 
 use super::correlation::{peak_ceiling, Correlator};
 use super::pairs::pair_index;
-use super::params::Setup;
+use super::setup::Setup;
 use super::state::FrameState;
 use crate::geometry::{Geometry, Shape};
 use crate::Named;

@@ -6,8 +6,8 @@
 use super::direction::{angles_deg, DirectionSolver};
 use super::outcome::Detection;
 use super::pairs::pair_count;
-use super::params::Setup;
 use super::search::Solution;
+use super::setup::Setup;
 use super::state::FrameState;
 use std::collections::HashMap;
 

@@ -36,6 +36,7 @@ mod params;
 pub mod peaks;
 pub mod search;
 mod sequential;
+mod setup;
 pub mod spectrum;
 mod state;
 pub mod steered;

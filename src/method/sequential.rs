@@ -4,7 +4,8 @@
 
 use super::frames::BLOCK;
 use super::outcome::FrameStats;
-use super::params::{Setup, PRIMING_S, REVERB_TAU_S};
+use super::params::{PRIMING_S, REVERB_TAU_S};
+use super::setup::Setup;
 use super::state::FrameState;
 use super::weighting::NoiseEstimator;
 

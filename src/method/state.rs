@@ -1,7 +1,7 @@
 //! One frame's state between the stages of [`super::worker`], and what a span of them
 //! bounds.
 
-use super::params::Setup;
+use super::setup::Setup;
 use realfft::num_complex::Complex32;
 
 /// One frame between the stages: its live microphones, spectra, `X(k)`, the noise

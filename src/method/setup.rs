@@ -1,0 +1,192 @@
+//! What a run of the method needs that does not change during it: the parameters
+//! checked against the array and the sample rate ([`Params`]), and what follows from
+//! them (frame size, lag ranges, thresholds, the correlation windows' layout).
+
+use super::background::GATE;
+use super::dereverb::DiffuseCoherence;
+use super::pairs::{pair_count, pair_index};
+use super::params::{
+    default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE,
+};
+use super::peaks::MAX_PEAKS;
+use super::threshold::{
+    chance_sigma, diffuse_coherence, steady_weight, DIFFUSE_MARGIN, STEADY_FRAME,
+};
+use crate::geometry::Geometry;
+
+/// What the method needs that does not change during a run: the parameters checked
+/// against the array and the sample rate, and what follows from them.
+#[derive(Debug, Clone)]
+pub(crate) struct Setup {
+    pub geometry: Geometry,
+    pub params: Params,
+    /// Frame size N.
+    pub n: usize,
+    /// Hop between frames, N / 2.
+    pub hop: usize,
+    /// Sample rate (Hz).
+    pub rate: f64,
+    /// Speed of sound (m/s).
+    pub speed: f64,
+    /// Lag search range per pair of the array (samples).
+    pub max_lag: Vec<usize>,
+    /// The threshold per pair a diffuse background calls for (the `threshold` module).
+    pub diffuse_floor: f64,
+    /// A frame whose weights' ceiling is under this has nothing above the noise
+    /// estimate (the `threshold` module's steady frames).
+    pub steady_ceiling: f64,
+    /// A frame whose weights' ceiling is under this may teach the coherent background
+    /// ([`super::background`]).
+    pub background_gate: f64,
+    /// When the diffuse part is removed from the cross-spectra ([`Params::dereverb`]
+    /// for this array): every pair's diffuse coherence at every bin.
+    pub dereverb: Option<DiffuseCoherence>,
+    /// Where each pair's correlation window starts in a frame's windows (pairs in the
+    /// order of [`pair_index`] over all microphones; each holds the lags searched and
+    /// their two neighbours, `2 max_lag + 3` values), and their total length.
+    pub window_starts: Vec<usize>,
+    pub windows_len: usize,
+}
+
+impl Setup {
+    /// A frame's detection threshold per pair, from its weights `w_e(k)`.
+    pub fn threshold_per_pair(&self, weights: &[f32]) -> f64 {
+        match self.params.threshold_sigmas {
+            Some(z) => self.diffuse_floor + z * chance_sigma(weights, self.n),
+            None => self.params.min_score_per_pair,
+        }
+    }
+
+    pub fn new(
+        geometry: &Geometry,
+        sample_rate: u32,
+        params: &Params,
+    ) -> Result<Self, ParamsError> {
+        if let Some(ms) = params.frame_ms.filter(|ms| !(ms.is_finite() && *ms > 0.0)) {
+            return Err(ParamsError::FrameMs(ms));
+        }
+        let n = params.frame_size.unwrap_or_else(|| match params.frame_ms {
+            Some(ms) => frame_size_for_ms(ms, sample_rate),
+            None => default_frame_size(sample_rate),
+        });
+        if !(16..=MAX_FRAME_SIZE).contains(&n) || n % 2 != 0 {
+            return Err(ParamsError::FrameSize(n));
+        }
+        if params.peaks == 0 || params.peaks > MAX_PEAKS {
+            return Err(ParamsError::Peaks(params.peaks));
+        }
+        if !(1..=MAX_AVERAGE_FRAMES).contains(&params.average_frames) {
+            return Err(ParamsError::AverageFrames(params.average_frames));
+        }
+        if !(params.candidates > 0.0 && params.candidates <= 1.0) {
+            return Err(ParamsError::Candidates(params.candidates));
+        }
+        if !(1..=super::MAX_SOURCES).contains(&params.max_sources) {
+            return Err(ParamsError::MaxSources(params.max_sources));
+        }
+        let mut params = params.clone();
+        if let Some(us) = params.tolerance_us {
+            // Not under one sample: at low rates the peaks' own error is that large.
+            params.tolerance = (us * sample_rate as f64 / 1e6).max(1.0) as f32;
+        }
+        if !(params.tolerance.is_finite() && params.tolerance >= 0.0) {
+            return Err(ParamsError::Tolerance(params.tolerance));
+        }
+        if let Some(g) = params.residual_gate_us.filter(|g| g.is_nan() || *g <= 0.0) {
+            return Err(ParamsError::ResidualGate(g));
+        }
+        if let Some(z) = params
+            .threshold_sigmas
+            .filter(|z| !(z.is_finite() && *z >= 0.0))
+        {
+            return Err(ParamsError::ThresholdSigmas(z));
+        }
+        if !(0.0..=1.0).contains(&params.reverb_level) {
+            return Err(ParamsError::ReverbLevel(params.reverb_level));
+        }
+        if let Some(s) = params.background_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(ParamsError::BackgroundS(s));
+        }
+        if params.min_score_per_pair.is_nan() {
+            return Err(ParamsError::MinScore(params.min_score_per_pair));
+        }
+        let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(ParamsError::SpeedOfSound(speed));
+        }
+        let rate = sample_rate as f64;
+        let mics = geometry.mics.len();
+        let mut max_lag = vec![0; pair_count(mics)];
+        let mut widest = 0;
+        for a in 0..mics {
+            for b in a + 1..mics {
+                let lag = lag_range(geometry.max_lag_samples(a, b, rate, speed));
+                max_lag[pair_index(a, b, mics)] = lag;
+                widest = widest.max(lag);
+            }
+        }
+        if widest + 2 > n / 2 {
+            return Err(ParamsError::FrameTooShort {
+                delay: widest,
+                sample_rate,
+                frame_size: n,
+                needed: ((widest + 2) * 2).next_power_of_two(),
+            });
+        }
+        let diffuse_floor = DIFFUSE_MARGIN * diffuse_coherence(geometry, n, rate, speed);
+        // In the units of `peak_ceiling`: E times the interpolation's overshoot.
+        let steady_ceiling = {
+            let w = steady_weight(params.alpha, params.reverb_level);
+            STEADY_FRAME * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
+        };
+        let background_gate = {
+            let w = steady_weight(params.alpha, params.reverb_level);
+            GATE * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
+        };
+        let dereverb = params
+            .dereverb
+            .applies(&geometry.shape)
+            .then(|| DiffuseCoherence::new(geometry, n, rate, speed));
+        let mut windows_len = 0;
+        let window_starts = max_lag
+            .iter()
+            .map(|&h| {
+                let here = windows_len;
+                windows_len += 2 * h + 3;
+                here
+            })
+            .collect();
+        Ok(Setup {
+            geometry: geometry.clone(),
+            params,
+            n,
+            hop: n / 2,
+            rate,
+            speed,
+            max_lag,
+            diffuse_floor,
+            steady_ceiling,
+            background_gate,
+            dereverb,
+            window_starts,
+            windows_len,
+        })
+    }
+
+    /// Bins of a real spectrum, `N/2 + 1`.
+    pub fn bins(&self) -> usize {
+        self.n / 2 + 1
+    }
+
+    /// Number of microphones.
+    pub fn mics(&self) -> usize {
+        self.geometry.mics.len()
+    }
+}
+
+/// The lags searched for a pair whose largest physical delay is `max_delay` samples: 3%
+/// more (the speed of sound varies about that much between 0 and 40 C) and one sample
+/// for the peak's neighbours.
+fn lag_range(max_delay: f64) -> usize {
+    (max_delay * 1.03).ceil() as usize + 1
+}
