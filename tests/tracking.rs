@@ -256,70 +256,106 @@ fn a_moving_talker_is_one_track_on_its_trajectory() {
     assert!(m.windows > 0.6, "{}", m.windows);
 }
 
+/// Two ARCTIC talkers, `(azimuth, clip)` each, at `placement` (their elevation and
+/// distance lines) and active over `active`, in the scene whose header (rate, seed,
+/// room, array) is `head`, with a pink fan at `fan` and diffuse noise 6 dB under it,
+/// together 10 dB below the talkers: simulated in `dir`, analysed in memory as `ssl
+/// analyze` does with `params` and `track`, and scored with `tail_s`.
+#[allow(clippy::too_many_arguments)]
+fn two_talkers(
+    dir: &std::path::Path,
+    geometry: &ssl::Geometry,
+    head: &str,
+    talkers: [(f64, &str); 2],
+    placement: &str,
+    active: &str,
+    fan: &str,
+    params: &ssl::Params,
+    track: ssl::track::TrackParams,
+    tail_s: f64,
+) -> (ssl::evaluate::Report, ssl::evaluate::TrackReport) {
+    let mut scene = head.to_string();
+    for (az, clip) in talkers {
+        scene += &format!(
+            "[[source]]\nazimuth_deg = {az}\n{placement}\nsignal = \"file\"\n\
+             file = \"cmu_arctic_us_{clip}.wav\"\nlevel_db = -26\nactive = {active}\n"
+        );
+    }
+    scene += &format!(
+        "[noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\nposition = {fan}\n\
+         signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n"
+    );
+    let path = write(dir, "two.toml", &scene);
+    let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
+    let (rows, truth) = harness::analyse_scene(dir, &scene, geometry, params, Some(track)).unwrap();
+    let report = ssl::evaluate::evaluate(&truth, &rows, tail_s).unwrap();
+    let tracking = report.tracking.clone().unwrap();
+    eprintln!(
+        "{} of {} windows, {} tracks, {} false events, mean error {:?}",
+        tracking.overlap_detected,
+        tracking.overlap_pairs,
+        tracking.tracks,
+        tracking.false_events,
+        report.mean_error_deg
+    );
+    (report, tracking)
+}
+
 /// Two talkers at once, 60 deg apart, on the prism at 16 kHz in the paper's room:
 /// with further sources from each frame's own correlations
 /// (`src/method/frame_sources.rs`), both are found in more of the 0.1 s windows than
 /// from the averaged correlations alone (over four draws of the room's noise), still as
-/// one track each, within 1 deg, and without a false event.
+/// one track each, within 1 deg, and without a false event. The tracker's steady-run
+/// rule is off here: it finds some of the same windows from the candidates (the next
+/// test).
 #[test]
 fn a_frames_own_correlations_find_the_other_talker() {
-    use ssl::sim::scene::SceneFile;
     let dir = tempdir();
     copy_speech(dir.path()).unwrap();
     write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
     let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
     let mut shares = Vec::new();
     for seed in [3, 4, 5, 6] {
-        let mut scene = format!(
+        let head = format!(
             "sample_rate = 16000\nduration = 5.0\nseed = {seed}\n[room]\n\
              dimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n[array]\ngeometry = \"prism.toml\"\n\
              position = [4.0, 3.5, 0.8]\n"
         );
-        for (az, clip) in [(20.0, "aew_a0001"), (-40.0, "axb_a0004")] {
-            scene += &format!(
-                "[[source]]\nazimuth_deg = {az}\nelevation_deg = -7\ndistance = 2.0\n\
-                 signal = \"file\"\nfile = \"cmu_arctic_us_{clip}.wav\"\nlevel_db = -26\n\
-                 active = [[1.0, 3.8]]\n"
-            );
-        }
-        scene += "[noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\n\
-                  position = [7.6, 6.6, 2.7]\n[noise.diffuse]\nweight_db = -6\n";
-        let path = write(dir.path(), "both.toml", &scene);
-        let scene = SceneFile::from_file(&path).unwrap();
         for frame_sources in [false, true] {
             let params = ssl::Params {
                 frame_sources,
                 ..ssl::Params::default().for_tracker()
             };
-            let track = Some(ssl::track::TrackParams::default());
-            let (rows, truth) =
-                harness::analyse_scene(dir.path(), &scene, &geometry, &params, track).unwrap();
-            let report = ssl::evaluate::evaluate(&truth, &rows, 0.175).unwrap();
-            let t = report.tracking.clone().unwrap();
-            let share = t.overlap_detected as f64 / t.overlap_pairs as f64;
-            eprintln!(
-                "seed {seed}, frame sources {frame_sources}: {:.0}% of windows, {} tracks, \
-                 {} false events, mean error {:.1} deg",
-                100.0 * share,
-                t.tracks,
-                t.false_events,
-                report.mean_error_deg.unwrap()
+            let track = ssl::track::TrackParams {
+                confirm_tight: 1000,
+                ..ssl::track::TrackParams::default()
+            };
+            eprint!("seed {seed}, frame sources {frame_sources}: ");
+            let (report, t) = two_talkers(
+                dir.path(),
+                &geometry,
+                &head,
+                [(20.0, "aew_a0001"), (-40.0, "axb_a0004")],
+                "elevation_deg = -7\ndistance = 2.0",
+                "[[1.0, 3.8]]",
+                "[7.6, 6.6, 2.7]",
+                &params,
+                track,
+                0.175,
             );
             assert_eq!(t.tracks, 2);
             assert!(t.sources.iter().all(|s| s.tracks == 1));
             assert_eq!(t.false_events, 0);
             assert!(report.mean_error_deg.unwrap() < 1.0);
-            shares.push(share);
+            shares.push(t.overlap_detected as f64 / t.overlap_pairs as f64);
         }
     }
-    // Measured: 76 / 74 / 78 / 74% of windows without, 76 / 76 / 80 / 78% with (70 / 74 /
-    // 78 / 70% without before the tracker's steady-run rule, which finds some of the same
-    // windows from the candidates).
+    // Measured: 70 / 74 / 78 / 70% of windows without, 76 / 76 / 80 / 78% with.
     let (without, with) = shares
         .chunks(2)
         .fold((0.0, 0.0), |(a, b), p| (a + p[0], b + p[1]));
     assert!(shares.chunks(2).all(|p| p[1] >= p[0]), "{shares:?}");
-    assert!(with >= without + 0.06, "{shares:?}");
+    assert!(with >= without + 4.0 * 0.03, "{shares:?}");
 }
 
 /// Two talkers 90 deg apart on the prism at 48 kHz in a smaller, more reverberant room
@@ -329,50 +365,37 @@ fn a_frames_own_correlations_find_the_other_talker() {
 /// it (12 candidates needed) the second is found in fewer windows.
 #[test]
 fn a_steady_run_of_candidates_is_a_talker() {
-    use ssl::sim::scene::SceneFile;
     let dir = tempdir();
     for clip in ["cmu_arctic_us_aew_a0002.wav", "cmu_arctic_us_axb_a0005.wav"] {
         std::fs::copy(testdata(&format!("speech/{clip}")), dir.path().join(clip)).unwrap();
     }
     write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
     let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
+    let params = ssl::Params::default().for_tracker();
     let mut windows = Vec::new();
     for seed in [5003, 5004] {
-        let mut scene = format!(
-            "sample_rate = 48000\nduration = 4.8\nseed = {seed}\nformat = \"float32\"\n[room]\n\
-             dimensions = [6.0, 5.0, 2.8]\nrt60 = 0.45\n[array]\ngeometry = \"prism.toml\"\n\
-             position = [2.5, 2.2, 1.0]\nyaw_deg = 20.0\n"
+        let head = format!(
+            "sample_rate = 48000\nduration = 4.8\nseed = {seed}\nformat = \"float32\"\n\
+             [room]\ndimensions = [6.0, 5.0, 2.8]\nrt60 = 0.45\n[array]\n\
+             geometry = \"prism.toml\"\nposition = [2.5, 2.2, 1.0]\nyaw_deg = 20.0\n"
         );
-        for (az, clip) in [(-30.0, "aew_a0002"), (-120.0, "axb_a0005")] {
-            scene += &format!(
-                "[[source]]\nazimuth_deg = {az}\nelevation_deg = -7\ndistance = 2.0\n\
-                 signal = \"file\"\nfile = \"cmu_arctic_us_{clip}.wav\"\nlevel_db = -26\n\
-                 active = [[1.0, 3.6]]\n"
-            );
-        }
-        scene += "[noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\n\
-                  position = [0.4, 4.5, 2.5]\nsignal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n";
-        let path = write(dir.path(), "steady.toml", &scene);
-        let scene = SceneFile::from_file(&path).unwrap();
-        let params = ssl::Params::default().for_tracker();
         for tight in [1000, 8] {
             let track = ssl::track::TrackParams {
                 confirm_tight: tight,
                 ..ssl::track::TrackParams::default()
             };
-            let (rows, truth) =
-                harness::analyse_scene(dir.path(), &scene, &geometry, &params, Some(track))
-                    .unwrap();
-            let report = ssl::evaluate::evaluate(&truth, &rows, 0.225).unwrap();
-            let t = report.tracking.clone().unwrap();
-            eprintln!(
-                "seed {seed}, confirm_tight {tight}: {} of {} windows, {} tracks, {} false \
-                 events, mean error {:?}",
-                t.overlap_detected,
-                t.overlap_pairs,
-                t.tracks,
-                t.false_events,
-                report.mean_error_deg
+            eprint!("seed {seed}, confirm_tight {tight}: ");
+            let (report, t) = two_talkers(
+                dir.path(),
+                &geometry,
+                &head,
+                [(-30.0, "aew_a0002"), (-120.0, "axb_a0005")],
+                "elevation_deg = -7\ndistance = 2.0",
+                "[[1.0, 3.6]]",
+                "[0.4, 4.5, 2.5]",
+                &params,
+                track,
+                0.225,
             );
             assert_eq!(t.false_events, 0);
             assert!(report.mean_error_deg.unwrap() < 1.0);
