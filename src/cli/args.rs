@@ -205,7 +205,7 @@ pub struct AnalyzeArgs {
     #[arg(long, default_value = "auto", value_parser = choice::<Dereverb>())]
     pub dereverb: Dereverb,
 
-    /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, and delays rows by up to --confirm-s)
+    /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, and delays rows by up to --delay-s)
     #[arg(long)]
     pub no_track: bool,
 
@@ -225,9 +225,13 @@ pub struct AnalyzeArgs {
     #[arg(long, conflicts_with = "no_track")]
     pub keep_unconfirmed: bool,
 
-    /// A track is confirmed by 2 detections within this many seconds (of its latest); rows wait up to this long
+    /// A track is confirmed by 2 detections within this many seconds (of its latest)
     #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = positive, conflicts_with = "no_track")]
     pub confirm_s: f64,
+
+    /// Rows wait up to this many seconds for their track to be confirmed (the tracker's delay; never less than --confirm-s): a detection not confirmed by then is dropped, so a talker confirmed late loses its first detections
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = positive, conflicts_with = "no_track")]
+    pub delay_s: f64,
 
     /// Threads to analyse with (0: all cores); the output is the same for any number
     #[arg(short = 'j', long, default_value_t = 0, value_name = "N")]
@@ -364,6 +368,7 @@ impl AnalyzeArgs {
     pub fn track_params(&self) -> Option<TrackParams> {
         (!self.no_track).then(|| TrackParams {
             confirm_s: self.confirm_s,
+            delay_s: self.delay_s,
             keep_unconfirmed: self.keep_unconfirmed,
             ..TrackParams::default()
         })

@@ -17,8 +17,9 @@
 //!   [`TrackParams::confirm_candidates`] with one above it, or
 //!   [`TrackParams::confirm_weak`] under it, or [`TrackParams::confirm_tight`] under it
 //!   within [`TrackParams::tight_deg`] of their mean), counted over the window of that length
-//!   that ends at its latest detection; a detection that leaves the window unconfirmed
-//!   is dropped (isolated outliers never reach the output, unless
+//!   that ends at its latest detection. Its detections wait up to
+//!   [`TrackParams::delay_s`] for that, and then all become the track's rows; a
+//!   detection still unconfirmed after it is dropped (isolated outliers never reach the output, unless
 //!   [`TrackParams::keep_unconfirmed`] gives them out without an id), and a candidate
 //!   with none left is forgotten. A candidate at the azimuth of a talking track but far
 //!   from its elevation is that talker's floor or ceiling image and is dropped instead
@@ -34,7 +35,7 @@
 //! Every detection that comes out carries its track's id (`source`, from 1, never reused
 //! within one recording), but for the unconfirmed ones [`TrackParams::keep_unconfirmed`]
 //! keeps. Rows come out in frame order, at most
-//! [`TrackParams::confirm_s`] after their frame: that is the tracker's delay. Memory
+//! [`TrackParams::delay_s`] after their frame: that is the tracker's delay. Memory
 //! holds the open candidates and the rows still waiting, bounded by that delay.
 //! Measured in docs/tracking.md.
 
@@ -69,9 +70,17 @@ pub struct TrackParams {
     /// The spread (degrees) of [`TrackParams::confirm_tight`]'s detections.
     #[serde(default = "default_tight_deg")]
     pub tight_deg: f64,
-    /// Within this many seconds (a window ending at the candidate's latest detection;
-    /// also the tracker's delay).
+    /// Within this many seconds (a window ending at the candidate's latest detection).
     pub confirm_s: f64,
+    /// A candidate's detections wait this many seconds (at least
+    /// [`TrackParams::confirm_s`]) for it to be confirmed, and all of them then become
+    /// its track's rows: the tracker's delay. A talker that another keeps under the
+    /// threshold is often heard in a few candidates, then not for a few tenths of a
+    /// second, then confirmed; waiting longer than the confirmation window keeps those
+    /// first candidates (docs/tracking.md). A shorter delay is taken as the
+    /// confirmation window ([`TrackParams::delay`]).
+    #[serde(default = "default_delay_s")]
+    pub delay_s: f64,
     /// Association gate (degrees) right after a track's last detection.
     pub gate_deg: f64,
     /// The gate (degrees) of a candidate under the detection threshold (see
@@ -102,6 +111,7 @@ impl Default for TrackParams {
             confirm_tight: 8,
             tight_deg: 1.5,
             confirm_s: 0.5,
+            delay_s: 1.0,
             gate_deg: 12.0,
             candidate_gate_deg: 5.0,
             max_speed_deg_s: 60.0,
@@ -119,6 +129,10 @@ fn default_confirm_weak() -> usize {
 
 fn default_confirm_tight() -> usize {
     TrackParams::default().confirm_tight
+}
+
+fn default_delay_s() -> f64 {
+    TrackParams::default().delay_s
 }
 
 fn default_tight_deg() -> f64 {
@@ -143,10 +157,17 @@ pub enum TrackParamsError {
 }
 
 impl TrackParams {
+    /// The tracker's delay: [`TrackParams::delay_s`], or the confirmation window when
+    /// that is longer.
+    pub fn delay(&self) -> f64 {
+        self.delay_s.max(self.confirm_s)
+    }
+
     /// Checks every parameter.
     pub fn check(&self) -> Result<(), TrackParamsError> {
         let positive = [
             ("the confirmation window", self.confirm_s),
+            ("the tracker's delay", self.delay_s),
             ("the gate", self.gate_deg),
             ("the candidates' gate", self.candidate_gate_deg),
             ("the widest gate", self.max_gate_deg),

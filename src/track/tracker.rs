@@ -46,31 +46,47 @@ struct Candidate {
     key: u64,
     direction: Vector3<f64>,
     last_s: f64,
-    /// Its detections within [`TrackParams::confirm_s`] of the latest frame, oldest
-    /// first, each with the number of its waiting row.
+    /// Its detections within the tracker's delay ([`TrackParams::delay_s`]) of the
+    /// latest frame, oldest first, each with the number of its waiting row.
     hits: VecDeque<(u64, Detection)>,
 }
 
 impl Candidate {
-    /// Hits at or above the detection threshold (margin 1 or more).
-    fn strong(&self) -> usize {
-        self.hits.iter().filter(|(_, d)| d.margin >= 1.0).count()
-    }
-
-    /// The largest angle (degrees) between a hit's direction and the hits' mean.
-    fn spread_deg(&self) -> f64 {
-        let sum = self
+    /// The hits within the confirmation window (`window_s`) that ends at the latest.
+    fn recent(&self, window_s: f64) -> impl Iterator<Item = &Detection> + Clone {
+        let last = self
             .hits
-            .iter()
-            .fold(Vector3::zeros(), |a: Vector3<f64>, (_, d)| a + d.direction);
-        let Some(mean) = sum.try_normalize(1e-12) else {
-            return 180.0;
-        };
+            .back()
+            .map_or(f64::NEG_INFINITY, |(_, d)| d.time_s);
         self.hits
             .iter()
-            .map(|(_, d)| d.direction.angle(&mean).to_degrees())
-            .fold(0.0, f64::max)
+            .map(|(_, d)| d)
+            .filter(move |d| last - d.time_s <= window_s)
     }
+
+    /// Whether the hits within the confirmation window confirm the candidate.
+    fn confirmed(&self, p: &TrackParams) -> bool {
+        let recent = self.recent(p.confirm_s);
+        let hits = recent.clone().count();
+        let strong = recent.clone().filter(|d| d.margin >= 1.0).count();
+        strong >= p.confirm_hits
+            || (strong > 0 && hits >= p.confirm_candidates)
+            || hits >= p.confirm_weak
+            || (hits >= p.confirm_tight && spread_deg(recent) <= p.tight_deg)
+    }
+}
+
+/// The largest angle (degrees) between a detection's direction and their mean.
+fn spread_deg<'a>(detections: impl Iterator<Item = &'a Detection> + Clone) -> f64 {
+    let sum = detections
+        .clone()
+        .fold(Vector3::zeros(), |a: Vector3<f64>, d| a + d.direction);
+    let Some(mean) = sum.try_normalize(1e-12) else {
+        return 180.0;
+    };
+    detections
+        .map(|d| d.direction.angle(&mean).to_degrees())
+        .fold(0.0, f64::max)
 }
 
 #[derive(Clone, Copy)]
@@ -294,13 +310,7 @@ impl Tracker {
                 c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
                 c.hits.push_back((row, *d));
-                let strong = c.strong();
-                if strong >= self.params.confirm_hits
-                    || (strong > 0 && c.hits.len() >= self.params.confirm_candidates)
-                    || c.hits.len() >= self.params.confirm_weak
-                    || (c.hits.len() >= self.params.confirm_tight
-                        && c.spread_deg() <= self.params.tight_deg)
-                {
+                if c.confirmed(&self.params) {
                     let c = self.candidates.remove(i);
                     self.confirm(c);
                 }
@@ -381,17 +391,17 @@ impl Tracker {
         }
     }
 
-    /// Time passes to `now`: a candidate's detections older than the confirmation
-    /// window are dropped (and the candidate with its last), stretches of activity that
+    /// Time passes to `now`: a candidate's detections older than the tracker's delay
+    /// are dropped (and the candidate with its last), stretches of activity that
     /// have been silent long enough end, silent tracks are forgotten.
     fn advance(&mut self, now: f64) {
         let p = &self.params;
-        let (confirm_s, end_s, forget_s) = (p.confirm_s, p.end_s, p.forget_s);
+        let (delay_s, end_s, forget_s) = (p.delay(), p.end_s, p.forget_s);
         for c in &mut self.candidates {
             while c
                 .hits
                 .front()
-                .is_some_and(|(_, d)| now - d.time_s > confirm_s)
+                .is_some_and(|(_, d)| now - d.time_s > delay_s)
             {
                 let (row, _) = c.hits.pop_front().expect("checked");
                 self.resolved.insert(row, None);

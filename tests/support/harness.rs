@@ -124,7 +124,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             // When the diffuse part is removed, by name.
             Some("drv") => params.dereverb = named(arg),
             // The tracker's (see `track_from`).
-            Some("weak" | "tight" | "tightdeg" | "confirm" | "gate") => {}
+            Some("weak" | "tight" | "tightdeg" | "confirm" | "delay" | "gate") => {}
             // A benchmark's own (an offset to its scenes' seeds).
             Some("seed" | "rot") => {}
             _ => numbers.push(
@@ -146,7 +146,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
 /// The tracker's parameters a harness runs with: the defaults changed by any of
 /// `weak=N` (candidates that confirm a track alone), `tight=N` and `tightdeg=DEG` (a
 /// steady run of candidates that does), `confirm=S` (the confirmation
-/// window, seconds) and `gate=DEG` (the association gate); other arguments are left to
+/// window, seconds), `delay=S` (the tracker's delay) and `gate=DEG` (the association gate); other arguments are left to
 /// `params_from`.
 pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
     let mut track = ssl::track::TrackParams::default();
@@ -156,6 +156,7 @@ pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
             "tight" => track.confirm_tight = value.parse().expect("tight takes a count"),
             "tightdeg" => track.tight_deg = value.parse().expect("tightdeg takes degrees"),
             "confirm" => track.confirm_s = value.parse().expect("confirm takes seconds"),
+            "delay" => track.delay_s = value.parse().expect("delay takes seconds"),
             "gate" => track.gate_deg = value.parse().expect("gate takes degrees"),
             _ => {}
         }
