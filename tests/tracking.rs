@@ -467,3 +467,59 @@ fn waiting_longer_keeps_a_talkers_first_detections() {
     let gained: usize = windows.chunks(2).map(|w| w[1] - w[0]).sum();
     assert!(gained >= 6, "{windows:?}");
 }
+
+/// Two talkers at once, 90 deg apart, on a 6.5 cm tetrahedron at 16 kHz in the paper's
+/// room: its directions scatter by 2-5 deg, and a candidate's gate that opens with the
+/// array's scatter (`TrackParams::candidate_gate_samples`, 8 deg here instead of 5)
+/// gives each talker more of its candidates. In three draws, with against without: no
+/// draw lower, more windows in all, still one track per talker, no false event, the
+/// rows' mean error under 4 deg.
+#[test]
+fn a_small_arrays_candidates_join_its_talkers() {
+    let dir = tempdir();
+    copy_speech(dir.path()).unwrap();
+    write(
+        dir.path(),
+        "tetra.toml",
+        geometry_toml(&tetrahedron(0.065), ""),
+    );
+    let geometry = ssl::Geometry::from_file(&dir.path().join("tetra.toml")).unwrap();
+    let params = ssl::Params::default().for_tracker();
+    let mut windows = Vec::new();
+    for seed in [7, 8, 9] {
+        let head = format!(
+            "sample_rate = 16000\nduration = 5.0\nseed = {seed}\n[room]\n\
+             dimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n[array]\ngeometry = \"tetra.toml\"\n\
+             position = [4.0, 3.5, 0.8]\n"
+        );
+        for samples in [0.0, 0.6] {
+            let track = ssl::track::TrackParams {
+                candidate_gate_samples: samples,
+                ..ssl::track::TrackParams::default()
+            };
+            eprint!("seed {seed}, candidate gate {samples} samples: ");
+            let (report, t) = two_talkers(
+                dir.path(),
+                &geometry,
+                &head,
+                [(20.0, "aew_a0001"), (-70.0, "axb_a0004")],
+                "elevation_deg = 15\ndistance = 1.5",
+                "[[1.0, 3.8]]",
+                "[7.6, 6.6, 2.7]",
+                &params,
+                track,
+                0.175,
+            );
+            assert_eq!(t.tracks, 2);
+            assert!(t.sources.iter().all(|s| s.tracks == 1));
+            assert_eq!(t.false_events, 0);
+            assert!(report.mean_error_deg.unwrap() < 4.0);
+            windows.push(t.overlap_detected);
+        }
+    }
+    // Measured: 28 / 34 / 26 of 50 windows without, 32 / 35 / 33 with (errors 2.5-2.9
+    // deg without, 2.8-3.3 with).
+    assert!(windows.chunks(2).all(|w| w[1] >= w[0]), "{windows:?}");
+    let gained: usize = windows.chunks(2).map(|w| w[1] - w[0]).sum();
+    assert!(gained >= 8, "{windows:?}");
+}

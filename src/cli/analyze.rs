@@ -123,9 +123,11 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         };
         let progress = Progress::new(show_progress, &analysis);
         let name = analysis.name().to_string();
+        let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
+        let rate = analysis.sample_rate() as f64;
         let mut tracker = track
             .clone()
-            .map(|p| Tracker::for_shape(p, &geometry.shape));
+            .map(|p| Tracker::for_array(p, &geometry, rate, speed));
         // Frame i's centre is at (i + 1) hops (docs/interface.md, "Frames and time").
         let hop = analysis.frame_size() as f64 / 2.0 / analysis.sample_rate() as f64;
         let mut output_failure = None;

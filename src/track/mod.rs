@@ -45,7 +45,7 @@ mod motion;
 mod tracker;
 
 pub use event::Event;
-pub use tracker::{TrackStats, Tracked, Tracker, ELEVATION_WEIGHT};
+pub use tracker::{candidate_gate_deg, TrackStats, Tracked, Tracker, ELEVATION_WEIGHT};
 
 /// The tracker's parameters (see the module's documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -86,6 +86,15 @@ pub struct TrackParams {
     /// The gate (degrees) of a candidate under the detection threshold (see
     /// [`Params::candidates`](crate::Params::candidates)): it never widens.
     pub candidate_gate_deg: f64,
+    /// A candidate's gate is at least this many samples of delay error on every pair,
+    /// as the angle it moves a direction on the array at the recording's rate
+    /// ([`Tracker::for_array`]; 0: never wider than [`TrackParams::candidate_gate_deg`]).
+    /// 0.6 (three times the 0.2 sample a direction errs by on real speech) leaves 5
+    /// deg on the prism and the 6- and 8-mic circles at 16 kHz and above, and opens
+    /// 8 deg on a 6.5 cm tetrahedron at 16 kHz, whose rows err by 2-5 deg
+    /// (docs/tracking.md); never more than [`MAX_CANDIDATE_GATE_DEG`].
+    #[serde(default = "default_candidate_gate_samples")]
+    pub candidate_gate_samples: f64,
     /// The gate widens by this many degrees per second since a track's last detection.
     pub max_speed_deg_s: f64,
     /// The widest gate (degrees): 30, so that a talker turning at 60 deg/s through a
@@ -114,6 +123,7 @@ impl Default for TrackParams {
             delay_s: 1.0,
             gate_deg: 12.0,
             candidate_gate_deg: 5.0,
+            candidate_gate_samples: 0.6,
             max_speed_deg_s: 60.0,
             max_gate_deg: 30.0,
             end_s: 1.0,
@@ -131,6 +141,10 @@ fn default_confirm_tight() -> usize {
     TrackParams::default().confirm_tight
 }
 
+fn default_candidate_gate_samples() -> f64 {
+    TrackParams::default().candidate_gate_samples
+}
+
 fn default_delay_s() -> f64 {
     TrackParams::default().delay_s
 }
@@ -144,6 +158,12 @@ fn default_tight_deg() -> f64 {
 /// and three talkers at once in more windows than 0.5 with no false event or track in
 /// any benchmark (docs/tracking.md, "Choosing the candidates' share").
 pub const DEFAULT_CANDIDATES: f64 = 0.4;
+
+/// The widest a candidate's gate opens with the array's scatter
+/// ([`TrackParams::candidate_gate_samples`]): the 6.5 cm tetrahedron at 8 kHz would open
+/// 16 deg, and its single talkers' rows (`cargo bench --bench field -- track`) erred by
+/// 3.7 deg with 19 confidently wrong (2.9 deg and 4 at 5 deg; 3.2 and 5 at 8).
+pub const MAX_CANDIDATE_GATE_DEG: f64 = 8.0;
 
 /// At most this many tracks are remembered at once (the oldest silent one goes first).
 pub const MAX_TRACKS: usize = 64;
@@ -182,6 +202,15 @@ impl TrackParams {
                     "{what} must be a positive number, got {v}"
                 );
             }
+        }
+        if !(self.candidate_gate_samples.is_finite()
+            && (0.0..=100.0).contains(&self.candidate_gate_samples))
+        {
+            fail!(
+                TrackParamsError::Invalid,
+                "the candidates' gate in samples must be 0 to 100, got {}",
+                self.candidate_gate_samples
+            );
         }
         if !(self.max_speed_deg_s.is_finite() && self.max_speed_deg_s >= 0.0) {
             fail!(

@@ -3,7 +3,8 @@
 use super::event::{Accumulator, Event};
 use super::image::{is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
-use super::{TrackParams, MAX_TRACKS};
+use super::{TrackParams, MAX_CANDIDATE_GATE_DEG, MAX_TRACKS};
+use crate::geometry::Geometry;
 use crate::geometry::Shape;
 use crate::method::direction::angle_between_deg;
 use crate::method::Detection;
@@ -100,9 +101,21 @@ enum Slot {
     Dropped,
 }
 
+/// A candidate's gate (degrees) on `geometry` at `rate` Hz and `speed` m/s: the larger of
+/// [`TrackParams::candidate_gate_deg`] and [`TrackParams::candidate_gate_samples`] times
+/// [`Geometry::direction_spread_deg`], the latter at most [`MAX_CANDIDATE_GATE_DEG`].
+pub fn candidate_gate_deg(p: &TrackParams, geometry: &Geometry, rate: f64, speed: f64) -> f64 {
+    let spread = geometry.direction_spread_deg(rate, speed);
+    let scaled = (p.candidate_gate_samples * spread).min(MAX_CANDIDATE_GATE_DEG);
+    p.candidate_gate_deg.max(scaled)
+}
+
 /// Follows detections over time (see the [`track`](super) module).
 pub struct Tracker {
     params: TrackParams,
+    /// A candidate's gate (degrees): [`TrackParams::candidate_gate_deg`], or wider for
+    /// an array whose directions scatter more ([`Tracker::for_array`]).
+    candidate_gate: f64,
     /// A planar array's normal: its detections are compared mostly in the plane.
     plane: Option<Vector3<f64>>,
     tracks: Vec<Track>,
@@ -129,6 +142,7 @@ impl Tracker {
     /// A tracker for one recording (parameters checked by [`TrackParams::check`]).
     pub fn new(params: TrackParams) -> Self {
         Tracker {
+            candidate_gate: params.candidate_gate_deg,
             params,
             plane: None,
             tracks: Vec::new(),
@@ -155,6 +169,16 @@ impl Tracker {
         if let Shape::Planar { normal } = shape {
             tracker.plane = Some(*normal);
         }
+        tracker
+    }
+
+    /// A tracker for `geometry` at `rate` Hz and `speed` m/s: as [`Tracker::for_shape`],
+    /// with a candidate's gate at least [`TrackParams::candidate_gate_samples`] times
+    /// how far a direction moves per sample of delay error
+    /// ([`Geometry::direction_spread_deg`]): a small array's directions scatter more.
+    pub fn for_array(params: TrackParams, geometry: &Geometry, rate: f64, speed: f64) -> Self {
+        let mut tracker = Tracker::for_shape(params, &geometry.shape);
+        tracker.candidate_gate = candidate_gate_deg(&tracker.params, geometry, rate, speed);
         tracker
     }
 
@@ -202,7 +226,7 @@ impl Tracker {
                 if d.margin >= 1.0 {
                     self.gate(since)
                 } else {
-                    self.params.candidate_gate_deg
+                    self.candidate_gate
                 }
             };
             for t in self.tracks.iter().filter(|t| t.event.is_some()) {

@@ -161,7 +161,7 @@ impl Bench {
         let name = wav.display().to_string();
         let params = super::harness::untracked(params, &track);
         let analysis = Analysis::open(&name, &geometry, &params)?;
-        super::harness::track_records(analysis, &name, &geometry.shape, track)
+        super::harness::track_records(analysis, &name, &geometry, &params, track)
     }
 
     /// Analyses a recording with `params` and scores it.

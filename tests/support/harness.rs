@@ -124,7 +124,9 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             // When the diffuse part is removed, by name.
             Some("drv") => params.dereverb = named(arg),
             // The tracker's (see `track_from`).
-            Some("weak" | "tight" | "tightdeg" | "confirm" | "delay" | "gate") => {}
+            Some(
+                "weak" | "tight" | "tightdeg" | "confirm" | "delay" | "gate" | "cgate" | "cgs",
+            ) => {}
             // A benchmark's own (an offset to its scenes' seeds).
             Some("seed" | "rot") => {}
             _ => numbers.push(
@@ -146,7 +148,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
 /// The tracker's parameters a harness runs with: the defaults changed by any of
 /// `weak=N` (candidates that confirm a track alone), `tight=N` and `tightdeg=DEG` (a
 /// steady run of candidates that does), `confirm=S` (the confirmation
-/// window, seconds), `delay=S` (the tracker's delay) and `gate=DEG` (the association gate); other arguments are left to
+/// window, seconds), `delay=S` (the tracker's delay), `cgate=DEG` and `cgs=SAMPLES` (a candidate's gate) and `gate=DEG` (the association gate); other arguments are left to
 /// `params_from`.
 pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
     let mut track = ssl::track::TrackParams::default();
@@ -158,6 +160,8 @@ pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
             "confirm" => track.confirm_s = value.parse().expect("confirm takes seconds"),
             "delay" => track.delay_s = value.parse().expect("delay takes seconds"),
             "gate" => track.gate_deg = value.parse().expect("gate takes degrees"),
+            "cgs" => track.candidate_gate_samples = value.parse().expect("cgs takes samples"),
+            "cgate" => track.candidate_gate_deg = value.parse().expect("cgate takes degrees"),
             _ => {}
         }
     }
@@ -192,7 +196,7 @@ pub fn analyse_channels(
     let channels = channels.iter().map(|c| &c[..]).collect();
     let params = &untracked(params, &track);
     let analysis = ssl::Analysis::from_channels("scene", channels, rate, geometry, params)?;
-    track_records(analysis, "scene", &geometry.shape, track)
+    track_records(analysis, "scene", geometry, params, track)
 }
 
 /// `params` as `ssl analyze` runs them: without a tracker, no candidates, no steered
@@ -210,18 +214,21 @@ pub fn untracked(params: &ssl::Params, track: &Option<ssl::track::TrackParams>) 
     }
 }
 
-/// Runs `analysis` as `ssl analyze` does, through a tracker with `track` for an array of
-/// `shape` (else every frame's detection): the records, named `name`.
+/// Runs `analysis` (of `geometry`, with `params`) as `ssl analyze` does, through a
+/// tracker with `track` (else every frame's detection): the records, named `name`.
 pub fn track_records<S: ssl::stream::SampleSource>(
     analysis: ssl::Analysis<S>,
     name: &str,
-    shape: &ssl::geometry::Shape,
+    geometry: &ssl::Geometry,
+    params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
 ) -> Result<Vec<ssl::DetectionRecord>, Box<dyn std::error::Error>> {
     use ssl::track::{Tracked, Tracker};
     use ssl::DetectionRecord;
-    let hop = analysis.frame_size() as f64 / 2.0 / analysis.sample_rate() as f64;
-    let mut tracker = track.map(|p| Tracker::for_shape(p, shape));
+    let rate = analysis.sample_rate() as f64;
+    let hop = analysis.frame_size() as f64 / 2.0 / rate;
+    let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
+    let mut tracker = track.map(|p| Tracker::for_array(p, geometry, rate, speed));
     let record =
         |t: Tracked| DetectionRecord::tracked(name, &t.detection, t.source).expect("finite");
     let mut records = Vec::new();
