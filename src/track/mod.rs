@@ -39,13 +39,15 @@
 //! holds the open candidates and the rows still waiting, bounded by that delay.
 //! Measured in docs/tracking.md.
 
+mod candidate;
 mod event;
 pub mod image;
 mod motion;
 mod tracker;
 
+pub use candidate::candidate_gate_deg;
 pub use event::Event;
-pub use tracker::{candidate_gate_deg, TrackStats, Tracked, Tracker, ELEVATION_WEIGHT};
+pub use tracker::{TrackStats, Tracked, Tracker, ELEVATION_WEIGHT};
 
 /// The tracker's parameters (see the module's documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -1,11 +1,11 @@
 //! The tracker: association, confirmation, activity (see the module's documentation).
 
+use super::candidate::{candidate_gate_deg, Candidate};
 use super::event::{Accumulator, Event};
 use super::image::{is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
-use super::{TrackParams, MAX_CANDIDATE_GATE_DEG, MAX_TRACKS};
-use crate::geometry::Geometry;
-use crate::geometry::Shape;
+use super::{TrackParams, MAX_TRACKS};
+use crate::geometry::{Geometry, Shape};
 use crate::method::direction::angle_between_deg;
 use crate::method::Detection;
 use nalgebra::Vector3;
@@ -43,53 +43,6 @@ pub struct TrackStats {
 /// deg on real speech where its azimuth errs by 1 (docs/field.md).
 pub const ELEVATION_WEIGHT: f64 = 0.25;
 
-struct Candidate {
-    key: u64,
-    direction: Vector3<f64>,
-    last_s: f64,
-    /// Its detections within the tracker's delay ([`TrackParams::delay_s`]) of the
-    /// latest frame, oldest first, each with the number of its waiting row.
-    hits: VecDeque<(u64, Detection)>,
-}
-
-impl Candidate {
-    /// The hits within the confirmation window (`window_s`) that ends at the latest.
-    fn recent(&self, window_s: f64) -> impl Iterator<Item = &Detection> + Clone {
-        let last = self
-            .hits
-            .back()
-            .map_or(f64::NEG_INFINITY, |(_, d)| d.time_s);
-        self.hits
-            .iter()
-            .map(|(_, d)| d)
-            .filter(move |d| last - d.time_s <= window_s)
-    }
-
-    /// Whether the hits within the confirmation window confirm the candidate.
-    fn confirmed(&self, p: &TrackParams) -> bool {
-        let recent = self.recent(p.confirm_s);
-        let hits = recent.clone().count();
-        let strong = recent.clone().filter(|d| d.margin >= 1.0).count();
-        strong >= p.confirm_hits
-            || (strong > 0 && hits >= p.confirm_candidates)
-            || hits >= p.confirm_weak
-            || (hits >= p.confirm_tight && spread_deg(recent) <= p.tight_deg)
-    }
-}
-
-/// The largest angle (degrees) between a detection's direction and their mean.
-fn spread_deg<'a>(detections: impl Iterator<Item = &'a Detection> + Clone) -> f64 {
-    let sum = detections
-        .clone()
-        .fold(Vector3::zeros(), |a: Vector3<f64>, d| a + d.direction);
-    let Some(mean) = sum.try_normalize(1e-12) else {
-        return 180.0;
-    };
-    detections
-        .map(|d| d.direction.angle(&mean).to_degrees())
-        .fold(0.0, f64::max)
-}
-
 #[derive(Clone, Copy)]
 enum Slot {
     Track(u64),
@@ -99,15 +52,6 @@ enum Slot {
     /// A detection that joins nothing and starts nothing (kept only to be given out
     /// unconfirmed).
     Dropped,
-}
-
-/// A candidate's gate (degrees) on `geometry` at `rate` Hz and `speed` m/s: the larger of
-/// [`TrackParams::candidate_gate_deg`] and [`TrackParams::candidate_gate_samples`] times
-/// [`Geometry::direction_spread_deg`], the latter at most [`MAX_CANDIDATE_GATE_DEG`].
-pub fn candidate_gate_deg(p: &TrackParams, geometry: &Geometry, rate: f64, speed: f64) -> f64 {
-    let spread = geometry.direction_spread_deg(rate, speed);
-    let scaled = (p.candidate_gate_samples * spread).min(MAX_CANDIDATE_GATE_DEG);
-    p.candidate_gate_deg.max(scaled)
 }
 
 /// Follows detections over time (see the [`track`](super) module).
