@@ -52,6 +52,76 @@ fn two_talkers(
     (report, tracking)
 }
 
+/// Two talkers in the paper's room (8 x 7 x 3 m, RT60 0.35 s, its fan): the array
+/// (`file`, written in the scene's directory) at its centre 0.8 m up, at `rate` Hz,
+/// `float` for 32-bit float samples; the first two ARCTIC sentences over 1.0-3.8 s at
+/// `placement` (elevation and distance lines).
+struct PapersRoom<'a> {
+    file: &'a str,
+    rate: u32,
+    float: bool,
+    placement: &'a str,
+}
+
+impl PapersRoom<'_> {
+    /// The scene drawn with `seed`, its talkers at `azimuths`, analysed with `params`
+    /// and `track` (see [`two_talkers`]).
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &self,
+        dir: &std::path::Path,
+        geometry: &ssl::Geometry,
+        seed: u64,
+        azimuths: [f64; 2],
+        params: &ssl::Params,
+        track: ssl::track::TrackParams,
+    ) -> (ssl::evaluate::Report, ssl::evaluate::TrackReport) {
+        let format = if self.float {
+            "format = \"float32\"\n"
+        } else {
+            ""
+        };
+        let head = format!(
+            "sample_rate = {}\nduration = 5.0\nseed = {seed}\n{format}[room]\n\
+             dimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n[array]\ngeometry = \"{}\"\n\
+             position = [4.0, 3.5, 0.8]\n",
+            self.rate, self.file
+        );
+        two_talkers(
+            dir,
+            geometry,
+            &head,
+            [(azimuths[0], "aew_a0001"), (azimuths[1], "axb_a0004")],
+            self.placement,
+            "[[1.0, 3.8]]",
+            "[7.6, 6.6, 2.7]",
+            params,
+            track,
+            0.175,
+        )
+    }
+}
+
+/// Both talkers tracked, one track each, no false event, the rows within
+/// `max_error_deg` on average.
+fn assert_both_tracked(
+    report: &ssl::evaluate::Report,
+    t: &ssl::evaluate::TrackReport,
+    max_error_deg: f64,
+) {
+    assert_eq!(t.tracks, 2);
+    assert!(t.sources.iter().all(|s| s.tracks == 1));
+    assert_eq!(t.false_events, 0);
+    assert!(report.mean_error_deg.unwrap() < max_error_deg);
+}
+
+/// The windows a change gained over its draws, `windows` holding each draw's figure
+/// without it and then with it: asserts that no draw lost any.
+fn gained(windows: &[usize]) -> usize {
+    assert!(windows.chunks(2).all(|w| w[1] >= w[0]), "{windows:?}");
+    windows.chunks(2).map(|w| w[1] - w[0]).sum()
+}
+
 /// Two talkers at once, 60 deg apart, on the prism at 16 kHz in the paper's room:
 /// with further sources from each frame's own correlations
 /// (`src/method/frame_sources.rs`), both are found in more of the 0.1 s windows than
@@ -66,12 +136,13 @@ fn a_frames_own_correlations_find_the_other_talker() {
     write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
     let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
     let mut shares = Vec::new();
+    let room = PapersRoom {
+        file: "prism.toml",
+        rate: 16000,
+        float: false,
+        placement: "elevation_deg = -7\ndistance = 2.0",
+    };
     for seed in [3, 4, 5, 6] {
-        let head = format!(
-            "sample_rate = 16000\nduration = 5.0\nseed = {seed}\n[room]\n\
-             dimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n[array]\ngeometry = \"prism.toml\"\n\
-             position = [4.0, 3.5, 0.8]\n"
-        );
         for frame_sources in [false, true] {
             let params = ssl::Params {
                 frame_sources,
@@ -83,22 +154,8 @@ fn a_frames_own_correlations_find_the_other_talker() {
                 ..ssl::track::TrackParams::default()
             };
             eprint!("seed {seed}, frame sources {frame_sources}: ");
-            let (report, t) = two_talkers(
-                dir.path(),
-                &geometry,
-                &head,
-                [(20.0, "aew_a0001"), (-40.0, "axb_a0004")],
-                "elevation_deg = -7\ndistance = 2.0",
-                "[[1.0, 3.8]]",
-                "[7.6, 6.6, 2.7]",
-                &params,
-                track,
-                0.175,
-            );
-            assert_eq!(t.tracks, 2);
-            assert!(t.sources.iter().all(|s| s.tracks == 1));
-            assert_eq!(t.false_events, 0);
-            assert!(report.mean_error_deg.unwrap() < 1.0);
+            let (report, t) = room.run(dir.path(), &geometry, seed, [20.0, -40.0], &params, track);
+            assert_both_tracked(&report, &t, 1.0);
             shares.push(t.overlap_detected as f64 / t.overlap_pairs as f64);
         }
     }
@@ -152,17 +209,14 @@ fn a_steady_run_of_candidates_is_a_talker() {
             assert_eq!(t.false_events, 0);
             assert!(report.mean_error_deg.unwrap() < 1.0);
             if tight == 8 {
-                assert_eq!(t.tracks, 2);
-                assert!(t.sources.iter().all(|s| s.tracks == 1));
+                assert_both_tracked(&report, &t, 1.0);
             }
             windows.push(t.overlap_detected);
         }
     }
     // Measured: 16 and 20 of 48 windows without the rule (the first draw tracks one
     // talker only), 25 and 24 with it.
-    assert!(windows.chunks(2).all(|w| w[1] >= w[0]), "{windows:?}");
-    let gained: usize = windows.chunks(2).map(|w| w[1] - w[0]).sum();
-    assert!(gained >= 8, "{windows:?}");
+    assert!(gained(&windows) >= 8, "{windows:?}");
 }
 
 /// Two talkers at once, 60 deg apart, on the prism at 48 kHz in the paper's room: the
@@ -179,12 +233,13 @@ fn waiting_longer_keeps_a_talkers_first_detections() {
     let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
     let params = ssl::Params::default().for_tracker();
     let mut windows = Vec::new();
+    let room = PapersRoom {
+        file: "prism.toml",
+        rate: 48000,
+        float: true,
+        placement: "elevation_deg = -7\ndistance = 2.0",
+    };
     for seed in [0, 2, 3] {
-        let head = format!(
-            "sample_rate = 48000\nduration = 5.0\nseed = {seed}\nformat = \"float32\"\n\
-             [room]\ndimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n[array]\n\
-             geometry = \"prism.toml\"\nposition = [4.0, 3.5, 0.8]\n"
-        );
         let mut onsets = Vec::new();
         for delay_s in [0.5, 1.0] {
             let track = ssl::track::TrackParams {
@@ -192,31 +247,15 @@ fn waiting_longer_keeps_a_talkers_first_detections() {
                 ..ssl::track::TrackParams::default()
             };
             eprint!("seed {seed}, delay {delay_s} s: ");
-            let (report, t) = two_talkers(
-                dir.path(),
-                &geometry,
-                &head,
-                [(20.0, "aew_a0001"), (-40.0, "axb_a0004")],
-                "elevation_deg = -7\ndistance = 2.0",
-                "[[1.0, 3.8]]",
-                "[7.6, 6.6, 2.7]",
-                &params,
-                track,
-                0.175,
-            );
-            assert_eq!(t.tracks, 2);
-            assert!(t.sources.iter().all(|s| s.tracks == 1));
-            assert_eq!(t.false_events, 0);
-            assert!(report.mean_error_deg.unwrap() < 1.0);
+            let (report, t) = room.run(dir.path(), &geometry, seed, [20.0, -40.0], &params, track);
+            assert_both_tracked(&report, &t, 1.0);
             windows.push(t.overlap_detected);
             onsets.push(t.onset_error_s.unwrap());
         }
         assert!(onsets[1] <= onsets[0] + 1e-9, "{onsets:?}");
     }
     // Measured: 34 / 32 / 34 of 50 windows waiting 0.5 s, 37 / 34 / 37 waiting 1 s.
-    assert!(windows.chunks(2).all(|w| w[1] >= w[0]), "{windows:?}");
-    let gained: usize = windows.chunks(2).map(|w| w[1] - w[0]).sum();
-    assert!(gained >= 6, "{windows:?}");
+    assert!(gained(&windows) >= 6, "{windows:?}");
 }
 
 /// Two talkers at once, 90 deg apart, on a 6.5 cm tetrahedron at 16 kHz in the paper's
@@ -237,40 +276,25 @@ fn a_small_arrays_candidates_join_its_talkers() {
     let geometry = ssl::Geometry::from_file(&dir.path().join("tetra.toml")).unwrap();
     let params = ssl::Params::default().for_tracker();
     let mut windows = Vec::new();
+    let room = PapersRoom {
+        file: "tetra.toml",
+        rate: 16000,
+        float: false,
+        placement: "elevation_deg = 15\ndistance = 1.5",
+    };
     for seed in [7, 8, 9] {
-        let head = format!(
-            "sample_rate = 16000\nduration = 5.0\nseed = {seed}\n[room]\n\
-             dimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n[array]\ngeometry = \"tetra.toml\"\n\
-             position = [4.0, 3.5, 0.8]\n"
-        );
         for samples in [0.0, 0.6] {
             let track = ssl::track::TrackParams {
                 candidate_gate_samples: samples,
                 ..ssl::track::TrackParams::default()
             };
             eprint!("seed {seed}, candidate gate {samples} samples: ");
-            let (report, t) = two_talkers(
-                dir.path(),
-                &geometry,
-                &head,
-                [(20.0, "aew_a0001"), (-70.0, "axb_a0004")],
-                "elevation_deg = 15\ndistance = 1.5",
-                "[[1.0, 3.8]]",
-                "[7.6, 6.6, 2.7]",
-                &params,
-                track,
-                0.175,
-            );
-            assert_eq!(t.tracks, 2);
-            assert!(t.sources.iter().all(|s| s.tracks == 1));
-            assert_eq!(t.false_events, 0);
-            assert!(report.mean_error_deg.unwrap() < 4.0);
+            let (report, t) = room.run(dir.path(), &geometry, seed, [20.0, -70.0], &params, track);
+            assert_both_tracked(&report, &t, 4.0);
             windows.push(t.overlap_detected);
         }
     }
     // Measured: 28 / 34 / 26 of 50 windows without, 32 / 35 / 33 with (errors 2.5-2.9
     // deg without, 2.8-3.3 with).
-    assert!(windows.chunks(2).all(|w| w[1] >= w[0]), "{windows:?}");
-    let gained: usize = windows.chunks(2).map(|w| w[1] - w[0]).sum();
-    assert!(gained >= 8, "{windows:?}");
+    assert!(gained(&windows) >= 8, "{windows:?}");
 }
