@@ -610,6 +610,30 @@ fn usage_errors_exit_2() {
     }
 }
 
+/// Rows wait in memory as long as the tracker's delay (and its confirmation window):
+/// more than 10 s is refused, naming the limit, so that memory stays bounded.
+#[test]
+fn a_tracker_delay_past_its_limit_is_refused() {
+    let (_dir, wav, geo) = setup();
+    for option in ["--delay-s", "--confirm-s"] {
+        for value in ["10.5", "1e9"] {
+            let out = run(&["analyze", s(&wav), "--geometry", s(&geo), option, value]);
+            assert_eq!(out.status.code(), Some(2), "{option} {value}");
+            assert!(stderr(&out).contains("over 10 s"), "{}", stderr(&out));
+        }
+        let out = run(&["analyze", s(&wav), "--geometry", s(&geo), option, "10"]);
+        assert!(out.status.success(), "{option} 10: {}", stderr(&out));
+    }
+    // The library's own check says the same.
+    let track = ssl::track::TrackParams {
+        delay_s: 11.0,
+        ..ssl::track::TrackParams::default()
+    };
+    let err = track.check().unwrap_err().to_string();
+    assert!(err.contains("at most 10 s"), "{err}");
+    assert!(ssl::track::TrackParams::default().check().is_ok());
+}
+
 #[test]
 fn frame_too_small_for_the_array_is_explained() {
     let (_dir, wav, geo) = setup();

@@ -95,6 +95,9 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     }
     let params = args.params();
     let track = args.track_params();
+    if let Some(t) = &track {
+        t.check()?;
+    }
     let mut inputs: Vec<&Path> = args.files.iter().map(Path::new).collect();
     inputs.push(&args.geometry);
     let sink = Sink::open(args.output.as_deref(), &inputs)?;

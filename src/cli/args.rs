@@ -9,7 +9,7 @@ use ssl::method::{
     DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
     MAX_AVERAGE_FRAMES, MAX_SOURCES,
 };
-use ssl::track::{TrackParams, DEFAULT_CANDIDATES};
+use ssl::track::{TrackParams, DEFAULT_CANDIDATES, MAX_DELAY_S};
 use ssl::{Format, Named};
 use std::path::PathBuf;
 
@@ -226,11 +226,11 @@ pub struct AnalyzeArgs {
     pub keep_unconfirmed: bool,
 
     /// A track is confirmed by 2 detections within this many seconds (of its latest)
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = positive, conflicts_with = "no_track")]
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = tracker_seconds, conflicts_with = "no_track")]
     pub confirm_s: f64,
 
     /// Rows wait up to this many seconds for their track to be confirmed (the tracker's delay; never less than --confirm-s): a detection not confirmed by then is dropped, so a talker confirmed late loses its first detections
-    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = positive, conflicts_with = "no_track")]
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = tracker_seconds, conflicts_with = "no_track")]
     pub delay_s: f64,
 
     /// Threads to analyse with (0: all cores); the output is the same for any number
@@ -350,6 +350,18 @@ fn positive(s: &str) -> std::result::Result<f64, String> {
     let v = parse_f64(s)?;
     if v <= 0.0 {
         return Err(format!("{v} is not positive"));
+    }
+    Ok(v)
+}
+
+/// A tracker's window or delay: positive, at most [`MAX_DELAY_S`] (rows wait that long
+/// in memory).
+fn tracker_seconds(s: &str) -> std::result::Result<f64, String> {
+    let v = positive(s)?;
+    if v > MAX_DELAY_S {
+        return Err(format!(
+            "{v} is over {MAX_DELAY_S} s (rows wait that long in memory)"
+        ));
     }
     Ok(v)
 }

@@ -167,6 +167,10 @@ pub const DEFAULT_CANDIDATES: f64 = 0.4;
 /// 3.7 deg with 19 confidently wrong (2.9 deg and 4 at 5 deg; 3.2 and 5 at 8).
 pub const MAX_CANDIDATE_GATE_DEG: f64 = 8.0;
 
+/// The longest confirmation window and delay (seconds): rows wait in memory that long,
+/// so memory stays bounded whatever the recording's length.
+pub const MAX_DELAY_S: f64 = 10.0;
+
 /// At most this many tracks are remembered at once (the oldest silent one goes first).
 pub const MAX_TRACKS: usize = 64;
 
@@ -202,6 +206,17 @@ impl TrackParams {
                 fail!(
                     TrackParamsError::Invalid,
                     "{what} must be a positive number, got {v}"
+                );
+            }
+        }
+        for (what, v) in [
+            ("the confirmation window", self.confirm_s),
+            ("the tracker's delay", self.delay_s),
+        ] {
+            if v > MAX_DELAY_S {
+                fail!(
+                    TrackParamsError::Invalid,
+                    "{what} must be at most {MAX_DELAY_S} s (rows wait that long in memory), got {v}"
                 );
             }
         }
