@@ -427,7 +427,10 @@ fn averaging_and_the_calibrated_threshold_sharpen_reverberant_speech_on_a_small_
     assert!(six < 9.0, "{six}");
     assert!(cal < 0.6 * six, "{cal} vs {six}");
     assert!(cal < 4.0, "{cal}");
-    assert!(with_tracker < 3.0, "{with_tracker}");
+    // With the tracker this run once had to stay under 0.6 of the averaged error (2.2
+    // deg here); the candidates' gate that opens to 8 deg on this array (docs/tracking.md)
+    // costs it 0.3 deg, so the tracked figure has its own bound, just above 2.3.
+    assert!(with_tracker < 2.5, "{with_tracker}");
     for report in [&averaged, &calibrated, &tracked] {
         assert_eq!(report.event_detection_rate, Some(1.0));
         assert_eq!(report.false_per_minute.unwrap_or(0.0), 0.0);
