@@ -66,7 +66,14 @@ impl Track {
     /// and for a planar array (normal `plane`) about the normal only.
     pub fn update(&mut self, d: &Detection, max_speed: f64, plane: Option<Vector3<f64>>) {
         let predicted = self.predicted(d.time_s);
-        self.direction = smooth(&predicted, &d.direction, d.time_s - self.last_s);
+        // A candidate under the threshold moves a track by one frame's share, however
+        // long the gap before it.
+        let since = if d.margin >= 1.0 {
+            d.time_s - self.last_s
+        } else {
+            0.0
+        };
+        self.direction = smooth(&predicted, &d.direction, since);
         self.last_s = d.time_s;
         let (from, from_s) = self.anchor;
         let span = d.time_s - from_s;

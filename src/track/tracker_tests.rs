@@ -327,3 +327,21 @@ fn a_planar_array_is_tracked_by_its_azimuth() {
 
 #[path = "confirmation_tests.rs"]
 mod confirmation;
+
+#[test]
+fn a_candidate_after_a_pause_does_not_move_its_track_alone() {
+    // A talker at 0 deg for 0.5 s; after a pause of 0.15 s one candidate 4.5 deg off (a
+    // direction a second look found slightly astray), then its candidates at -1 deg.
+    // The candidate after the pause moves the track by one frame's share, not to
+    // itself: the candidates after it are within the candidates' gate (5 deg) and join
+    // the track. (Taken whole, it left the track 5.5 deg from them: they were dropped as
+    // its outliers.)
+    let mut frames: Vec<Vec<(f64, f64)>> = (0..50).map(|_| vec![(0.0, 2.0)]).collect();
+    frames.extend((0..15).map(|_| Vec::new()));
+    frames.push(vec![(4.5, 0.5)]);
+    frames.extend((0..30).map(|_| vec![(-1.0, 0.5)]));
+    let (rows, _) = track_with(TrackParams::default(), &frames);
+    let late: Vec<&Row> = rows.iter().filter(|r| r.0 > 65).collect();
+    assert_eq!(late.len(), 30, "{rows:?}");
+    assert!(late.iter().all(|r| r.1 == Some(1)), "{late:?}");
+}
