@@ -174,6 +174,10 @@ fn main() -> Result<(), Box<dyn Error>> {
         .find_map(|a| a.strip_prefix("rot="))
         .map_or(0.0, |v| v.parse().expect("rot takes degrees"));
     ROTATION.set(rotation).expect("set once");
+    // `only=meetings|atonce|moving|turning|background` runs those scenes alone (the other
+    // tables stay empty): a quicker look at what a change does there.
+    let only = args.iter().find_map(|a| a.strip_prefix("only="));
+    let runs = |section: &str| only.is_none_or(|o| o == section);
     let mut meetings = String::new();
     let mut at_once = String::new();
     let mut quiet = String::new();
@@ -194,7 +198,11 @@ fn main() -> Result<(), Box<dyn Error>> {
                 Ok((report, tracking))
             };
         for &rate in array.rates {
-            for (j, rt60) in [0.35, 0.5].into_iter().enumerate() {
+            for (j, rt60) in [0.35, 0.5]
+                .into_iter()
+                .enumerate()
+                .filter(|_| runs("meetings"))
+            {
                 let seed = offset + 100 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let (report, t) = run(&meeting(array, rate, rt60, seed))?;
                 meetings += &format!(
@@ -214,7 +222,9 @@ fn main() -> Result<(), Box<dyn Error>> {
                 );
             }
             let scenes = [(30.0, 2), (60.0, 2), (90.0, 2), (60.0, 3)];
-            for (j, (separation, talkers)) in scenes.into_iter().enumerate() {
+            for (j, (separation, talkers)) in
+                scenes.into_iter().enumerate().filter(|_| runs("atonce"))
+            {
                 let seed = offset + 200 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let scene = if talkers == 2 {
                     together(array, rate, separation, seed)
@@ -233,7 +243,11 @@ fn main() -> Result<(), Box<dyn Error>> {
                     opt(report.mean_error_deg, 1),
                 );
             }
-            for (j, speed) in [15.0, 30.0, 60.0].into_iter().enumerate() {
+            for (j, speed) in [15.0, 30.0, 60.0]
+                .into_iter()
+                .enumerate()
+                .filter(|_| runs("moving"))
+            {
                 let seed = offset + 400 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let m = moving_talker(&geometry, rate, array.elevation, speed, seed)?;
                 moving += &format!(
@@ -246,7 +260,11 @@ fn main() -> Result<(), Box<dyn Error>> {
                     100.0 * m.windows,
                 );
             }
-            for (j, speed) in [15.0, 30.0, 60.0].into_iter().enumerate() {
+            for (j, speed) in [15.0, 30.0, 60.0]
+                .into_iter()
+                .enumerate()
+                .filter(|_| runs("turning"))
+            {
                 let seed = offset + 500 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let scene = turning(array, rate, speed, seed);
                 let (records, truth) =
@@ -264,6 +282,9 @@ fn main() -> Result<(), Box<dyn Error>> {
                     opt(report.mean_error_deg, 1),
                     100.0 * windows,
                 );
+            }
+            if !runs("background") {
+                continue;
             }
             let mut cells = Vec::new();
             for (j, near) in [false, true].into_iter().enumerate() {

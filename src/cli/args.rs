@@ -5,7 +5,7 @@ use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
 use ssl::method::{
     Dereverb, Interpolation, Params, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S,
-    DEFAULT_MAX_SOURCES, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US,
+    DEFAULT_MAX_SOURCES, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_PATTERNS_S, DEFAULT_RESIDUAL_GATE_US,
     DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
     MAX_AVERAGE_FRAMES, MAX_SOURCES,
 };
@@ -229,6 +229,10 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = tracker_seconds, conflicts_with = "no_track")]
     pub confirm_s: f64,
 
+    /// Learn each talker's correlation pattern (its reflections too) while it dominates, and look for other talkers once it is removed from each pair's correlation averaged over about this many seconds (arrays whose longest delay is 8 samples or more); 0: none
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_PATTERNS_S, value_parser = non_negative_f64, conflicts_with_all = ["no_track", "paper", "min_score"])]
+    pub patterns_s: f64,
+
     /// Rows wait up to this many seconds for their track to be confirmed (the tracker's delay; never less than --confirm-s): a detection not confirmed by then is dropped, so a talker confirmed late loses its first detections
     #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = tracker_seconds, conflicts_with = "no_track")]
     pub delay_s: f64,
@@ -433,6 +437,13 @@ impl AnalyzeArgs {
             // Further sources from each frame's own correlations, with the steered
             // response's (src/method/frame_sources.rs).
             frame_sources: !self.paper && !self.no_track && self.min_score.is_none(),
+            // Each talker's pattern removed before a second look, with the steered
+            // response's (src/method/patterns.rs).
+            patterns_s: (!self.paper
+                && !self.no_track
+                && self.min_score.is_none()
+                && self.patterns_s > 0.0)
+                .then_some(self.patterns_s),
             max_sources: if self.paper || self.no_track || self.min_score.is_some() {
                 1
             } else {

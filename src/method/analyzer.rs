@@ -18,6 +18,7 @@ use super::background::Background;
 use super::frames::{FrameBlock, BLOCK};
 use super::outcome::{Detections, FrameStats, Outcome, StageTimes};
 use super::params::{Params, ParamsError};
+use super::patterns::Patterns;
 use super::sequential::Sequential;
 use super::setup::Setup;
 use super::state::{Correlated, FrameState};
@@ -35,6 +36,8 @@ pub(crate) struct Analyzer {
     sequential: Sequential,
     /// The coherent background subtracted from the correlations, in frame order.
     background: Option<Background>,
+    /// Each talker's learned pattern and the second look for others, in frame order.
+    patterns: Option<Patterns>,
     /// The last `average_frames - 1` frames of the previous block, then this block's.
     states: Vec<FrameState>,
     live: Vec<bool>,
@@ -65,6 +68,7 @@ impl Analyzer {
                 .collect(),
             sequential: Sequential::new(&setup),
             background: Background::new(&setup),
+            patterns: Patterns::new(&setup),
             states: (0..BLOCK + setup.params.average_frames - 1)
                 .map(|_| FrameState::new(&setup))
                 .collect(),
@@ -286,6 +290,20 @@ impl Analyzer {
                     Outcome::Silent
                 };
             });
+        // Each talker's pattern removed before a second look, in frame order.
+        if let Some(patterns) = self.patterns.as_mut() {
+            let clock = Instant::now();
+            patterns.apply(
+                setup,
+                states,
+                carried,
+                &mut self.outcomes[..count],
+                block.first,
+            );
+            if let Some(times) = self.times.as_mut() {
+                times.search += clock.elapsed();
+            }
+        }
         if let Some(times) = self.times.as_mut() {
             for w in workers {
                 times.add(&std::mem::take(&mut w.lock().expect("a worker panicked").1));

@@ -43,7 +43,12 @@ pub const IMAGE_ELEVATION_DEG: f64 = 20.0;
 
 /// Whether `candidate` may be a further source beside `found` (see the module).
 pub fn distinct(candidate: &Detection, found: &Detection) -> bool {
-    let (u, f) = (&candidate.direction, &found.direction);
+    apart(&candidate.direction, &found.direction, IMAGE_ELEVATION_DEG)
+}
+
+/// [`distinct`] for directions `u` and `f`, with a vertical reflection taken from
+/// `image_elevation_deg` of elevation on (instead of [`IMAGE_ELEVATION_DEG`]).
+pub fn apart(u: &Vector3<f64>, f: &Vector3<f64>, image_elevation_deg: f64) -> bool {
     if u.angle(f).to_degrees() <= SEPARATION_DEG {
         return false;
     }
@@ -54,7 +59,7 @@ pub fn distinct(candidate: &Detection, found: &Detection) -> bool {
         None => 0.0,
     };
     let elevation = |v: &Vector3<f64>| v.z.clamp(-1.0, 1.0).asin().to_degrees();
-    !(plane <= IMAGE_PLANE_DEG && (elevation(u) - elevation(f)).abs() >= IMAGE_ELEVATION_DEG)
+    !(plane <= IMAGE_PLANE_DEG && (elevation(u) - elevation(f)).abs() >= image_elevation_deg)
 }
 
 /// Adds to `found` (the average's sources, the strongest first) the directions of the

@@ -15,6 +15,7 @@
 //! | the detection threshold, calibrated against the background | [`threshold`] | beyond the paper |
 //! | steered response: partial agreement and several sources | [`steered`] | beyond the paper |
 //! | further sources from a frame's own correlations | [`frame_sources`] | beyond the paper |
+//! | each talker's pattern removed before a second look for others | [`patterns`] | beyond the paper |
 //!
 //! [`Params`] holds the parameters; one frame goes through the stages in `worker.rs`, and
 //! the analyzer (`analyzer.rs`) runs a recording's frames through them in blocks on
@@ -33,6 +34,7 @@ pub mod frames;
 mod outcome;
 pub mod pairs;
 mod params;
+pub mod patterns;
 pub mod peaks;
 pub mod search;
 mod sequential;
@@ -55,6 +57,7 @@ pub use params::{
     DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL, DEFAULT_TOLERANCE,
     DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, PRIMING_S, REVERB_TAU_S,
 };
+pub use patterns::DEFAULT_PATTERNS_S;
 pub use peaks::Interpolation;
 pub use spectrum::Window;
 pub use threshold::{DEFAULT_THRESHOLD_SIGMAS, DIFFUSE_MARGIN};

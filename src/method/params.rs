@@ -78,6 +78,13 @@ pub struct Params {
     /// beyond the paper; up to [`Params::max_sources`]; default off; on with a tracker,
     /// [`Params::for_tracker`]).
     pub frame_sources: bool,
+    /// Time constant (seconds) of the longer average in which each talker's learned
+    /// pattern is removed before a second look for further sources
+    /// ([`super::patterns`], beyond the paper; with `steered`, on arrays whose longest
+    /// delay is [`MIN_LAGS`](super::patterns::MIN_LAGS) samples or more; `None`: none,
+    /// the default; [`DEFAULT_PATTERNS_S`](super::patterns::DEFAULT_PATTERNS_S) with a
+    /// tracker, [`Params::for_tracker`]).
+    pub patterns_s: Option<f64>,
     /// Candidates scoring down to this share of the detection threshold are reported
     /// too, with [`Detection::margin`](super::Detection::margin) under 1, for a tracker to
     /// confirm or drop (default 1: none; `ssl analyze` uses
@@ -118,6 +125,7 @@ impl Params {
             steered: true,
             max_sources: super::DEFAULT_MAX_SOURCES,
             frame_sources: true,
+            patterns_s: Some(super::patterns::DEFAULT_PATTERNS_S),
             candidates: crate::track::DEFAULT_CANDIDATES,
             ..self
         }
@@ -134,6 +142,7 @@ impl Params {
             threshold_sigmas: None,
             reverb_level: 0.0,
             background_s: None,
+            patterns_s: None,
             steered: false,
             max_sources: 1,
             candidates: 1.0,
@@ -170,6 +179,7 @@ impl Default for Params {
             steered: false,
             max_sources: 1,
             frame_sources: false,
+            patterns_s: None,
             candidates: 1.0,
             dereverb: Dereverb::Auto,
         }
@@ -285,6 +295,9 @@ pub enum ParamsError {
     /// The background's time constant is not a positive number of seconds.
     #[error("the background's time constant must be a positive number of seconds, got {0}")]
     BackgroundS(f64),
+    /// The learned patterns' longer average has no positive time constant.
+    #[error("the time constant of the average the talkers' patterns are removed from must be a positive number of seconds, got {0}")]
+    PatternsS(f64),
     /// The threshold is not a number.
     #[error("the detection threshold must be a number, got {0}")]
     MinScore(f64),

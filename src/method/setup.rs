@@ -107,6 +107,9 @@ impl Setup {
         if let Some(s) = params.background_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
             return Err(ParamsError::BackgroundS(s));
         }
+        if let Some(s) = params.patterns_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(ParamsError::PatternsS(s));
+        }
         if params.min_score_per_pair.is_nan() {
             return Err(ParamsError::MinScore(params.min_score_per_pair));
         }

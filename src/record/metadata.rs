@@ -124,6 +124,10 @@ pub struct ParametersInfo {
     pub max_sources: usize,
     /// Whether further sources come from each frame's own correlations too.
     pub frame_sources: bool,
+    /// Time constant (seconds) of the average each talker's learned pattern is removed
+    /// from before a second look for others, or null for none (it applies to arrays
+    /// whose longest delay is 8 samples or more at the file's rate).
+    pub patterns_s: Option<f64>,
     /// Candidates are reported down to this share of the threshold, for the tracker (1:
     /// none).
     pub candidates: f64,
@@ -173,6 +177,7 @@ impl RunMetadata {
                 steered: params.steered,
                 max_sources: params.max_sources,
                 frame_sources: params.frame_sources,
+                patterns_s: params.patterns_s,
                 candidates: params.candidates,
                 dereverb: params.dereverb.applies(&geometry.shape),
                 track: None,

@@ -113,6 +113,9 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("cand") => params.candidates = value("cand"),
             // The most sources per frame.
             Some("k") => params.max_sources = value("k") as usize,
+            // Each talker's pattern removed before a second look (its longer average's
+            // time constant, seconds; 0: none, the default).
+            Some("pat") => params.patterns_s = Some(value("pat")).filter(|&s| s > 0.0),
             // Further sources from each frame's own correlations (1: on, the default).
             Some("own") => params.frame_sources = value("own") > 0.0,
             // The frame length in milliseconds.
@@ -128,7 +131,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
                 "weak" | "tight" | "tightdeg" | "confirm" | "delay" | "gate" | "cgate" | "cgs",
             ) => {}
             // A benchmark's own (an offset to its scenes' seeds).
-            Some("seed" | "rot") => {}
+            Some("seed" | "rot" | "only") => {}
             _ => numbers.push(
                 arg.parse::<f64>()
                     .unwrap_or_else(|_| panic!("unknown argument {arg}")),

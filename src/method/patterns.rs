@@ -1,0 +1,466 @@
+//! Each talker's correlation pattern, learned while it dominates and removed before a
+//! second look for the others (beyond the paper).
+//!
+//! When two talk at once, a frame's averaged correlations belong mostly to the louder:
+//! its direct path and its reflections (a wall's image, the floor's) outscore the other
+//! talker in most frames, and clearing the first source's delays ([`super::steered`])
+//! leaves its reflections. So each talker's whole pattern (every pair's correlation at
+//! the lags searched, reflections included) is learned from the frames it dominates,
+//! and in every frame that gives a source, that source's pattern is fitted to a longer
+//! average of the correlations and subtracted before the steered response looks there
+//! for another source:
+//!
+//! - **Learning:** a frame whose first source scores at least [`LEARN_MARGIN`] of the
+//!   threshold and [`DOMINANT`] times any other source of the frame teaches the
+//!   pattern of the talker within [`SLOT_DEG`] of it (a running mean at first, then an
+//!   exponential average over [`PATTERN_S`]); up to [`SLOTS`] talkers are remembered,
+//!   the one learned from longest ago replaced first.
+//! - **The longer average:** every pair's correlation averaged exponentially over
+//!   [`Params::patterns_s`](super::Params::patterns_s) (0.17 s: 0.25 and 0.34 s found
+//!   more on the tracking benchmark but left a moving talker's trail behind it as a
+//!   second track).
+//! - **Removal:** the first source's pattern times the least-squares gain that fits it
+//!   to the longer average over every live pair, once learned from [`MIN_LEARNED`]
+//!   frames, and only while the talker keeps still ([`STILL_DEG`]).
+//! - **The second look:** the steered response over what is left, the directions found
+//!   cleared, down to the candidates' share of the longer average's own threshold (the
+//!   frame's with its chance part scaled by the average's spread, `sqrt((1 - a) / (1 +
+//!   a))` for an exponential average of factor `a`). What it gives is a further source of
+//!   the frame when it is heard in the frame's span too ([`NOW_SHARE`], [`NOW_FLOOR`])
+//!   and is no vertical reflection of a source of the frame or of a talker heard lately
+//!   ([`IMAGE_ELEVATION_DEG`]).
+//!
+//! The array must leave room for reflections in its correlations: below [`MIN_LAGS`]
+//! samples of delay (a 4.6 cm circle or a 6.5 cm tetrahedron at 16 kHz) the second look
+//! found no talker more on the tracking benchmark and made tracks of reflections; the
+//! same arrays at 48 kHz (9-13 samples) found 0-4 points more windows, the prism
+//! (17-103 samples at 8-48 kHz) 2-9 at 48 kHz and 4-9 at 16 kHz (docs/tracking.md).
+//!
+//! It runs in frame order after the frames' own stages, so its output does not depend on
+//! the thread count, and its memory is fixed (a few patterns of every pair's lags).
+
+use super::detect::{detection, solver};
+use super::direction::DirectionSolver;
+use super::frame_sources::apart;
+use super::outcome::{Detections, Outcome};
+use super::pairs::{pair_count, pair_index};
+use super::setup::Setup;
+use super::state::{Correlated, FrameState};
+use super::steered::{Query, Steer, Steered, CLEAR_SAMPLES};
+use super::threshold::chance_sigma;
+use nalgebra::Vector3;
+use std::collections::HashMap;
+
+/// A frame teaches its first source's pattern when that source scores at least this many
+/// times any other of the frame.
+pub const DOMINANT: f64 = 2.0;
+
+/// A source within this many degrees of a remembered talker is that talker.
+pub const SLOT_DEG: f64 = 10.0;
+
+/// Time constant (seconds) of a talker's pattern once learned from enough frames.
+pub const PATTERN_S: f64 = 2.0;
+
+/// The most talkers remembered.
+pub const SLOTS: usize = 6;
+
+/// The share of a frame's first source a remembered talker's direction moves by.
+pub const FOLLOW: f64 = 0.3;
+
+/// What the second look finds within the vertical plane of a source found in the frame
+/// ([`IMAGE_PLANE_DEG`](super::frame_sources::IMAGE_PLANE_DEG)) and this many degrees
+/// or more from its elevation is that source's floor or ceiling image, left over from its
+/// pattern (measured on the tracking benchmark's prism at 16 kHz: images 15-17 deg
+/// above and below a talker made tracks of their own; the frame's own further sources
+/// take 20).
+pub const IMAGE_ELEVATION_DEG: f64 = 10.0;
+
+/// A remembered talker is heard lately when it was a frame's first source at most this
+/// long ago (seconds).
+pub const TALKING_S: f64 = 0.5;
+
+/// What the second look finds scores at least this share of its score in the longer
+/// average in the correlations averaged over the frame's span (pairs that cannot tell
+/// it from a source found left out): a source that stopped leaves the span long before
+/// the longer average.
+pub const NOW_SHARE: f64 = 0.5;
+
+/// ...and at least this share of the frame's candidates' floor there. Without these two,
+/// `tests/accuracy.rs` failed: after each noise burst or train of clicks ended, rows of
+/// it came in the next one's first 0.05-0.1 s (its span scored 0.12-0.21 of the floor;
+/// the second talkers of the tracking benchmark 0.21-0.72, the lowest tenth cut).
+pub const NOW_FLOOR: f64 = 0.25;
+
+/// A talker whose direction now is further than this (degrees) from its direction
+/// averaged as the longer average is, is moving: its pattern, smeared along its way, is
+/// not removed (else what is left of it was taken for a second talker: the tracking
+/// benchmark's prism made two tracks of a talker turning at 15 and 60 deg/s).
+pub const STILL_DEG: f64 = 2.0;
+
+/// A pattern is removed once learned from this many frames (3 found 4-10 points more
+/// windows than 8 on the tracking benchmark's prism).
+pub const MIN_LEARNED: u32 = 3;
+
+/// A frame teaches its first source's pattern only when that source scores at least
+/// this share of the threshold (0.5 found 0-8 points more than 1).
+pub const LEARN_MARGIN: f64 = 0.5;
+
+/// Patterns are learned only when the array's longest delay is at least this many
+/// samples.
+pub const MIN_LAGS: usize = 8;
+
+/// Default time constant (seconds) of the longer average.
+pub const DEFAULT_PATTERNS_S: f64 = 0.17;
+
+struct Slot {
+    direction: Vector3<f64>,
+    /// Its direction averaged as the longer average is: where a moving talker is in it.
+    trail: Vector3<f64>,
+    pattern: Vec<f32>,
+    learned: u32,
+    last: u64,
+    /// The last frame it was the first source of.
+    seen: u64,
+}
+
+/// The learned patterns, the longer average and the buffers of the second look.
+pub(crate) struct Patterns {
+    keep: f32,
+    /// The standard deviation of an exponential average of independent values, as a
+    /// share of theirs.
+    spread: f64,
+    floor: f32,
+    long: Vec<f32>,
+    /// Per pair, `x_ab * fs / c` (samples per unit of direction).
+    diffs: Vec<Vector3<f64>>,
+    residual: Vec<f32>,
+    slots: Vec<Slot>,
+    steered: Steered,
+    solvers: HashMap<u64, Option<DirectionSolver>>,
+    directions: Vec<Vector3<f64>>,
+}
+
+impl Patterns {
+    /// Nothing learned, or `None` when the parameters leave it out.
+    pub fn new(setup: &Setup) -> Option<Self> {
+        let tau = setup.params.patterns_s?;
+        let longest = setup.max_lag.iter().copied().max().unwrap_or(0);
+        if !setup.params.steered || longest < MIN_LAGS {
+            return None;
+        }
+        let hop_s = setup.hop as f64 / setup.rate;
+        let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
+        Some(Patterns {
+            keep: (-hop_s / tau).exp() as f32,
+            spread: {
+                let keep = (-hop_s / tau).exp();
+                ((1.0 - keep) / (1.0 + keep)).sqrt()
+            },
+            floor: (hop_s / PATTERN_S).min(1.0) as f32,
+            long: vec![0.0; setup.windows_len],
+            diffs: (0..positions.len())
+                .flat_map(|a| (a + 1..positions.len()).map(move |b| (a, b)))
+                .map(|(a, b)| (positions[b] - positions[a]) * setup.rate / setup.speed)
+                .collect(),
+            residual: vec![0.0; setup.windows_len],
+            slots: Vec::with_capacity(SLOTS),
+            steered: Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag),
+            solvers: HashMap::new(),
+            directions: Vec::with_capacity(super::MAX_SOURCES),
+        })
+    }
+
+    /// In frame order: folds each frame into the longer average, learns from the frames
+    /// one source dominates, and adds to each frame that gives a source what the second
+    /// look finds. `states` holds the block's frames after the `carried` before them
+    /// (each frame's span, [`Params::average_frames`](super::Params::average_frames) in
+    /// all); `first` is the index of the block's first frame.
+    pub fn apply(
+        &mut self,
+        setup: &Setup,
+        states: &[FrameState],
+        carried: usize,
+        outcomes: &mut [Outcome],
+        first: u64,
+    ) {
+        for (i, outcome) in outcomes.iter_mut().enumerate() {
+            let index = first + i as u64;
+            let span = &states[i..=i + carried];
+            let state = &span[carried];
+            self.fold(setup, state);
+            let Outcome::Detected(found, _) = outcome else {
+                continue;
+            };
+            let slot = self.learn(setup, state, found, index);
+            if found.len() < setup.params.max_sources {
+                if let Some(slot) = slot {
+                    self.look(setup, span, found, slot, index);
+                }
+            }
+        }
+    }
+
+    /// The score of direction `u` in the correlations averaged over `span` (as the
+    /// frame's own stages average them): per live pair, the highest value within the
+    /// tolerance of `u`'s delay, summed over the pairs.
+    fn score_now(&self, setup: &Setup, span: &[FrameState], u: &Vector3<f64>) -> f64 {
+        let reach = 2.0 * setup.params.tolerance as f64 + CLEAR_SAMPLES as f64;
+        let state = span.last().expect("a frame");
+        let (live, mics) = (&state.live, setup.mics());
+        let tolerance = setup.params.tolerance as f64;
+        let mut total = 0.0;
+        for (i, &a) in live.iter().enumerate() {
+            for &b in &live[i + 1..] {
+                let pair = pair_index(a, b, mics);
+                let half = setup.max_lag[pair] + 1;
+                let start = setup.window_starts[pair];
+                let centre = u.dot(&self.diffs[pair]) + half as f64;
+                // A pair that cannot tell `u` from a source found (their delays within the
+                // tolerance of what was cleared around it) says nothing.
+                if self
+                    .directions
+                    .iter()
+                    .any(|f| (f.dot(&self.diffs[pair]) + half as f64 - centre).abs() <= reach)
+                {
+                    continue;
+                }
+                let lo = (centre - tolerance).ceil().max(0.0) as usize;
+                let hi = ((centre + tolerance).floor().max(0.0) as usize).min(2 * half);
+                let both = (1u64 << a) | (1u64 << b);
+                let frames = || {
+                    span.iter()
+                        .filter(move |f| f.correlated == Correlated::Yes && f.mask & both == both)
+                };
+                let count = frames().count();
+                if count == 0 || lo > hi {
+                    continue;
+                }
+                let best = (lo..=hi)
+                    .map(|k| frames().map(|f| f.windows[start + k]).sum::<f32>())
+                    .fold(0.0f32, f32::max);
+                total += (best / count as f32) as f64;
+            }
+        }
+        total
+    }
+
+    /// The live pairs of `state`: each one's range in the windows.
+    fn ranges<'a>(
+        setup: &'a Setup,
+        state: &'a FrameState,
+    ) -> impl Iterator<Item = std::ops::Range<usize>> + 'a {
+        let (live, mics) = (&state.live, setup.mics());
+        live.iter().enumerate().flat_map(move |(i, &a)| {
+            live[i + 1..].iter().map(move |&b| {
+                let pair = pair_index(a, b, mics);
+                let start = setup.window_starts[pair];
+                start..start + 2 * setup.max_lag[pair] + 3
+            })
+        })
+    }
+
+    fn fold(&mut self, setup: &Setup, state: &FrameState) {
+        let keep = self.keep;
+        self.long.iter_mut().for_each(|v| *v *= keep);
+        if state.correlated != Correlated::Yes {
+            return;
+        }
+        for r in Self::ranges(setup, state) {
+            for (l, w) in self.long[r.clone()].iter_mut().zip(&state.windows[r]) {
+                *l += (1.0 - keep) * w;
+            }
+        }
+    }
+
+    /// The slot of the frame's first source (learning from the frame when it dominates),
+    /// or `None` when none is remembered near it.
+    fn learn(
+        &mut self,
+        setup: &Setup,
+        state: &FrameState,
+        found: &Detections,
+        index: u64,
+    ) -> Option<usize> {
+        let first = found.as_slice().first()?;
+        let near = SLOT_DEG.to_radians().cos();
+        let mut slot = self
+            .slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.direction.dot(&first.direction) > near)
+            .max_by(|x, y| {
+                x.1.direction
+                    .dot(&first.direction)
+                    .total_cmp(&y.1.direction.dot(&first.direction))
+            })
+            .map(|(i, _)| i);
+        let dominant = first.margin >= LEARN_MARGIN
+            && state.correlated == Correlated::Yes
+            && found.as_slice()[1..]
+                .iter()
+                .all(|d| first.score >= DOMINANT * d.score);
+        if let Some(s) = slot {
+            // The talker's direction now, and where it was over the longer average.
+            let s = &mut self.slots[s];
+            s.seen = index;
+            let towards = |from: &Vector3<f64>, share: f64| {
+                (from * (1.0 - share) + first.direction * share)
+                    .try_normalize(1e-9)
+                    .unwrap_or(first.direction)
+            };
+            s.direction = towards(&s.direction, FOLLOW);
+            s.trail = towards(&s.trail, 1.0 - self.keep as f64);
+        }
+        if !dominant {
+            return slot;
+        }
+        let s = match slot {
+            Some(s) => s,
+            None if self.slots.len() < SLOTS => {
+                self.slots.push(Slot {
+                    direction: first.direction,
+                    trail: first.direction,
+                    pattern: vec![0.0; setup.windows_len],
+                    learned: 0,
+                    last: index,
+                    seen: index,
+                });
+                self.slots.len() - 1
+            }
+            None => {
+                let s = (0..self.slots.len())
+                    .min_by_key(|&s| self.slots[s].last)
+                    .expect("slots");
+                let slot = &mut self.slots[s];
+                slot.direction = first.direction;
+                slot.trail = first.direction;
+                slot.seen = index;
+                slot.pattern.iter_mut().for_each(|v| *v = 0.0);
+                slot.learned = 0;
+                s
+            }
+        };
+        slot = Some(s);
+        let floor = self.floor;
+        let target = &mut self.slots[s];
+        let share = (1.0 / (target.learned as f32 + 1.0)).max(floor);
+        for r in Self::ranges(setup, state) {
+            for (p, w) in target.pattern[r.clone()].iter_mut().zip(&state.windows[r]) {
+                *p += share * (w - *p);
+            }
+        }
+        target.learned += 1;
+        target.last = index;
+        slot
+    }
+
+    /// The second look (see the module): what is left of the longer average once the
+    /// pattern of `slot` is removed.
+    fn look(
+        &mut self,
+        setup: &Setup,
+        span: &[FrameState],
+        found: &mut Detections,
+        slot: usize,
+        index: u64,
+    ) {
+        let state = span.last().expect("a frame");
+        let pattern = &self.slots[slot];
+        // A moving talker's pattern is smeared along its way: what is left of it would
+        // be taken for another source.
+        if pattern.learned < MIN_LEARNED
+            || pattern.direction.angle(&pattern.trail).to_degrees() > STILL_DEG
+        {
+            return;
+        }
+        let (mut cross, mut energy) = (0.0f64, 0.0f64);
+        for r in Self::ranges(setup, state) {
+            for (l, p) in self.long[r.clone()].iter().zip(&pattern.pattern[r]) {
+                cross += (*l as f64) * (*p as f64);
+                energy += (*p as f64) * (*p as f64);
+            }
+        }
+        if energy <= 0.0 {
+            return;
+        }
+        let gain = (cross / energy).max(0.0) as f32;
+        for r in Self::ranges(setup, state) {
+            for ((out, l), p) in self.residual[r.clone()]
+                .iter_mut()
+                .zip(&self.long[r.clone()])
+                .zip(&pattern.pattern[r])
+            {
+                *out = l - gain * p;
+            }
+        }
+        let Some(solver) = solver(&mut self.solvers, setup, state) else {
+            return;
+        };
+        self.directions.clear();
+        self.directions
+            .extend(found.as_slice().iter().map(|d| d.direction));
+        let k = state.live.len();
+        // The threshold of the longer average: the frame's with its chance part scaled
+        // by the exponential average's spread over independent frames.
+        let threshold = match setup.params.threshold_sigmas {
+            Some(z) => {
+                setup.diffuse_floor + z * chance_sigma(&state.weights, setup.n) * self.spread
+            }
+            None => setup.params.min_score_per_pair,
+        };
+        let floor = threshold * setup.params.candidates * pair_count(k) as f64;
+        let Some(Steer {
+            direction: u,
+            score,
+            agreeing,
+        }) = self.steered.search(
+            &mut self.residual,
+            &Query {
+                live: &state.live,
+                mics: setup.mics(),
+                found: &self.directions,
+                tolerance: setup.params.tolerance,
+                floor,
+            },
+            solver,
+        )
+        else {
+            return;
+        };
+        if score < floor || agreeing < pair_count(k).div_ceil(2) {
+            return;
+        }
+        if let Some(gate) = setup.params.residual_gate_us {
+            if solver.residual_m(self.steered.best_lags(), &u) / setup.speed * 1e6 > gate {
+                return;
+            }
+        }
+        // A source that has stopped stays in the longer average a while: the source
+        // must be heard in the frame's own span too.
+        let now = self.score_now(setup, span, &u);
+        if now < NOW_SHARE * score || now < NOW_FLOOR * state.floor * pair_count(k) as f64 {
+            return;
+        }
+        let d = detection(setup, state, index, u, score);
+        // Not a reflection of a source of the frame, nor of a talker heard lately (its
+        // direction there is its own).
+        let near = SLOT_DEG.to_radians().cos();
+        let heard = (TALKING_S * setup.rate / setup.hop as f64) as u64;
+        if found
+            .as_slice()
+            .iter()
+            .all(|f| apart(&u, &f.direction, IMAGE_ELEVATION_DEG))
+            && self.slots.iter().all(|s| {
+                index - s.seen > heard
+                    || s.direction.dot(&u) > near
+                    || apart(&u, &s.direction, IMAGE_ELEVATION_DEG)
+            })
+        {
+            found.push(d);
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "patterns_tests.rs"]
+mod tests;

@@ -1,0 +1,56 @@
+//! The learned patterns' setup: on which arrays, and with which parameters.
+
+use super::*;
+use crate::geometry::Geometry;
+use crate::method::Params;
+
+/// Microphones at the corners of a cube `side` metres across.
+fn cube(side: f64) -> Geometry {
+    let mut toml = String::new();
+    for i in 0..8 {
+        let at = |bit: usize| {
+            if i >> bit & 1 == 1 {
+                side / 2.0
+            } else {
+                -side / 2.0
+            }
+        };
+        toml += &format!("[[mic]]\nposition = [{}, {}, {}]\n", at(0), at(1), at(2));
+    }
+    Geometry::from_toml_str(&toml).unwrap()
+}
+
+fn setup(geometry: &Geometry, rate: u32, params: &Params) -> Setup {
+    Setup::new(geometry, rate, params).unwrap()
+}
+
+#[test]
+fn patterns_are_learned_with_a_tracker_on_arrays_with_room_for_reflections() {
+    let tracked = Params::default().for_tracker();
+    // A 40 cm cube: its longest delay is 32 samples at 16 kHz, 16 at 8 kHz.
+    let large = cube(0.4);
+    assert!(Patterns::new(&setup(&large, 16000, &tracked)).is_some());
+    assert!(Patterns::new(&setup(&large, 8000, &tracked)).is_some());
+    // A 4 cm cube: 3 samples at 16 kHz, 9 at 48 kHz.
+    let small = cube(0.04);
+    assert!(Patterns::new(&setup(&small, 16000, &tracked)).is_none());
+    assert!(Patterns::new(&setup(&small, 48000, &tracked)).is_some());
+    // Without a tracker (no steered response), or turned off: none.
+    assert!(Patterns::new(&setup(&large, 16000, &Params::default())).is_none());
+    let off = Params {
+        patterns_s: None,
+        ..tracked.clone()
+    };
+    assert!(Patterns::new(&setup(&large, 16000, &off)).is_none());
+}
+
+#[test]
+fn a_time_constant_that_is_not_positive_is_refused() {
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let params = Params {
+            patterns_s: Some(bad),
+            ..Params::default().for_tracker()
+        };
+        assert!(Setup::new(&cube(0.4), 16000, &params).is_err(), "{bad}");
+    }
+}
