@@ -314,7 +314,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     println!("|---|---|---|---|---|---|---|---|---|");
     print!("{meetings}");
     println!("\n## Two and three talkers at once\n");
-    println!("Both talk for 2.8 s, at azimuth 20 deg and 30, 60 or 90 deg to its right, RT60 0.35 s; in the last row of each array a third talker, 60 deg to the left of the first, says a third sentence at the same time. A frame gives its dominant talker and, when it passes the threshold on its own, a second (from the correlations averaged over frames, or from the frame's own: `src/method/frame_sources.rs`); the tracker's candidates (down to 0.4 of the threshold) add the frames each talker dominates less. Cells: the share of (0.1 s window, talker) pairs with a row of that talker in the window / rows of each talker / tracks / mean error of the rows.\n");
+    println!("Both talk for 2.8 s, at azimuth 20 deg and 30, 60 or 90 deg to its right, RT60 0.35 s; in the last row of each array a third talker, 60 deg to the left of the first, says a third sentence at the same time. A frame gives its dominant talker and, when it passes the threshold on its own, a second (from the correlations averaged over frames, or from the frame's own: `src/method/frame_sources.rs`; on the prism also from what is left of a longer average once the first talker's learned pattern is removed: `src/method/patterns.rs`); the tracker's candidates (down to 0.4 of the threshold) add the frames each talker dominates less. Cells: the share of (0.1 s window, talker) pairs with a row of that talker in the window / rows of each talker / tracks / mean error of the rows.\n");
     println!(
         "| array | rate | talkers | windows detected | rows per talker | tracks | mean error |"
     );
