@@ -110,6 +110,9 @@ pub const LEARN_MARGIN: f64 = 0.5;
 /// samples.
 pub const MIN_LAGS: usize = 8;
 
+/// The longer average's scale under which it is multiplied out.
+const RESCALE: f32 = 1e-6;
+
 /// Default time constant (seconds) of the longer average.
 pub const DEFAULT_PATTERNS_S: f64 = 0.17;
 
@@ -127,6 +130,8 @@ struct Slot {
 /// The learned patterns, the longer average and the buffers of the second look.
 pub(crate) struct Patterns {
     keep: f32,
+    /// The longer average is `scale` times `long`.
+    scale: f32,
     /// The standard deviation of an exponential average of independent values, as a
     /// share of theirs.
     spread: f64,
@@ -153,6 +158,7 @@ impl Patterns {
         let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
         Some(Patterns {
             keep: (-hop_s / tau).exp() as f32,
+            scale: 1.0,
             spread: {
                 let keep = (-hop_s / tau).exp();
                 ((1.0 - keep) / (1.0 + keep)).sqrt()
@@ -260,15 +266,22 @@ impl Patterns {
         })
     }
 
+    /// Folds a frame into the longer average, kept as `scale` times `long` so that the
+    /// frames' decay costs one multiplication (`long` is rescaled when `scale` gets small).
     fn fold(&mut self, setup: &Setup, state: &FrameState) {
-        let keep = self.keep;
-        self.long.iter_mut().for_each(|v| *v *= keep);
+        self.scale *= self.keep;
+        if self.scale < RESCALE {
+            let scale = self.scale;
+            self.long.iter_mut().for_each(|v| *v *= scale);
+            self.scale = 1.0;
+        }
         if state.correlated != Correlated::Yes {
             return;
         }
+        let share = (1.0 - self.keep) / self.scale;
         for r in Self::ranges(setup, state) {
             for (l, w) in self.long[r.clone()].iter_mut().zip(&state.windows[r]) {
-                *l += (1.0 - keep) * w;
+                *l += share * w;
             }
         }
     }
@@ -374,24 +387,24 @@ impl Patterns {
         {
             return;
         }
+        let scale = self.scale;
         let (mut cross, mut energy) = (0.0f64, 0.0f64);
         for r in Self::ranges(setup, state) {
-            for (l, p) in self.long[r.clone()].iter().zip(&pattern.pattern[r]) {
-                cross += (*l as f64) * (*p as f64);
-                energy += (*p as f64) * (*p as f64);
-            }
+            let (c, e) = products(&self.long[r.clone()], &pattern.pattern[r]);
+            cross += c;
+            energy += e;
         }
         if energy <= 0.0 {
             return;
         }
-        let gain = (cross / energy).max(0.0) as f32;
+        let gain = (scale as f64 * cross / energy).max(0.0) as f32;
         for r in Self::ranges(setup, state) {
             for ((out, l), p) in self.residual[r.clone()]
                 .iter_mut()
                 .zip(&self.long[r.clone()])
                 .zip(&pattern.pattern[r])
             {
-                *out = l - gain * p;
+                *out = scale * l - gain * p;
             }
         }
         let Some(solver) = solver(&mut self.solvers, setup, state) else {
@@ -460,6 +473,26 @@ impl Patterns {
             found.push(d);
         }
     }
+}
+
+/// `sum a_i b_i` and `sum b_i^2`, in eight lanes (which the compiler vectorises).
+fn products(a: &[f32], b: &[f32]) -> (f64, f64) {
+    let (mut cross, mut energy) = ([0.0f32; 8], [0.0f32; 8]);
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            cross[k] += x[k] * y[k];
+            energy[k] += y[k] * y[k];
+        }
+    }
+    let mut c: f64 = cross.iter().map(|&v| v as f64).sum();
+    let mut e: f64 = energy.iter().map(|&v| v as f64).sum();
+    for (x, y) in ra.iter().zip(rb) {
+        c += (*x as f64) * (*y as f64);
+        e += (*y as f64) * (*y as f64);
+    }
+    (c, e)
 }
 
 #[cfg(test)]

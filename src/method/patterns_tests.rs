@@ -54,3 +54,18 @@ fn a_time_constant_that_is_not_positive_is_refused() {
         assert!(Setup::new(&cube(0.4), 16000, &params).is_err(), "{bad}");
     }
 }
+
+#[test]
+fn products_are_the_naive_sums() {
+    let a: Vec<f32> = (0..43).map(|i| (i as f32 * 0.37).sin()).collect();
+    let b: Vec<f32> = (0..43).map(|i| (i as f32 * 0.11).cos() - 0.2).collect();
+    let (c, e) = products(&a, &b);
+    let naive_c: f64 = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (*x as f64) * (*y as f64))
+        .sum();
+    let naive_e: f64 = b.iter().map(|y| (*y as f64) * (*y as f64)).sum();
+    assert!((c - naive_c).abs() < 1e-5, "{c} {naive_c}");
+    assert!((e - naive_e).abs() < 1e-5, "{e} {naive_e}");
+}
