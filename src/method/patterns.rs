@@ -16,9 +16,9 @@
 //!   exponential average over [`PATTERN_S`]); up to [`SLOTS`] talkers are remembered,
 //!   the one learned from longest ago replaced first.
 //! - **The longer average:** every pair's correlation averaged exponentially over
-//!   [`Params::patterns_s`](super::Params::patterns_s) (0.17 s: 0.25 and 0.34 s found
-//!   more on the tracking benchmark but left a moving talker's trail behind it as a
-//!   second track).
+//!   [`Params::patterns_s`](super::Params::patterns_s) (0.17 s; 0.25 s found 0-4
+//!   points more on the tracking benchmark's prism, its meetings' rows 0.1 deg worse;
+//!   0.34 s left a meeting's rows 1.2 deg off, docs/tracking.md).
 //! - **Removal:** the first source's pattern times the least-squares gain that fits it
 //!   to the longer average over every live pair, once learned from [`MIN_LEARNED`]
 //!   frames, and only while the talker keeps still ([`STILL_DEG`]).
