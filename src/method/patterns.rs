@@ -32,9 +32,11 @@
 //!
 //! The array must leave room for reflections in its correlations: below [`MIN_LAGS`]
 //! samples of delay (a 4.6 cm circle or a 6.5 cm tetrahedron at 16 kHz) the second look
-//! found no talker more on the tracking benchmark and made tracks of reflections; the
-//! same arrays at 48 kHz (9-13 samples) found 0-4 points more windows, the prism
-//! (17-103 samples at 8-48 kHz) 2-9 at 48 kHz and 4-9 at 16 kHz (docs/tracking.md).
+//! found no talker more on the tracking benchmark and, before the span and image checks,
+//! made tracks of reflections (with them it changes nothing there); the same arrays at
+//! 48 kHz (9-13 samples) found 0-4 points more windows, the prism (17-103 samples at
+//! 8-48 kHz) 2-8 points at 48 kHz and 2-12 at 16 kHz over three draws
+//! (docs/tracking.md).
 //!
 //! It runs in frame order after the frames' own stages, so its output does not depend on
 //! the thread count, and its memory is fixed (a few patterns of every pair's lags).
