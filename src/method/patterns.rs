@@ -137,10 +137,9 @@ pub(crate) struct Patterns {
     /// The standard deviation of an exponential average of independent values, as a
     /// share of theirs.
     spread: f64,
-    floor: f32,
+    /// The smallest share of a new frame in a pattern (its exponential average's).
+    min_share: f32,
     long: Vec<f32>,
-    /// Per pair, `x_ab * fs / c` (samples per unit of direction).
-    diffs: Vec<Vector3<f64>>,
     residual: Vec<f32>,
     slots: Vec<Slot>,
     steered: Steered,
@@ -157,20 +156,14 @@ impl Patterns {
             return None;
         }
         let hop_s = setup.hop as f64 / setup.rate;
+        let keep = (-hop_s / tau).exp();
         let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
         Some(Patterns {
-            keep: (-hop_s / tau).exp() as f32,
+            keep: keep as f32,
             scale: 1.0,
-            spread: {
-                let keep = (-hop_s / tau).exp();
-                ((1.0 - keep) / (1.0 + keep)).sqrt()
-            },
-            floor: (hop_s / PATTERN_S).min(1.0) as f32,
+            spread: ((1.0 - keep) / (1.0 + keep)).sqrt(),
+            min_share: (hop_s / PATTERN_S).min(1.0) as f32,
             long: vec![0.0; setup.windows_len],
-            diffs: (0..positions.len())
-                .flat_map(|a| (a + 1..positions.len()).map(move |b| (a, b)))
-                .map(|(a, b)| (positions[b] - positions[a]) * setup.rate / setup.speed)
-                .collect(),
             residual: vec![0.0; setup.windows_len],
             slots: Vec::with_capacity(SLOTS),
             steered: Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag),
@@ -223,14 +216,12 @@ impl Patterns {
                 let pair = pair_index(a, b, mics);
                 let half = setup.max_lag[pair] + 1;
                 let start = setup.window_starts[pair];
-                let centre = u.dot(&self.diffs[pair]) + half as f64;
+                let centre = u.dot(self.steered.pair_samples(pair)) + half as f64;
                 // A pair that cannot tell `u` from a source found (their delays within the
                 // tolerance of what was cleared around it) says nothing.
-                if self
-                    .directions
-                    .iter()
-                    .any(|f| (f.dot(&self.diffs[pair]) + half as f64 - centre).abs() <= reach)
-                {
+                if self.directions.iter().any(|f| {
+                    (f.dot(self.steered.pair_samples(pair)) + half as f64 - centre).abs() <= reach
+                }) {
                     continue;
                 }
                 let lo = (centre - tolerance).ceil().max(0.0) as usize;
@@ -357,9 +348,9 @@ impl Patterns {
             }
         };
         slot = Some(s);
-        let floor = self.floor;
+        let min_share = self.min_share;
         let target = &mut self.slots[s];
-        let share = (1.0 / (target.learned as f32 + 1.0)).max(floor);
+        let share = (1.0 / (target.learned as f32 + 1.0)).max(min_share);
         for r in Self::ranges(setup, state) {
             for (p, w) in target.pattern[r.clone()].iter_mut().zip(&state.windows[r]) {
                 *p += share * (w - *p);

@@ -171,6 +171,12 @@ impl Steered {
         }
     }
 
+    /// Per pair of the array (in the order of [`pair_index`]), `x_ab * fs / c`: a
+    /// direction's delay over the pair, in samples, is its dot product with this.
+    pub fn pair_samples(&self, pair: usize) -> &Vector3<f64> {
+        &self.diffs[pair]
+    }
+
     /// The lags (per live pair, in the order of [`pair_index`]) behind the direction
     /// [`Steered::search`] last gave.
     pub fn best_lags(&self) -> &[f64] {
