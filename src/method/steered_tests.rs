@@ -1,0 +1,91 @@
+//! The steered response's tests.
+
+use super::*;
+use crate::geometry::Geometry;
+use crate::method::direction::{angle_between_deg, unit_from_angles};
+use crate::method::pairs::pair_count;
+
+#[test]
+fn running_max_is_the_naive_one() {
+    let w: Vec<f32> = (0..37)
+        .map(|i| ((i * 7919) % 23) as f32 - 9.0 + 0.5 * (i as f32).sin())
+        .collect();
+    let (mut out, mut scratch) = (Vec::new(), Vec::new());
+    for r in [0, 1, 2, 5, 13, 40] {
+        running_max(&w, r, &mut out, &mut scratch);
+        let naive: Vec<f32> = (0..w.len())
+            .map(|i| {
+                let lo = i.saturating_sub(r);
+                let hi = (i + r).min(w.len() - 1);
+                w[lo..=hi].iter().copied().fold(0.0f32, f32::max)
+            })
+            .collect();
+        assert_eq!(out, naive, "r = {r}");
+    }
+}
+
+/// Correlations with a peak at every pair's delay of source A, weaker ones at
+/// source B's, and three pairs that disagree with A: the first search finds A with
+/// the other pairs agreeing, the second (A cleared) finds B.
+#[test]
+fn finds_a_source_most_pairs_agree_on_then_the_next() {
+    let geometry = Geometry::from_file(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml"),
+    )
+    .unwrap();
+    let (rate, speed) = (48000.0, 343.0);
+    let positions: Vec<Vector3<f64>> = geometry.mics.iter().map(|m| m.position).collect();
+    let mics = positions.len();
+    let max_lag: Vec<usize> = (0..pair_count(mics))
+        .map(|_| (0.8 * rate / speed) as usize)
+        .collect();
+    let mut steered = Steered::new(&positions, rate, speed, &max_lag);
+    let (a, b) = (unit_from_angles(30.0, 10.0), unit_from_angles(-60.0, -5.0));
+    let mut windows = vec![0.0f32; max_lag.iter().map(|&h| 2 * h + 3).sum()];
+    let mut start = 0;
+    for i in 0..mics {
+        for j in i + 1..mics {
+            let half = max_lag[pair_index(i, j, mics)] + 1;
+            let x = (positions[j] - positions[i]) * rate / speed;
+            let w = &mut windows[start..start + 2 * half + 1];
+            // Pairs 0-2 put A's peak 6 samples off.
+            let off = if pair_index(i, j, mics) < 3 { 6.0 } else { 0.0 };
+            for (u, height, shift) in [(a, 1.0, off), (b, 0.5, 0.0)] {
+                let lag = u.dot(&x) + shift + half as f64;
+                for (k, v) in w.iter_mut().enumerate() {
+                    let d = k as f64 - lag;
+                    *v += (height * (-d * d).exp()) as f32;
+                }
+            }
+            start += 2 * half + 1;
+        }
+    }
+    let live: Vec<usize> = (0..mics).collect();
+    let solver = DirectionSolver::new(&geometry, (1 << mics) - 1, rate, speed).unwrap();
+    let query = |found, floor| Query {
+        live: &live,
+        mics,
+        found,
+        tolerance: 2.0,
+        floor,
+    };
+    let first = steered
+        .search(&mut windows, &query(&[], 0.0), &solver)
+        .unwrap();
+    assert!(angle_between_deg(&first.direction, &a) < 0.5);
+    assert_eq!(first.agreeing, pair_count(mics) - 3);
+    assert!(first.score > 0.9 * (pair_count(mics) - 3) as f64);
+    // A floor above what any direction can score: nothing is searched.
+    assert!(steered
+        .search(&mut windows, &query(&[], 100.0), &solver)
+        .is_none());
+    let second = steered
+        .search(&mut windows, &query(&[first.direction], 0.0), &solver)
+        .unwrap();
+    assert!(
+        angle_between_deg(&second.direction, &b) < 0.5,
+        "{:?}",
+        crate::method::direction::angles_deg(&second.direction)
+    );
+    assert!(second.agreeing >= pair_count(mics) - 3);
+}
