@@ -50,6 +50,8 @@ fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     assert_eq!(p["tolerance_samples"], 2.0);
     assert!(p["threshold_sigmas"].is_null());
     assert_eq!(p["reverb_level"], 0.0);
+    // Under a fixed threshold, no second look once a talker's pattern is removed.
+    assert!(p["patterns_s"].is_null());
     // The default frame size: null in the parameters, the size used in the file's entry;
     // the default threshold is calibrated (no fixed score), with late reverberation.
     let out = example(&["-f", "json"]);
@@ -61,6 +63,15 @@ fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     assert_eq!(p["threshold_sigmas"], 6.0);
     assert_eq!(p["reverb_level"], 0.5);
     assert_eq!(p["background_s"], 2.0);
+    assert_eq!(p["patterns_s"], 0.17);
+    for (given, written) in [
+        ("0.25", serde_json::json!(0.25)),
+        ("0", serde_json::Value::Null),
+    ] {
+        let out = example(&["-f", "json", "--patterns-s", given]);
+        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(doc["parameters"]["patterns_s"], written, "{given}");
+    }
     for key in [
         "alpha",
         "gamma",

@@ -603,6 +603,23 @@ fn usage_errors_exit_2() {
             "-1",
         ],
         vec!["analyze", s(&wav), "--geometry", s(&geo), "--format", "xml"],
+        vec![
+            "analyze",
+            s(&wav),
+            "--geometry",
+            s(&geo),
+            "--patterns-s",
+            "-0.1",
+        ],
+        vec![
+            "analyze",
+            s(&wav),
+            "--geometry",
+            s(&geo),
+            "--no-track",
+            "--patterns-s",
+            "0.2",
+        ],
         vec!["frobnicate"],
     ] {
         let out = run(&args);
