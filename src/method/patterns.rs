@@ -48,8 +48,7 @@ use super::outcome::{Detections, Outcome};
 use super::pairs::{pair_count, pair_index};
 use super::setup::Setup;
 use super::state::{Correlated, FrameState};
-use super::steered::{Query, Steer, Steered, CLEAR_SAMPLES};
-use super::threshold::chance_sigma;
+use super::steered::{Query, Steered, CLEAR_SAMPLES};
 use nalgebra::Vector3;
 use std::collections::HashMap;
 
@@ -409,18 +408,9 @@ impl Patterns {
         let k = state.live.len();
         // The threshold of the longer average: the frame's with its chance part scaled
         // by the exponential average's spread over independent frames.
-        let threshold = match setup.params.threshold_sigmas {
-            Some(z) => {
-                setup.diffuse_floor + z * chance_sigma(&state.weights, setup.n) * self.spread
-            }
-            None => setup.params.min_score_per_pair,
-        };
+        let threshold = setup.threshold_per_pair_spread(&state.weights, self.spread);
         let floor = threshold * setup.params.candidates * pair_count(k) as f64;
-        let Some(Steer {
-            direction: u,
-            score,
-            agreeing,
-        }) = self.steered.search(
+        let Some(steer) = self.steered.search(
             &mut self.residual,
             &Query {
                 live: &state.live,
@@ -430,25 +420,22 @@ impl Patterns {
                 floor,
             },
             solver,
-        )
-        else {
+        ) else {
             return;
         };
-        if score < floor || agreeing < pair_count(k).div_ceil(2) {
+        if !self
+            .steered
+            .accepts(&steer, floor, pair_count(k), setup, solver)
+        {
             return;
         }
-        if let Some(gate) = setup.params.residual_gate_us {
-            if solver.residual_m(self.steered.best_lags(), &u) / setup.speed * 1e6 > gate {
-                return;
-            }
-        }
+        let (u, score) = (steer.direction, steer.score);
         // A source that has stopped stays in the longer average a while: the source
         // must be heard in the frame's own span too.
         let now = self.score_now(setup, span, &u);
         if now < NOW_SHARE * score || now < NOW_FLOOR * state.floor * pair_count(k) as f64 {
             return;
         }
-        let d = detection(setup, state, index, u, score);
         // Not a reflection of a source of the frame, nor of a talker heard lately (its
         // direction there is its own).
         let near = SLOT_DEG.to_radians().cos();
@@ -463,7 +450,7 @@ impl Patterns {
                     || apart(&u, &s.direction, IMAGE_ELEVATION_DEG)
             })
         {
-            found.push(d);
+            found.push(detection(setup, state, index, u, score));
         }
     }
 }

@@ -51,8 +51,15 @@ pub(crate) struct Setup {
 impl Setup {
     /// A frame's detection threshold per pair, from its weights `w_e(k)`.
     pub fn threshold_per_pair(&self, weights: &[f32]) -> f64 {
+        self.threshold_per_pair_spread(weights, 1.0)
+    }
+
+    /// [`Setup::threshold_per_pair`] of an average whose chance fluctuation is `spread`
+    /// times a frame's (the calibrated threshold's chance part scales with it; a fixed
+    /// threshold does not).
+    pub fn threshold_per_pair_spread(&self, weights: &[f32], spread: f64) -> f64 {
         match self.params.threshold_sigmas {
-            Some(z) => self.diffuse_floor + z * chance_sigma(weights, self.n),
+            Some(z) => self.diffuse_floor + z * chance_sigma(weights, self.n) * spread,
             None => self.params.min_score_per_pair,
         }
     }

@@ -81,6 +81,8 @@ pub(crate) struct Steered {
     order: Vec<usize>,
     tried: Vec<Vector3<f64>>,
     lags: Vec<f64>,
+    /// The lags (per live pair, in the order of [`pair_index`]) behind the direction
+    /// the last search gave.
     best_lags: Vec<f64>,
 }
 
@@ -177,10 +179,23 @@ impl Steered {
         &self.diffs[pair]
     }
 
-    /// The lags (per live pair, in the order of [`pair_index`]) behind the direction
-    /// [`Steered::search`] last gave.
-    pub fn best_lags(&self) -> &[f64] {
-        &self.best_lags
+    /// Whether `steer`, the last search's result, is a direction: it scores `floor` or
+    /// more with at least half the `pairs` agreeing, and (with the residual gate) a
+    /// single source explains its delays (a source's mixed with a reflection's are no
+    /// more a direction here than in the consistency search).
+    pub fn accepts(
+        &self,
+        steer: &Steer,
+        floor: f64,
+        pairs: usize,
+        setup: &super::setup::Setup,
+        solver: &DirectionSolver,
+    ) -> bool {
+        steer.score >= floor
+            && steer.agreeing >= pairs.div_ceil(2)
+            && setup.params.residual_gate_us.is_none_or(|gate| {
+                solver.residual_m(&self.best_lags, &steer.direction) / setup.speed * 1e6 <= gate
+            })
     }
 
     /// The best direction of the summed correlations `windows` (laid out as a frame's,

@@ -19,7 +19,7 @@ use super::search::Searcher;
 use super::setup::Setup;
 use super::spectrum::{frame_spectra, ForwardFft};
 use super::state::{span_ceiling, Correlated, FrameState};
-use super::steered::{Query, Steer, Steered, FURTHER_SHARE};
+use super::steered::{Query, Steered, FURTHER_SHARE};
 use super::weighting::enhanced_weights;
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
@@ -387,7 +387,6 @@ impl Worker {
         directions.clear();
         directions.extend(found.as_slice().iter().map(|d| d.direction));
         let k = state.live.len();
-        let needed = pair_count(k).div_ceil(2);
         let strong = state.threshold * pair_count(k) as f64;
         while found.len() < wanted {
             // A further source must pass the detection threshold itself (below it, the
@@ -397,11 +396,7 @@ impl Worker {
                 None => threshold,
                 Some(first) => strong.max(FURTHER_SHARE * first.score),
             };
-            let Some(Steer {
-                direction: u,
-                score,
-                agreeing,
-            }) = steered.search(
+            let Some(steer) = steered.search(
                 &mut self.averaged,
                 &Query {
                     live: &state.live,
@@ -411,21 +406,14 @@ impl Worker {
                     floor,
                 },
                 solver,
-            )
-            else {
+            ) else {
                 break;
             };
-            if score < floor || agreeing < needed {
+            if !steered.accepts(&steer, floor, pair_count(k), setup, solver) {
                 break;
             }
-            // Delays no single source explains (a source's mixed with a reflection's)
-            // are no more a direction here than in the consistency search.
-            if let Some(gate) = setup.params.residual_gate_us {
-                if solver.residual_m(steered.best_lags(), &u) / setup.speed * 1e6 > gate {
-                    break;
-                }
-            }
-            found.push(detection(setup, state, index, u, score));
+            let u = steer.direction;
+            found.push(detection(setup, state, index, u, steer.score));
             directions.push(u);
         }
         self.directions = directions;
