@@ -30,7 +30,7 @@ use ssl::track::TrackParams;
 use ssl::{DetectionRecord, Geometry, Params, Truth};
 use std::error::Error;
 use std::path::Path;
-use support::bench::{azimuths, speech_room};
+use support::bench::{azimuth_error, azimuths, speech_room};
 use support::harness::analyse_scene;
 
 use support::{circle, SPEECH as CLIPS};
@@ -166,42 +166,6 @@ fn run(
 /// The tracker the detections go through: `track` on the command line for the
 /// defaults, `track=HITS,SECONDS` for other confirmation settings.
 static TRACK: std::sync::OnceLock<Option<TrackParams>> = std::sync::OnceLock::new();
-
-/// The mean azimuth error (deg) of the detections while a source is active, against
-/// the active source nearest in azimuth: what a planar array measures well whatever
-/// the elevation. For a linear array (`axis`), the error in the angle between the
-/// direction and the axis, the one angle it measures.
-fn azimuth_error(
-    records: &[DetectionRecord],
-    truth: &Truth,
-    axis: Option<Vector3<f64>>,
-) -> Option<f64> {
-    let errors: Vec<f64> = records
-        .iter()
-        .filter_map(|r| {
-            truth
-                .sources
-                .iter()
-                .filter(|s| {
-                    s.active
-                        .iter()
-                        .any(|&[a, b]| r.time_s > a && r.time_s < b + 0.2)
-                })
-                .map(|s| match axis {
-                    Some(a) => {
-                        let cone = |u: Vector3<f64>| u.dot(&a).clamp(-1.0, 1.0).acos().to_degrees();
-                        (cone(Vector3::new(r.x, r.y, r.z)) - cone(s.direction())).abs()
-                    }
-                    None => {
-                        let d = (r.azimuth_deg - s.azimuth_deg).rem_euclid(360.0);
-                        d.min(360.0 - d)
-                    }
-                })
-                .min_by(f64::total_cmp)
-        })
-        .collect();
-    (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64)
-}
 
 /// Detections more than 10 deg from every active source, scoring above the median.
 fn confidently_wrong(records: &[DetectionRecord], truth: &Truth) -> usize {

@@ -26,7 +26,7 @@ use ssl::evaluate::{evaluate, TrackReport};
 use ssl::sim::scene::{SceneFile, SignalKind, SourceSpec};
 use ssl::Geometry;
 use std::error::Error;
-use support::bench::speech_room;
+use support::bench::{azimuth_error, speech_room};
 use support::harness::analyse_scene;
 use support::moving::{moving_talker, window_share};
 
@@ -65,6 +65,9 @@ fn arrays() -> Vec<Array> {
         },
     ]
 }
+
+/// A scene's report, its tracking part and its rows' mean azimuth error (deg).
+type Scored = (ssl::evaluate::Report, TrackReport, Option<f64>);
 
 /// Degrees every talker is turned by about the array (`rot=DEG`; 0 by default).
 static ROTATION: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
@@ -189,14 +192,15 @@ fn main() -> Result<(), Box<dyn Error>> {
             support::geometry_toml(&array.mics, ""),
         )?;
         let geometry = Geometry::from_file(&dir.path().join("array.toml"))?;
-        let run =
-            |scene: &SceneFile| -> Result<(ssl::evaluate::Report, TrackReport), Box<dyn Error>> {
-                let (records, truth) =
-                    analyse_scene(dir.path(), scene, &geometry, &params, track.clone())?;
-                let report = evaluate(&truth, &records, truth.rt60_s().map_or(0.0, |t| t / 2.0))?;
-                let tracking = report.tracking.clone().unwrap_or_else(|| empty(&report));
-                Ok((report, tracking))
-            };
+        // The report, its tracking part and the rows' mean azimuth error.
+        let run = |scene: &SceneFile| -> Result<Scored, Box<dyn Error>> {
+            let (records, truth) =
+                analyse_scene(dir.path(), scene, &geometry, &params, track.clone())?;
+            let report = evaluate(&truth, &records, truth.rt60_s().map_or(0.0, |t| t / 2.0))?;
+            let tracking = report.tracking.clone().unwrap_or_else(|| empty(&report));
+            let azimuth = azimuth_error(&records, &truth, None);
+            Ok((report, tracking, azimuth))
+        };
         for &rate in array.rates {
             for (j, rt60) in [0.35, 0.5]
                 .into_iter()
@@ -204,9 +208,9 @@ fn main() -> Result<(), Box<dyn Error>> {
                 .filter(|_| runs("meetings"))
             {
                 let seed = offset + 100 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
-                let (report, t) = run(&meeting(array, rate, rt60, seed))?;
+                let (report, t, azimuth) = run(&meeting(array, rate, rt60, seed))?;
                 meetings += &format!(
-                    "| {} | {} kHz | {rt60} s | {} ({}/{}) | {:.1} | {} | {} | {} / {} deg | {} / {} s |\n",
+                    "| {} | {} kHz | {rt60} s | {} ({}/{}) | {:.1} | {} | {} | {} / {} deg | {} deg | {} / {} s |\n",
                     array.name,
                     rate / 1000,
                     pct(t.events_recalled, t.true_events),
@@ -217,6 +221,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                     opt(t.min_purity.map(|p| 100.0 * p), 0) + "%",
                     opt(report.mean_error_deg, 1),
                     opt(t.event_error_deg, 1),
+                    opt(azimuth, 1),
                     opt(t.onset_error_s, 2),
                     opt(t.offset_error_s, 2),
                 );
@@ -231,16 +236,17 @@ fn main() -> Result<(), Box<dyn Error>> {
                 } else {
                     three(array, rate, separation, seed)
                 };
-                let (report, t) = run(&scene)?;
+                let (report, t, azimuth) = run(&scene)?;
                 let each: Vec<String> = t.sources.iter().map(|s| format!("{}", s.rows)).collect();
                 at_once += &format!(
-                    "| {} | {} kHz | {talkers}, {separation} deg apart | {} | {} | {} | {} deg |\n",
+                    "| {} | {} kHz | {talkers}, {separation} deg apart | {} | {} | {} | {} deg | {} deg |\n",
                     array.name,
                     rate / 1000,
                     pct(t.overlap_detected, t.overlap_pairs),
                     each.join(" / "),
                     t.tracks,
                     opt(report.mean_error_deg, 1),
+                    opt(azimuth, 1),
                 );
             }
             for (j, speed) in [15.0, 30.0, 60.0]
@@ -289,7 +295,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             let mut cells = Vec::new();
             for (j, near) in [false, true].into_iter().enumerate() {
                 let seed = offset + 300 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
-                let (_, t) = run(&background(array, rate, near, seed))?;
+                let (_, t, _) = run(&background(array, rate, near, seed))?;
                 // The talker at the end is one true event; anything else is false.
                 cells.push(format!(
                     "{} tracks, {} false events",
@@ -309,16 +315,16 @@ fn main() -> Result<(), Box<dyn Error>> {
     println!("# Tracking benchmark\n");
     println!("Made by `cargo bench --bench tracking > docs/tracking.md` (scenes in `benches/tracking.rs`): real speech (the CMU ARCTIC sentences of `testdata/speech/`) in the paper's room (8 x 7 x 3 m, a fan near the ceiling and diffuse noise 10 dB below the talkers), analysed with the defaults and tracked as `ssl analyze` does, scored by `ssl evaluate` (`src/evaluate/tracks.rs` defines each figure). Talkers are 2 m from the prism at elevation -7 deg, 1.5 m from the small arrays at +15 deg.\n");
     println!("## Meetings\n");
-    println!("Four talkers at azimuths -135, -40, 50 and 140 deg take twelve turns in round robin (each 2.8, 3.5 or 3.9 s: the first and the fourth say the same sentence), each turn starting 0.3 s before the previous one ends or 0.2-0.6 s after it. Cells: true events (turns) recalled by an event within 10 deg / false events per minute / tracks per talker / the lowest purity of a talker's dominant track / mean error of the rows / of the events / mean absolute onset / offset error of the events.\n");
-    println!("| array | rate | RT60 | events recalled | false events per min | tracks per talker | lowest purity | mean error rows / events | onset / offset |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("Four talkers at azimuths -135, -40, 50 and 140 deg take twelve turns in round robin (each 2.8, 3.5 or 3.9 s: the first and the fourth say the same sentence), each turn starting 0.3 s before the previous one ends or 0.2-0.6 s after it. Cells: true events (turns) recalled by an event within 10 deg / false events per minute / tracks per talker / the lowest purity of a talker's dominant track / mean error of the rows / of the events / mean azimuth error of the rows (against the active talker nearest in azimuth: what a planar array measures well; its elevation is what the reflections from the floor and ceiling bias, see docs/field.md) / mean absolute onset / offset error of the events.\n");
+    println!("| array | rate | RT60 | events recalled | false events per min | tracks per talker | lowest purity | mean error rows / events | azimuth error | onset / offset |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     print!("{meetings}");
     println!("\n## Two and three talkers at once\n");
-    println!("Both talk for 2.8 s, at azimuth 20 deg and 30, 60 or 90 deg to its right, RT60 0.35 s; in the last row of each array a third talker, 60 deg to the left of the first, says a third sentence at the same time. A frame gives its dominant talker and, when it passes the threshold on its own, a second (from the correlations averaged over frames, or from the frame's own: `src/method/frame_sources.rs`; on the prism also from what is left of a longer average once the first talker's learned pattern is removed: `src/method/patterns.rs`); the tracker's candidates (down to 0.4 of the threshold) add the frames each talker dominates less. Cells: the share of (0.1 s window, talker) pairs with a row of that talker in the window / rows of each talker / tracks / mean error of the rows.\n");
+    println!("Both talk for 2.8 s, at azimuth 20 deg and 30, 60 or 90 deg to its right, RT60 0.35 s; in the last row of each array a third talker, 60 deg to the left of the first, says a third sentence at the same time. A frame gives its dominant talker and, when it passes the threshold on its own, a second (from the correlations averaged over frames, or from the frame's own: `src/method/frame_sources.rs`; on the prism also from what is left of a longer average once the first talker's learned pattern is removed: `src/method/patterns.rs`); the tracker's candidates (down to 0.4 of the threshold) add the frames each talker dominates less. Cells: the share of (0.1 s window, talker) pairs with a row of that talker in the window / rows of each talker / tracks / mean error of the rows / their mean azimuth error (as in the meetings).\n");
     println!(
-        "| array | rate | talkers | windows detected | rows per talker | tracks | mean error |"
+        "| array | rate | talkers | windows detected | rows per talker | tracks | mean error | azimuth error |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|");
     print!("{at_once}");
     println!("\n## A talker moving\n");
     println!("The first sentence (3.9 s), its azimuth turning from -60 deg at 15, 30 or 60 deg/s, in free field with sensor noise 20 dB below, rendered sample by sample (`ssl::sim::freefield::Place::Moving`), analysed with the defaults whatever the benchmark's arguments. Cells: rows / tracks / mean angle of the rows to the talker's direction at their time / the share of the sentence's 0.1 s windows with a row.\n");

@@ -7,6 +7,7 @@
 //! background. It is written to a WAV file, analysed by [`Analysis`] exactly as
 //! `ssl analyze` would, and scored by [`evaluate`].
 
+use nalgebra::Vector3;
 use ssl::evaluate::{evaluate, Report};
 use ssl::sim::scene::{
     ArraySpec, Colour, DiffuseSpec, FanSpec, NoiseSpec, RoomSpec, SampleFormat, SceneFile,
@@ -295,4 +296,40 @@ pub fn speech_room(rate: u32, duration: f64, seed: u64, rt60: f64, near_fan: boo
             }),
         }),
     }
+}
+
+/// The mean azimuth error (deg) of the detections while a source is active, against
+/// the active source nearest in azimuth: what a planar array measures well whatever
+/// the elevation. For a linear array (`axis`), the error in the angle between the
+/// direction and the axis, the one angle it measures.
+pub fn azimuth_error(
+    records: &[DetectionRecord],
+    truth: &Truth,
+    axis: Option<Vector3<f64>>,
+) -> Option<f64> {
+    let errors: Vec<f64> = records
+        .iter()
+        .filter_map(|r| {
+            truth
+                .sources
+                .iter()
+                .filter(|s| {
+                    s.active
+                        .iter()
+                        .any(|&[a, b]| r.time_s > a && r.time_s < b + 0.2)
+                })
+                .map(|s| match axis {
+                    Some(a) => {
+                        let cone = |u: Vector3<f64>| u.dot(&a).clamp(-1.0, 1.0).acos().to_degrees();
+                        (cone(Vector3::new(r.x, r.y, r.z)) - cone(s.direction())).abs()
+                    }
+                    None => {
+                        let d = (r.azimuth_deg - s.azimuth_deg).rem_euclid(360.0);
+                        d.min(360.0 - d)
+                    }
+                })
+                .min_by(f64::total_cmp)
+        })
+        .collect();
+    (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64)
 }
