@@ -25,6 +25,7 @@
 //!   [`CLEAR_SAMPLES`] plus the tolerance of each found direction's delay, and the grid
 //!   is searched again.
 
+use super::correlation::window_max;
 use super::direction::DirectionSolver;
 use super::pairs::pair_index;
 use nalgebra::Vector3;
@@ -240,10 +241,7 @@ impl Steered {
             for b in a + 1..k {
                 let pair = pair_index(live[a], live[b], mics);
                 let (start, half) = self.starts[pair];
-                let top = windows[start..start + 2 * half + 1]
-                    .iter()
-                    .copied()
-                    .fold(0.0f32, f32::max);
+                let top = window_max(&windows[start..start + 2 * half + 1], 0.0);
                 bound += 1.25 * top as f64;
             }
         }

@@ -7,7 +7,7 @@
 //! with those of the frames before it, so [`Worker::correlate`] keeps them in the frame's
 //! state for [`Worker::decide`].
 
-use super::correlation::{peak_ceiling, whiten, Correlator};
+use super::correlation::{peak_ceiling, whiten, window_max, Correlator};
 use super::dereverb::Dereverberator;
 use super::detect::{detection, direction, solver, Direction};
 use super::direction::DirectionSolver;
@@ -195,7 +195,7 @@ impl Worker {
                 let start = setup.window_starts[pair];
                 let window = &mut state.windows[start..start + 2 * half + 1];
                 self.correlator.lags_into(which == 1, window);
-                let top = window.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+                let top = window_max(window, f32::NEG_INFINITY);
                 best_possible += (top.max(0.0) * overshoot) as f64;
                 done += 1;
             }
