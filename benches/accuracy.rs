@@ -264,7 +264,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut variants: Vec<(&str, Params, Option<TrackParams>)> =
         variants.into_iter().map(|(l, p)| (l, p, None)).collect();
     variants.push((
-        "tracked, as `ssl analyze` (candidates down to 0.4 of the threshold)",
+        "tracked, as `ssl analyze` (candidates down to 0.4 of the threshold, riders to 0.3)",
         params.clone().for_tracker(),
         Some(TrackParams::default()),
     ));

@@ -50,8 +50,11 @@ fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     assert_eq!(p["tolerance_samples"], 2.0);
     assert!(p["threshold_sigmas"].is_null());
     assert_eq!(p["reverb_level"], 0.0);
-    // Under a fixed threshold, no second look once a talker's pattern is removed.
+    // Under a fixed threshold, no second look once a talker's pattern is removed, and
+    // no candidates nor riders.
     assert!(p["patterns_s"].is_null());
+    assert_eq!(p["candidates"], 1.0);
+    assert_eq!(p["riders"], 1.0);
     // The default frame size: null in the parameters, the size used in the file's entry;
     // the default threshold is calibrated (no fixed score), with late reverberation.
     let out = example(&["-f", "json"]);
@@ -64,6 +67,11 @@ fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     assert_eq!(p["reverb_level"], 0.5);
     assert_eq!(p["background_s"], 2.0);
     assert_eq!(p["patterns_s"], 0.17);
+    assert_eq!(p["candidates"], 0.4);
+    assert_eq!(p["riders"], 0.3);
+    let out = example(&["-f", "json", "--riders", "0.35"]);
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(doc["parameters"]["riders"], 0.35);
     for (given, written) in [
         ("0.25", serde_json::json!(0.25)),
         ("0", serde_json::Value::Null),

@@ -620,6 +620,17 @@ fn usage_errors_exit_2() {
             "--patterns-s",
             "0.2",
         ],
+        vec!["analyze", s(&wav), "--geometry", s(&geo), "--riders", "0"],
+        vec!["analyze", s(&wav), "--geometry", s(&geo), "--riders", "1.5"],
+        vec![
+            "analyze",
+            s(&wav),
+            "--geometry",
+            s(&geo),
+            "--no-track",
+            "--riders",
+            "0.3",
+        ],
         vec!["frobnicate"],
     ] {
         let out = run(&args);

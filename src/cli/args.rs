@@ -9,7 +9,7 @@ use ssl::method::{
     DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
     MAX_AVERAGE_FRAMES, MAX_SOURCES,
 };
-use ssl::track::{TrackParams, DEFAULT_CANDIDATES, MAX_DELAY_S};
+use ssl::track::{TrackParams, DEFAULT_CANDIDATES, DEFAULT_RIDERS, MAX_DELAY_S};
 use ssl::{Format, Named};
 use std::path::PathBuf;
 
@@ -216,6 +216,10 @@ pub struct AnalyzeArgs {
     /// Also report candidates down to this share of the detection threshold, for the tracker to confirm (a track starts from 2 detections above the threshold, 4 of which 1 is above it, or 12 candidates within --confirm-s) or drop [default: 0.4 with the calibrated threshold, 1 (none) with --min-score]
     #[arg(long, value_name = "SHARE", value_parser = candidate_share, conflicts_with_all = ["no_track", "paper"])]
     pub candidates: Option<f64>,
+
+    /// Search a frame that gives nothing down to --candidates again down to this share of the threshold: what it gives only adds a row to a talking track within a candidate's gate, without moving it, and starts nothing; at or above --candidates, none [default: 0.3 with the calibrated threshold, 1 (none) with --min-score]
+    #[arg(long, value_name = "SHARE", value_parser = candidate_share, conflicts_with_all = ["no_track", "paper"])]
+    pub riders: Option<f64>,
 
     /// The most sources reported in one frame (1 to 4), for the tracker to confirm; a further source must pass the threshold on its own (1 with --min-score or --no-track)
     #[arg(long, value_name = "K", default_value_t = DEFAULT_MAX_SOURCES as u8, value_parser = clap::value_parser!(u8).range(1..=MAX_SOURCES as i64), conflicts_with_all = ["paper", "min_score", "no_track"])]
@@ -458,6 +462,16 @@ impl AnalyzeArgs {
                     1.0
                 } else {
                     DEFAULT_CANDIDATES
+                })
+            },
+            // Riders likewise (src/method/worker.rs, src/track/).
+            riders: if self.paper || self.no_track {
+                1.0
+            } else {
+                self.riders.unwrap_or(if self.min_score.is_some() {
+                    1.0
+                } else {
+                    DEFAULT_RIDERS
                 })
             },
             ..Params::default()

@@ -77,5 +77,6 @@ pub(crate) fn detection(
         } else {
             f64::INFINITY
         },
+        rider: false,
     }
 }

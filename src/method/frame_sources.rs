@@ -93,6 +93,7 @@ mod tests {
             score,
             mics: 6,
             margin: 1.0,
+            rider: false,
         }
     }
 

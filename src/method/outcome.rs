@@ -28,6 +28,11 @@ pub struct Detection {
     /// [`Tracker`](crate::track::Tracker) to confirm or drop (infinite with a threshold
     /// of 0).
     pub margin: f64,
+    /// A rider: from a frame that gave nothing down to
+    /// [`Params::candidates`](crate::Params::candidates), found in its own correlations
+    /// down to [`Params::riders`](crate::Params::riders); a tracker only lets it add a row to a
+    /// talking track (see [`track`](crate::track)).
+    pub rider: bool,
 }
 
 /// The most sources one frame can give ([`Params::max_sources`](super::Params::max_sources)).
@@ -72,6 +77,14 @@ impl Detections {
     /// The detections, strongest first.
     pub fn as_slice(&self) -> &[Detection] {
         &self.items[..self.count]
+    }
+
+    /// Marks every detection a rider.
+    pub fn riders(mut self) -> Self {
+        self.items[..self.count]
+            .iter_mut()
+            .for_each(|d| d.rider = true);
+        self
     }
 }
 

@@ -90,6 +90,15 @@ pub struct Params {
     /// confirm or drop (default 1: none; `ssl analyze` uses
     /// [`DEFAULT_CANDIDATES`](crate::track::DEFAULT_CANDIDATES) when it tracks).
     pub candidates: f64,
+    /// A frame that gives nothing down to [`Params::candidates`] has its own
+    /// correlations (not averaged over frames) searched again down to this share of the
+    /// threshold; what they then give are riders
+    /// ([`Detection::rider`](super::Detection::rider)), which a tracker only lets add
+    /// rows to a talking track (see [`track`](crate::track)). Default 1: none; `ssl
+    /// analyze` uses [`DEFAULT_RIDERS`](crate::track::DEFAULT_RIDERS) when it tracks. At
+    /// or above `candidates`, or without candidates (`candidates` 1: no tracker to ride
+    /// along): none.
+    pub riders: f64,
     /// When the diffuse part of every pair's cross-spectrum is removed before eq. (6)
     /// ([`super::dereverb`], beyond the paper), its coherence measured over the frames
     /// [`Params::average_frames`] averages (default [`Dereverb::Auto`]: for planar and
@@ -127,6 +136,7 @@ impl Params {
             frame_sources: true,
             patterns_s: Some(super::patterns::DEFAULT_PATTERNS_S),
             candidates: crate::track::DEFAULT_CANDIDATES,
+            riders: crate::track::DEFAULT_RIDERS,
             ..self
         }
     }
@@ -146,6 +156,7 @@ impl Params {
             steered: false,
             max_sources: 1,
             candidates: 1.0,
+            riders: 1.0,
             dereverb: Dereverb::Off,
             // As measured before the cosine became the default (docs/accuracy.md).
             interpolation: Interpolation::Parabolic,
@@ -181,6 +192,7 @@ impl Default for Params {
             frame_sources: false,
             patterns_s: None,
             candidates: 1.0,
+            riders: 1.0,
             dereverb: Dereverb::Auto,
         }
     }
@@ -286,6 +298,9 @@ pub enum ParamsError {
     /// The candidates' share of the threshold is not in (0, 1].
     #[error("the candidates' share of the threshold must be over 0 and at most 1, got {0}")]
     Candidates(f64),
+    /// The riders' share of the threshold is not in (0, 1].
+    #[error("the riders' share of the threshold must be over 0 and at most 1, got {0}")]
+    Riders(f64),
     /// The threshold's allowance for chance is negative or not a number.
     #[error("the threshold's allowance for chance must be a non-negative number of standard deviations, got {0}")]
     ThresholdSigmas(f64),

@@ -192,6 +192,12 @@ impl Patterns {
             let Outcome::Detected(found, _) = outcome else {
                 continue;
             };
+            // Riders (a frame that gave nothing down to the candidates' share) teach
+            // nothing and get no second look: the frames that gave something are
+            // analysed as without them.
+            if found.as_slice().first().is_some_and(|d| d.rider) {
+                continue;
+            }
             let slot = self.learn(setup, state, found, index);
             if found.len() < setup.params.max_sources {
                 if let Some(slot) = slot {

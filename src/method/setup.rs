@@ -88,6 +88,9 @@ impl Setup {
         if !(params.candidates > 0.0 && params.candidates <= 1.0) {
             return Err(ParamsError::Candidates(params.candidates));
         }
+        if !(params.riders > 0.0 && params.riders <= 1.0) {
+            return Err(ParamsError::Riders(params.riders));
+        }
         if !(1..=super::MAX_SOURCES).contains(&params.max_sources) {
             return Err(ParamsError::MaxSources(params.max_sources));
         }

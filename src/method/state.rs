@@ -25,6 +25,10 @@ pub(crate) struct FrameState {
     /// [`Params::candidates`](super::Params::candidates). Everything that rules frames
     /// out compares with this.
     pub floor: f64,
+    /// The lowest score per pair of a rider: the threshold times
+    /// [`Params::riders`](super::Params::riders) (at most [`FrameState::floor`]). Only a
+    /// frame that gives nothing down to the floor is searched down to this.
+    pub rider_floor: f64,
     /// With the calibrated threshold: nothing in the frame stands above the noise
     /// estimate (see [`super::threshold`]); such a frame gives no detection.
     pub steady: bool,
@@ -66,6 +70,7 @@ impl FrameState {
             reach: 0.0,
             threshold: 0.0,
             floor: 0.0,
+            rider_floor: 0.0,
             steady: false,
             mask: 0,
             windows: vec![0.0; setup.windows_len],

@@ -131,6 +131,10 @@ pub struct ParametersInfo {
     /// Candidates are reported down to this share of the threshold, for the tracker (1:
     /// none).
     pub candidates: f64,
+    /// A frame that gives nothing down to `candidates` is searched again down to this
+    /// share, for riders (1: none; a document written before them has none).
+    #[serde(default = "no_riders")]
+    pub riders: f64,
     /// Whether the reverberation's diffuse part is removed from the cross-spectra for
     /// this array (`--dereverb`: by default for planar and linear arrays).
     #[serde(default)]
@@ -179,6 +183,7 @@ impl RunMetadata {
                 frame_sources: params.frame_sources,
                 patterns_s: params.patterns_s,
                 candidates: params.candidates,
+                riders: params.riders,
                 dereverb: params.dereverb.applies(&geometry.shape),
                 track: None,
             },
@@ -297,4 +302,9 @@ impl FileEntry {
             ..self
         }
     }
+}
+
+/// Riders' share in a document written before them: none.
+fn no_riders() -> f64 {
+    1.0
 }

@@ -164,7 +164,8 @@ impl Tracker {
         // Nearest first: every (detection, track or candidate) within its gate.
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
-        for (i, d) in detections.iter().enumerate() {
+        let weak = |d: &Detection| d.rider;
+        for (i, d) in detections.iter().enumerate().filter(|(_, d)| !weak(d)) {
             // A candidate (under the threshold) joins only what is close and recent.
             let gate = |since: f64| {
                 if d.margin >= 1.0 {
@@ -205,10 +206,48 @@ impl Tracker {
             used[i] = Some(self.join(&detections[i], slot));
             taken.push(key);
         }
+        // Riders: rows of the talking tracks near them that the frame's other detections
+        // left, nearest first.
+        pairs.clear();
+        for (i, d) in detections.iter().enumerate().filter(|(_, d)| weak(d)) {
+            for t in self.tracks.iter().filter(|t| t.event.is_some()) {
+                let angle = self.distance(&d.direction, &t.predicted(time_s));
+                if angle <= self.candidate_gate && !taken.contains(&(true, t.id)) {
+                    pairs.push((angle, i, Slot::Track(t.id)));
+                }
+            }
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for &(_, i, slot) in &pairs {
+            let Slot::Track(id) = slot else { continue };
+            if used[i].is_some() || taken.contains(&(true, id)) {
+                continue;
+            }
+            // The track itself is left as it was: where it is, when it was last heard.
+            let t = self
+                .tracks
+                .iter_mut()
+                .find(|t| t.id == id)
+                .expect("a live track");
+            if let Some(e) = t.event.as_mut() {
+                e.add(&detections[i]);
+            }
+            used[i] = Some(slot);
+            taken.push((true, id));
+        }
         self.pairs = pairs;
         self.taken = taken;
         for (d, placed) in detections.iter().zip(used.iter_mut()) {
             if placed.is_some() {
+                continue;
+            }
+            // A rider that rides along nothing starts nothing.
+            if weak(d) {
+                if self.params.keep_unconfirmed {
+                    *placed = Some(Slot::Dropped);
+                } else {
+                    self.stats.unconfirmed += 1;
+                }
                 continue;
             }
             // A candidate near a live track, but not near enough to join it, is that

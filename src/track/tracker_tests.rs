@@ -18,6 +18,7 @@ fn detection(frame: u64, azimuth: f64) -> Detection {
         score: 10.0,
         mics: 8,
         margin: 2.0,
+        rider: false,
     }
 }
 

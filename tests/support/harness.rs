@@ -69,7 +69,7 @@ fn named<T: ssl::Named>(arg: &str) -> T {
 /// The method's parameters a harness runs with: the defaults; `paper` for the paper's
 /// method; otherwise the defaults changed by any of `fixed` (`--min-score` at its
 /// default) or `min=X` (a fixed threshold per pair, without late reverberation),
-/// `rev=X` (late reverberation, after them), `sig=X` (the calibrated threshold's sigmas), `steer=0` (no steered response), `k=N` (sources per frame), `own=0` (no further sources from a frame's own correlations), `avg=N` (frames
+/// `rev=X` (late reverberation, after them), `riders=X` (riders' share; 1: none), `sig=X` (the calibrated threshold's sigmas), `steer=0` (no steered response), `k=N` (sources per frame), `own=0` (no further sources from a frame's own correlations), `avg=N` (frames
 /// averaged), `ms=X` (the frame length), `drv=auto|on|off` (the diffuse part removed), `bg=S` (the coherent background's time constant, 0: none), and a tolerance and a residual gate in microseconds (`0` turns the gate
 /// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
@@ -111,6 +111,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("steer") => params.steered = value("steer") > 0.0,
             // Candidates down to this share of the threshold.
             Some("cand") => params.candidates = value("cand"),
+            // Riders down to this share of the threshold (1: none).
+            Some("riders") => params.riders = value("riders"),
             // The most sources per frame.
             Some("k") => params.max_sources = value("k") as usize,
             // Each talker's pattern removed before a second look (its longer average's
@@ -209,6 +211,7 @@ pub fn untracked(params: &ssl::Params, track: &Option<ssl::track::TrackParams>) 
         Some(_) => params.clone(),
         None => ssl::Params {
             candidates: 1.0,
+            riders: 1.0,
             steered: false,
             max_sources: 1,
             frame_sources: false,
