@@ -139,6 +139,15 @@ pub struct Report {
     pub mean_error_deg: Option<f64>,
     /// Their median angular error (degrees).
     pub median_error_deg: Option<f64>,
+    /// Their mean error in azimuth alone (degrees, each against its source; the angle
+    /// about the z axis, whatever the elevation): what a planar array measures well.
+    pub mean_azimuth_error_deg: Option<f64>,
+    /// Their mean error in elevation alone (degrees).
+    pub mean_elevation_error_deg: Option<f64>,
+    /// Their mean signed error in elevation (degrees; positive: above the source), which
+    /// shows a bias such as a horizontal planar array's toward its normal (the floor's and
+    /// ceiling's reflections shorten its delays).
+    pub elevation_bias_deg: Option<f64>,
     /// Share of active frames detected, over all sources.
     pub frame_detection_rate: Option<f64>,
     /// Share of events detected, over all sources.
@@ -248,6 +257,8 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
 
     let mut reports = Vec::new();
     let mut all_errors = Vec::new();
+    // Per counted detection: its azimuth error and its signed elevation error.
+    let mut split: Vec<(f64, f64)> = Vec::new();
     let (mut active_total, mut detected_total, mut events_total, mut events_hit) = (0, 0, 0, 0);
     for (si, (s, t)) in sources.iter().zip(&truth.sources).enumerate() {
         // Detections counted for this source: in a frame wholly inside one of its
@@ -267,6 +278,11 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             .collect();
         let mut errors: Vec<f64> = mine.iter().map(|(_, e)| *e).collect();
         all_errors.extend_from_slice(&errors);
+        split.extend(mine.iter().map(|(d, _)| {
+            let ((daz, del), (saz, sel)) = (angles_deg(&d.direction), angles_deg(&s.at(d.time_s)));
+            let turn = (daz - saz).rem_euclid(360.0);
+            (turn.min(360.0 - turn), del - sel)
+        }));
         let active: Vec<u64> = (0..frames)
             .filter(|&f| s.intervals.iter().any(|&iv| inside(centre(f), iv)))
             .collect();
@@ -319,6 +335,9 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
         detections: all_errors.len(),
         mean_error_deg: mean(&all_errors),
         median_error_deg: median(&mut all_errors),
+        mean_azimuth_error_deg: mean(&split.iter().map(|s| s.0).collect::<Vec<_>>()),
+        mean_elevation_error_deg: mean(&split.iter().map(|s| s.1.abs()).collect::<Vec<_>>()),
+        elevation_bias_deg: mean(&split.iter().map(|s| s.1).collect::<Vec<_>>()),
         frame_detection_rate: (active_total > 0)
             .then(|| detected_total as f64 / active_total as f64),
         event_detection_rate: (events_total > 0).then(|| events_hit as f64 / events_total as f64),
@@ -458,6 +477,26 @@ mod tests {
         );
         assert!((r.false_per_minute.unwrap() - 60.0 / r.background_s).abs() < 1e-9);
         assert_eq!(r.event_detection_rate, Some(1.0));
+    }
+
+    /// The error split: each detection's azimuth and elevation against its source's
+    /// (source 0 at azimuth 0, elevation 0).
+    #[test]
+    fn splits_the_error_into_azimuth_and_elevation() {
+        let at = |az: f64, el: f64| crate::method::direction::unit_from_angles(az, el);
+        let dets = vec![
+            record(100, at(2.0, 3.0)),
+            record(101, at(-4.0, -1.0)),
+            record(102, at(0.0, 4.0)),
+        ];
+        let r = evaluate(&truth(), &dets, 0.1).unwrap();
+        let close = |v: Option<f64>, want: f64| (v.unwrap() - want).abs() < 1e-9;
+        assert!(close(r.mean_azimuth_error_deg, 2.0), "{r:?}");
+        assert!(close(r.mean_elevation_error_deg, 8.0 / 3.0), "{r:?}");
+        assert!(close(r.elevation_bias_deg, 2.0), "{r:?}");
+        assert!(r
+            .table()
+            .contains("azimuth 2.00 deg, elevation 2.67 deg (on average +2.00 deg"));
     }
 
     #[test]

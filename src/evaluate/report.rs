@@ -48,6 +48,17 @@ impl Report {
             opt(self.frame_detection_rate.map(|r| 100.0 * r), 1) + "%",
             opt(self.event_detection_rate.map(|r| 100.0 * r), 1) + "%",
         );
+        if let (Some(az), Some(el), Some(bias)) = (
+            self.mean_azimuth_error_deg,
+            self.mean_elevation_error_deg,
+            self.elevation_bias_deg,
+        ) {
+            // No "-0.00".
+            let bias = if bias.abs() < 0.005 { 0.0 } else { bias };
+            s += &format!(
+                "error split: azimuth {az:.2} deg, elevation {el:.2} deg (on average {bias:+.2} deg: above the sources when positive)\n"
+            );
+        }
         s += &format!(
             "false detections: {} in {:.1} s outside active intervals (+{:.2} s tails): {} per minute\n",
             self.false_detections,
