@@ -41,26 +41,6 @@ fn two_talkers_rows(
     harness::analyse_scene(dir, &scene, geometry, params, Some(track)).unwrap()
 }
 
-/// [`two_talkers_rows`] scored with `tail_s`.
-#[allow(clippy::too_many_arguments)]
-fn two_talkers(
-    dir: &std::path::Path,
-    geometry: &ssl::Geometry,
-    head: &str,
-    talkers: [(f64, &str); 2],
-    placement: &str,
-    active: &str,
-    fan: &str,
-    params: &ssl::Params,
-    track: ssl::track::TrackParams,
-    tail_s: f64,
-) -> (ssl::evaluate::Report, ssl::evaluate::TrackReport) {
-    let (rows, truth) = two_talkers_rows(
-        dir, geometry, head, talkers, placement, active, fan, params, track,
-    );
-    score(&rows, &truth, tail_s)
-}
-
 /// The report of `rows` against `truth` with `tail_s`, and its tracking part.
 fn score(
     rows: &[ssl::DetectionRecord],
@@ -245,7 +225,7 @@ fn a_steady_run_of_candidates_is_a_talker() {
                 ..ssl::track::TrackParams::default()
             };
             eprint!("seed {seed}, confirm_tight {tight}: ");
-            let (report, t) = two_talkers(
+            let (rows, truth) = two_talkers_rows(
                 dir.path(),
                 &geometry,
                 &head,
@@ -255,8 +235,8 @@ fn a_steady_run_of_candidates_is_a_talker() {
                 "[0.4, 4.5, 2.5]",
                 &params,
                 track,
-                0.225,
             );
+            let (report, t) = score(&rows, &truth, 0.225);
             assert_eq!(t.false_events, 0);
             assert!(report.mean_error_deg.unwrap() < 1.0);
             if tight == 8 {

@@ -1,0 +1,142 @@
+//! Tests of the scores (`mod.rs`).
+
+use super::*;
+use crate::record::{parse_detections, TruthSource};
+
+fn source(index: usize, direction: Vector3<f64>, active: Vec<[f64; 2]>) -> TruthSource {
+    let (azimuth_deg, elevation_deg) = angles_deg(&direction);
+    TruthSource {
+        index,
+        signal: "a".into(),
+        level_db: -26.0,
+        position_room: [0.0; 3],
+        x: direction.x,
+        y: direction.y,
+        z: direction.z,
+        azimuth_deg,
+        elevation_deg,
+        distance_m: Some(2.0),
+        active,
+        turn_deg_per_s: None,
+        turn_from_s: None,
+    }
+}
+
+fn truth() -> Truth {
+    Truth {
+        tool: Default::default(),
+        sample_rate: 48000,
+        duration_s: 10.0,
+        seed: 0,
+        speed_of_sound: 343.0,
+        room: None,
+        array: Default::default(),
+        sources: vec![
+            source(0, Vector3::x(), vec![[1.0, 2.0], [5.0, 6.0]]),
+            source(1, Vector3::y(), vec![[3.0, 4.0]]),
+        ],
+        noise: None,
+        recording: None,
+    }
+}
+
+/// A detection in frame `f` (hop 0.01 s) toward `u`.
+fn record(f: u64, u: Vector3<f64>) -> DetectionRecord {
+    DetectionRecord {
+        time_s: (f + 1) as f64 * 0.01,
+        x: u.x,
+        y: u.y,
+        z: u.z,
+        frame: Some(f),
+        ..Default::default()
+    }
+}
+
+/// `deg` degrees from +x toward +z.
+fn tilt(deg: f64) -> Vector3<f64> {
+    let r = deg.to_radians();
+    Vector3::new(r.cos(), 0.0, r.sin())
+}
+
+#[test]
+fn scores_hand_made_detections() {
+    // Source 0, interval 1..2 s: frames wholly inside have centres 1.01..1.99, i.e.
+    // f = 100..=198 (99 frames); likewise 5..6 s: f = 500..=598. Total 198 frames.
+    let mut dets = vec![
+        record(100, tilt(1.0)),
+        record(101, tilt(3.0)),
+        record(150, tilt(20.0)),
+        record(500, tilt(2.0)),
+    ];
+    // A detection between the intervals (7.5 s, far from any tail): false.
+    dets.push(record(749, tilt(0.0)));
+    // Source 1 (+y), interval 3..4 s, detected exactly in one frame.
+    dets.push(record(349, Vector3::y()));
+    let r = evaluate(&truth(), &dets, 0.1).unwrap();
+    assert!((r.hop_s - 0.01).abs() < 1e-12);
+    let s0 = &r.sources[0];
+    assert_eq!(s0.detections, 4);
+    assert!(
+        (s0.mean_error_deg.unwrap() - 6.5).abs() < 1e-9,
+        "{:?}",
+        s0.mean_error_deg
+    );
+    assert!((s0.median_error_deg.unwrap() - 2.5).abs() < 1e-9);
+    assert_eq!(s0.active_frames, 198);
+    assert_eq!(s0.frames_detected, 3, "the 20 deg detection is not a hit");
+    assert_eq!((s0.events, s0.events_detected), (2, 2));
+    let s1 = &r.sources[1];
+    assert_eq!(
+        (s1.detections, s1.frames_detected, s1.events_detected),
+        (1, 1, 1)
+    );
+    assert_eq!(r.false_detections, 1);
+    // Background: frames overlapping no interval + 0.1 s tail.
+    assert!(
+        r.background_s > 6.0 && r.background_s < 7.0,
+        "{}",
+        r.background_s
+    );
+    assert!((r.false_per_minute.unwrap() - 60.0 / r.background_s).abs() < 1e-9);
+    assert_eq!(r.event_detection_rate, Some(1.0));
+}
+
+/// The error split: each detection's azimuth and elevation against its source's
+/// (source 0 at azimuth 0, elevation 0).
+#[test]
+fn splits_the_error_into_azimuth_and_elevation() {
+    let at = |az: f64, el: f64| crate::method::direction::unit_from_angles(az, el);
+    let dets = vec![
+        record(100, at(2.0, 3.0)),
+        record(101, at(-4.0, -1.0)),
+        record(102, at(0.0, 4.0)),
+    ];
+    let r = evaluate(&truth(), &dets, 0.1).unwrap();
+    let close = |v: Option<f64>, want: f64| (v.unwrap() - want).abs() < 1e-9;
+    assert!(close(r.mean_azimuth_error_deg, 2.0), "{r:?}");
+    assert!(close(r.mean_elevation_error_deg, 8.0 / 3.0), "{r:?}");
+    assert!(close(r.elevation_bias_deg, 2.0), "{r:?}");
+    assert!(r
+        .table()
+        .contains("azimuth 2.00 deg, elevation 2.67 deg (on average +2.00 deg"));
+}
+
+#[test]
+fn reads_every_output_format_and_refuses_several_files() {
+    let csv = "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics\n0.5,0,0,1,0,0,3,a.wav,49,8\n";
+    let nd = "{\"time_s\":0.5,\"azimuth_deg\":0,\"elevation_deg\":0,\"x\":1,\"y\":0,\"z\":0,\"score\":3,\"file\":\"a.wav\",\"frame\":49,\"mics\":8}\n";
+    let doc = "{\"tool\":{},\"detections\":[\n{\"time_s\":0.5,\"azimuth_deg\":0,\"elevation_deg\":0,\"x\":1,\"y\":0,\"z\":0,\"score\":3,\"file\":\"a.wav\",\"frame\":49,\"mics\":8}\n],\"files\":[]}";
+    for text in [csv, nd, doc] {
+        let d = parse_detections(text).unwrap();
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].frame, Some(49));
+        assert_eq!(
+            (d[0].x, d[0].file.as_str(), d[0].mics),
+            (1.0, "a.wav", Some(8))
+        );
+    }
+    let two = parse_detections(&format!("{csv}0.6,0,0,1,0,0,3,b.wav,50,8\n")).unwrap();
+    let err = evaluate(&truth(), &two, 0.0).unwrap_err();
+    assert!(err.to_string().contains("2 files"), "{err}");
+    assert!(parse_detections("time_s,x\n0.5,oops\n").is_err());
+}
