@@ -164,8 +164,7 @@ impl Tracker {
         // Nearest first: every (detection, track or candidate) within its gate.
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
-        let weak = |d: &Detection| d.rider;
-        for (i, d) in detections.iter().enumerate().filter(|(_, d)| !weak(d)) {
+        for (i, d) in detections.iter().enumerate().filter(|(_, d)| !d.rider) {
             // A candidate (under the threshold) joins only what is close and recent.
             let gate = |since: f64| {
                 if d.margin >= 1.0 {
@@ -209,7 +208,7 @@ impl Tracker {
         // Riders: rows of the talking tracks near them that the frame's other detections
         // left, nearest first.
         pairs.clear();
-        for (i, d) in detections.iter().enumerate().filter(|(_, d)| weak(d)) {
+        for (i, d) in detections.iter().enumerate().filter(|(_, d)| d.rider) {
             for t in self.tracks.iter().filter(|t| t.event.is_some()) {
                 let angle = self.distance(&d.direction, &t.predicted(time_s));
                 if angle <= self.candidate_gate && !taken.contains(&(true, t.id)) {
@@ -242,7 +241,7 @@ impl Tracker {
                 continue;
             }
             // A rider that rides along nothing starts nothing.
-            if weak(d) {
+            if d.rider {
                 if self.params.keep_unconfirmed {
                     *placed = Some(Slot::Dropped);
                 } else {

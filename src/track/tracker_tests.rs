@@ -346,3 +346,51 @@ fn a_candidate_after_a_pause_does_not_move_its_track_alone() {
     assert_eq!(late.len(), 30, "{rows:?}");
     assert!(late.iter().all(|r| r.1 == Some(1)), "{late:?}");
 }
+
+/// Riders add rows to a talking track within a candidate's gate without moving it, and
+/// start nothing: a dense run of them elsewhere is dropped, and riders drifting away
+/// from the track stop joining it once past the gate (a track they moved would follow).
+#[test]
+fn riders_only_ride_along_a_talking_track() {
+    let rider = |frame: u64, azimuth: f64| Detection {
+        margin: 0.35,
+        rider: true,
+        ..detection(frame, azimuth)
+    };
+    let mut tracker = Tracker::new(TrackParams::default());
+    let mut rows = Vec::new();
+    for f in 0..200u64 {
+        let mut ds = Vec::new();
+        // A talker at 40 deg, heard above the threshold every 10 frames for 0.5 s.
+        if f < 50 && f % 10 == 0 {
+            ds.push(detection(f, 40.0));
+        }
+        // Riders drifting from 40 to 50 deg by 0.2 deg a frame, between those.
+        if f < 50 && f % 10 != 0 {
+            ds.push(rider(f, 40.0 + 0.2 * f as f64));
+        }
+        // A dense run of riders at -60 deg, far from any track.
+        if f % 2 == 1 {
+            ds.push(rider(f, -60.0));
+        }
+        tracker.push(f as f64 * HOP, &ds);
+        rows.extend(tracker.take_rows());
+    }
+    tracker.finish();
+    rows.extend(tracker.take_rows());
+    assert!(rows.iter().all(|r| r.source == Some(1)), "one track only");
+    assert!(rows.iter().all(|r| r.detection.azimuth_deg > 0.0));
+    let riding: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.detection.rider)
+        .map(|r| r.detection.azimuth_deg)
+        .collect();
+    // Within the candidates' gate (5 deg) of the track, which stays at 40 deg.
+    assert!(
+        !riding.is_empty() && riding.iter().all(|&a| a <= 45.0),
+        "{riding:?}"
+    );
+    // Frames 11-25 (42.2-45 deg); those before the track was confirmed (frame 10) had
+    // nothing to ride.
+    assert_eq!(riding.len(), 14, "{riding:?}");
+}
