@@ -384,6 +384,21 @@ fn candidate_share(s: &str) -> Result<f64, String> {
 }
 
 impl AnalyzeArgs {
+    /// A share of the threshold for the tracker (`--candidates`, `--riders`): the one
+    /// `given`, else `default` under the calibrated threshold; 1 (none) without a tracker,
+    /// with `--paper`, and by default with `--min-score`.
+    fn tracker_share(&self, given: Option<f64>, default: f64) -> f64 {
+        if self.paper || self.no_track {
+            1.0
+        } else {
+            given.unwrap_or(if self.min_score.is_some() {
+                1.0
+            } else {
+                default
+            })
+        }
+    }
+
     /// The tracker's parameters, or `None` with `--no-track`.
     pub fn track_params(&self) -> Option<TrackParams> {
         (!self.no_track).then(|| TrackParams {
@@ -453,27 +468,10 @@ impl AnalyzeArgs {
             } else {
                 self.max_sources as usize
             },
-            // Candidates only for a tracker to confirm, by default only under the
-            // calibrated threshold (under a fixed one they were mostly reflections).
-            candidates: if self.paper || self.no_track {
-                1.0
-            } else {
-                self.candidates.unwrap_or(if self.min_score.is_some() {
-                    1.0
-                } else {
-                    DEFAULT_CANDIDATES
-                })
-            },
-            // Riders likewise (src/method/worker.rs, src/track/).
-            riders: if self.paper || self.no_track {
-                1.0
-            } else {
-                self.riders.unwrap_or(if self.min_score.is_some() {
-                    1.0
-                } else {
-                    DEFAULT_RIDERS
-                })
-            },
+            // Candidates and riders only for a tracker to confirm, by default only under
+            // the calibrated threshold (under a fixed one they were mostly reflections).
+            candidates: self.tracker_share(self.candidates, DEFAULT_CANDIDATES),
+            riders: self.tracker_share(self.riders, DEFAULT_RIDERS),
             ..Params::default()
         }
     }

@@ -131,8 +131,9 @@ pub struct ParametersInfo {
     /// Candidates are reported down to this share of the threshold, for the tracker (1:
     /// none).
     pub candidates: f64,
-    /// A frame that gives nothing down to `candidates` is searched again down to this
-    /// share, for riders (1: none; a document written before them has none).
+    /// A frame that gives nothing down to `candidates` has its own correlations searched
+    /// again down to this share, for riders (1: none; a document written before them has
+    /// none).
     #[serde(default = "no_riders")]
     pub riders: f64,
     /// Whether the reverberation's diffuse part is removed from the cross-spectra for

@@ -240,23 +240,15 @@ impl Tracker {
             if placed.is_some() {
                 continue;
             }
-            // A rider that rides along nothing starts nothing.
-            if d.rider {
-                if self.params.keep_unconfirmed {
-                    *placed = Some(Slot::Dropped);
-                } else {
-                    self.stats.unconfirmed += 1;
-                }
-                continue;
-            }
-            // A candidate near a live track, but not near enough to join it, is that
-            // track's outlier: it starts nothing.
-            if d.margin < 1.0
-                && self.tracks.iter().any(|t| {
-                    t.event.is_some()
-                        && self.distance(&d.direction, &t.predicted(time_s))
-                            <= self.gate(time_s - t.last_s)
-                })
+            // A rider that rides along nothing starts nothing; nor does a candidate near
+            // a live track but not near enough to join it: that track's outlier.
+            if d.rider
+                || d.margin < 1.0
+                    && self.tracks.iter().any(|t| {
+                        t.event.is_some()
+                            && self.distance(&d.direction, &t.predicted(time_s))
+                                <= self.gate(time_s - t.last_s)
+                    })
             {
                 if self.params.keep_unconfirmed {
                     *placed = Some(Slot::Dropped);
