@@ -401,11 +401,14 @@ impl AnalyzeArgs {
 
     /// The tracker's parameters, or `None` with `--no-track`.
     pub fn track_params(&self) -> Option<TrackParams> {
+        let defaults = TrackParams::default();
         (!self.no_track).then(|| TrackParams {
             confirm_s: self.confirm_s,
+            // A run of candidates spans at most the window it is counted over.
+            weak_span_s: defaults.weak_span_s.min(self.confirm_s),
             delay_s: self.delay_s,
             keep_unconfirmed: self.keep_unconfirmed,
-            ..TrackParams::default()
+            ..defaults
         })
     }
 

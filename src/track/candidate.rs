@@ -38,10 +38,18 @@ impl Candidate {
         let recent = self.recent(p.confirm_s);
         let hits = recent.clone().count();
         let strong = recent.clone().filter(|d| d.margin >= 1.0).count();
-        strong >= p.confirm_hits
-            || (strong > 0 && hits >= p.confirm_candidates)
-            || hits >= p.confirm_weak
-            || (hits >= p.confirm_tight && spread_deg(recent) <= p.tight_deg)
+        if strong >= p.confirm_hits || (strong > 0 && hits >= p.confirm_candidates) {
+            return true;
+        }
+        // The runs under the threshold: long enough to be several observations.
+        let first = recent
+            .clone()
+            .map(|d| d.time_s)
+            .fold(f64::INFINITY, f64::min);
+        if self.last_s - first < p.weak_span_s {
+            return false;
+        }
+        hits >= p.confirm_weak || (hits >= p.confirm_tight && spread_deg(recent) <= p.tight_deg)
     }
 }
 

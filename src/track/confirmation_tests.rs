@@ -68,6 +68,46 @@ fn a_steady_run_of_candidates_confirms_a_track() {
     assert!(track_margins(&run(2.0, 8)).0.is_empty());
 }
 
+/// A run under the threshold confirms only when it spans `weak_span_s` (0.15 s): the
+/// same steady run packed into consecutive frames (what one reflection left in the
+/// averaged correlations gives) is one observation and starts nothing, a dense run
+/// there neither; spread over 0.16 s, both confirm.
+#[test]
+fn a_run_packed_into_consecutive_frames_confirms_nothing() {
+    let params = TrackParams::default();
+    assert_eq!(params.weak_span_s, 0.15);
+    let frames_per_span = (params.weak_span_s / HOP).round() as u64;
+    let run = |count: u64, step: u64, spread: f64| -> Vec<Vec<(f64, f64)>> {
+        (0..100)
+            .map(|f| {
+                if f % step == 0 && f / step < count {
+                    let side = if (f / step) % 2 == 0 { 1.0 } else { -1.0 };
+                    vec![(40.0 + side * spread, 0.6)]
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect()
+    };
+    // Steady: 9 in consecutive frames span 8 hops, under 0.15 s; every other frame, 16.
+    assert!(8 < frames_per_span && frames_per_span < 16);
+    assert!(track_margins(&run(9, 1, 0.3)).0.is_empty());
+    let (rows, events) = track_margins(&run(9, 2, 0.3));
+    assert_eq!((rows.len(), events.len()), (9, 1));
+    // Dense (wandering 4 deg): 14 in consecutive frames span 13 hops; every other, 26.
+    assert!(13 < frames_per_span);
+    assert!(track_margins(&run(14, 1, 2.0)).0.is_empty());
+    let (rows, events) = track_margins(&run(14, 2, 2.0));
+    assert_eq!((rows.len(), events.len()), (14, 1));
+    // Without the condition, the packed runs confirm.
+    let loose = TrackParams {
+        weak_span_s: 0.0,
+        ..TrackParams::default()
+    };
+    assert_eq!(track_with(loose.clone(), &run(9, 1, 0.3)).0.len(), 9);
+    assert_eq!(track_with(loose, &run(14, 1, 2.0)).0.len(), 14);
+}
+
 /// The dense-run rule counts the candidates within the confirmation window of the
 /// latest (a sliding window): an isolated one long before does not hold the count back.
 /// It waits for the candidate's confirmation as long as the tracker's delay, and is

@@ -152,7 +152,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
 
 /// The tracker's parameters a harness runs with: the defaults changed by any of
 /// `weak=N` (candidates that confirm a track alone), `tight=N` and `tightdeg=DEG` (a
-/// steady run of candidates that does), `confirm=S` (the confirmation
+/// steady run of candidates that does), `span=S` (the least span of those runs),
+/// `confirm=S` (the confirmation
 /// window, seconds), `delay=S` (the tracker's delay), `cgate=DEG` and `cgs=SAMPLES` (a candidate's gate) and `gate=DEG` (the association gate); other arguments are left to
 /// `params_from`.
 pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
@@ -162,6 +163,7 @@ pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
             "weak" => track.confirm_weak = value.parse().expect("weak takes a count"),
             "tight" => track.confirm_tight = value.parse().expect("tight takes a count"),
             "tightdeg" => track.tight_deg = value.parse().expect("tightdeg takes degrees"),
+            "span" => track.weak_span_s = value.parse().expect("span takes seconds"),
             "confirm" => track.confirm_s = value.parse().expect("confirm takes seconds"),
             "delay" => track.delay_s = value.parse().expect("delay takes seconds"),
             "gate" => track.gate_deg = value.parse().expect("gate takes degrees"),
