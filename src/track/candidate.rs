@@ -18,6 +18,8 @@ pub(super) struct Candidate {
     /// Its detections within the tracker's delay ([`TrackParams::delay_s`]) of the
     /// latest frame, oldest first, each with the number of its waiting row.
     pub hits: VecDeque<(u64, Detection)>,
+    /// The time of its latest detection heard alone (see [`TrackParams::alone_s`]).
+    pub alone_s: f64,
 }
 
 impl Candidate {
@@ -38,7 +40,11 @@ impl Candidate {
         let recent = self.recent(p.confirm_s);
         let hits = recent.clone().count();
         let strong = recent.clone().filter(|d| d.margin >= 1.0).count();
-        if strong >= p.confirm_hits || (strong > 0 && hits >= p.confirm_candidates) {
+        // A reflection of a talker is heard only while the talker is: the rules with a
+        // detection above the threshold need one heard alone within the delay.
+        let heard_alone = p.alone_s == 0.0 || self.last_s - self.alone_s <= p.delay();
+        if heard_alone && (strong >= p.confirm_hits || (strong > 0 && hits >= p.confirm_candidates))
+        {
             return true;
         }
         // The runs under the threshold: long enough to be several observations.

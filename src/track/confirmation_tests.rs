@@ -68,6 +68,56 @@ fn a_steady_run_of_candidates_confirms_a_track() {
     assert!(track_margins(&run(2.0, 8)).0.is_empty());
 }
 
+/// A detection heard only while another track talks (a reflection of it) confirms
+/// nothing by the rules with detections above the threshold; a second talker heard
+/// once in a pause of the first (no other detection within `alone_s`) is confirmed,
+/// with its earlier detections.
+#[test]
+fn a_source_heard_only_beside_a_talker_needs_a_moment_alone() {
+    let params = TrackParams::default();
+    assert_eq!(params.alone_s, 0.1);
+    // A talker at 30 deg in every frame but a pause at frames 60-79 (0.2 s); a second
+    // direction at 100 deg every 10th frame from frame 20, above the threshold, in the
+    // talker's frames only (`pause` false) or once in its pause too.
+    let frames = |pause: bool| -> Vec<Vec<(f64, f64)>> {
+        (0..120u64)
+            .map(|f| {
+                let talking = !(60..80).contains(&f);
+                let mut ds = Vec::new();
+                if talking {
+                    ds.push((30.0, 2.0));
+                }
+                if f >= 20 && (f % 10 == 0 && talking || pause && f == 75) {
+                    ds.push((100.0, 2.0));
+                }
+                ds
+            })
+            .collect()
+    };
+    let sources = |rows: &[(u64, u64, f64)]| {
+        let mut ids: Vec<u64> = rows.iter().map(|r| r.1).collect();
+        ids.dedup();
+        ids.sort();
+        ids.dedup();
+        ids
+    };
+    // Beside the talker only: no second track (without the rule, the first two make one).
+    let (rows, _) = track_margins(&frames(false));
+    assert_eq!(sources(&rows), vec![1]);
+    let loose = TrackParams {
+        alone_s: 0.0,
+        ..TrackParams::default()
+    };
+    let (rows, _) = track_with(loose, &frames(false));
+    assert!(rows.iter().any(|r| r.1 == Some(2)));
+    // Heard once in the pause (15 frames after the talker's last): a second track, with
+    // the detections that waited for it (within the 1 s delay).
+    let (rows, _) = track_margins(&frames(true));
+    assert_eq!(sources(&rows), vec![1, 2]);
+    let second: Vec<u64> = rows.iter().filter(|r| r.1 == 2).map(|r| r.0).collect();
+    assert_eq!(second, vec![20, 30, 40, 50, 75, 80, 90, 100, 110]);
+}
+
 /// A run under the threshold confirms only when it spans `weak_span_s` (0.15 s): the
 /// same steady run packed into consecutive frames (what one reflection left in the
 /// averaged correlations gives) is one observation and starts nothing, a dense run

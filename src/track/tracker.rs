@@ -78,6 +78,8 @@ pub struct Tracker {
     /// Per frame, reused: candidate pairings, detections placed, tracks and candidates
     /// taken (`true` for a track, then its id or key).
     pairs: Vec<(f64, usize, Slot)>,
+    /// Whether the frame being pushed is heard alone ([`TrackParams::alone_s`]).
+    alone: bool,
     used: Vec<Option<Slot>>,
     taken: Vec<(bool, u64)>,
 }
@@ -100,6 +102,7 @@ impl Tracker {
             events: Vec::new(),
             stats: TrackStats::default(),
             pairs: Vec::new(),
+            alone: false,
             used: Vec::new(),
             taken: Vec::new(),
         }
@@ -161,6 +164,14 @@ impl Tracker {
     /// [`Tracker::take_rows`] and [`Tracker::take_events`].
     pub fn push(&mut self, time_s: f64, detections: &[Detection]) {
         self.advance(time_s);
+        // Heard alone: the frame's only detection (riders aside), no talking track heard
+        // within `alone_s` before it.
+        let alone_s = self.params.alone_s;
+        self.alone = detections.iter().filter(|d| !d.rider).count() == 1
+            && !self
+                .tracks
+                .iter()
+                .any(|t| t.event.is_some() && time_s - t.last_s <= alone_s);
         // Nearest first: every (detection, track or candidate) within its gate.
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
@@ -264,6 +275,7 @@ impl Tracker {
                 direction: d.direction,
                 last_s: d.time_s,
                 hits: VecDeque::new(),
+                alone_s: f64::NEG_INFINITY,
             });
             *placed = Some(self.join(d, Slot::Candidate(key, 0)));
         }
@@ -308,6 +320,9 @@ impl Tracker {
                 c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
                 c.hits.push_back((row, *d));
+                if self.alone {
+                    c.alone_s = d.time_s;
+                }
                 if c.confirmed(&self.params) {
                     let c = self.candidates.remove(i);
                     self.confirm(c);

@@ -188,7 +188,9 @@ fn scattered_detections_never_make_a_track() {
 }
 
 /// A talking track's floor image (its azimuth, 60 deg lower) starts no track; once the
-/// talker has been silent for a while, a source there is a source.
+/// talker has been silent for a while, a source there is a source. The image is never
+/// heard alone, so by default it is not even confirmed (`alone_s`); without that rule
+/// the image rule refuses it.
 #[test]
 fn a_talkers_floor_image_starts_no_track() {
     let at = |frame: u64, azimuth: f64, elevation: f64| Detection {
@@ -196,8 +198,8 @@ fn a_talkers_floor_image_starts_no_track() {
         direction: unit_from_angles(azimuth, elevation),
         ..detection(frame, azimuth)
     };
-    let run = |image_from: u64| {
-        let mut tracker = Tracker::new(TrackParams::default());
+    let run = |image_from: u64, params: TrackParams| {
+        let mut tracker = Tracker::new(params);
         for f in 0..300u64 {
             let mut ds = Vec::new();
             if f < 60 {
@@ -213,25 +215,31 @@ fn a_talkers_floor_image_starts_no_track() {
         let events: Vec<Event> = tracker.take_events().collect();
         (rows, events, tracker.stats())
     };
-    // The image while the talker talks: only the talker's rows, one event.
-    let (rows, events, stats) = run(20);
-    assert_eq!(rows.len(), 60);
-    assert!(rows.iter().all(|r| r.detection.elevation_deg == 15.0));
-    assert_eq!(events.len(), 1);
-    // Every image detection is counted as such (its candidates are refused two by two).
-    let counted = TrackStats {
-        tracks: 1,
-        rows: 60,
-        unconfirmed: 40,
-        reflections: 40,
+    let image_rule_only = TrackParams {
+        alone_s: 0.0,
+        ..TrackParams::default()
     };
-    assert_eq!(stats, counted);
+    // The image while the talker talks: only the talker's rows, one event, every image
+    // detection dropped.
+    for params in [TrackParams::default(), image_rule_only.clone()] {
+        let (rows, events, stats) = run(20, params);
+        assert_eq!(rows.len(), 60);
+        assert!(rows.iter().all(|r| r.detection.elevation_deg == 15.0));
+        assert_eq!(events.len(), 1);
+        assert_eq!((stats.tracks, stats.rows, stats.unconfirmed), (1, 60, 40));
+    }
+    // Without the rule of detections heard alone, the image rule refuses the image's
+    // candidates two by two: each detection is counted as a reflection. (With it, only
+    // a dense run of them gets that far.)
+    assert_eq!(run(20, image_rule_only.clone()).2.reflections, 40);
     // The same direction 1.4 s after the talker's last word: a source of its own.
-    let (rows, events, stats) = run(200);
-    assert_eq!((stats.tracks, stats.reflections), (2, 0));
-    assert_eq!(rows.len(), 100);
-    assert_eq!(events.len(), 2);
-    assert_eq!(rows[60].source, Some(2));
+    for params in [TrackParams::default(), image_rule_only] {
+        let (rows, events, stats) = run(200, params);
+        assert_eq!((stats.tracks, stats.reflections), (2, 0));
+        assert_eq!(rows.len(), 100);
+        assert_eq!(events.len(), 2);
+        assert_eq!(rows[60].source, Some(2));
+    }
 }
 
 /// With `keep_unconfirmed`, the detections dropped by default come out too, without an

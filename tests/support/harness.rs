@@ -130,7 +130,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("drv") => params.dereverb = named(arg),
             // The tracker's (see `track_from`).
             Some(
-                "weak" | "tight" | "tightdeg" | "confirm" | "delay" | "gate" | "cgate" | "cgs",
+                "weak" | "tight" | "tightdeg" | "span" | "alone" | "confirm" | "delay" | "gate"
+                | "cgate" | "cgs",
             ) => {}
             // A benchmark's own (an offset to its scenes' seeds).
             Some("seed" | "rot" | "only") => {}
@@ -153,6 +154,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
 /// The tracker's parameters a harness runs with: the defaults changed by any of
 /// `weak=N` (candidates that confirm a track alone), `tight=N` and `tightdeg=DEG` (a
 /// steady run of candidates that does), `span=S` (the least span of those runs),
+/// `alone=S` (how long no other track may have been heard before a detection alone),
 /// `confirm=S` (the confirmation
 /// window, seconds), `delay=S` (the tracker's delay), `cgate=DEG` and `cgs=SAMPLES` (a candidate's gate) and `gate=DEG` (the association gate); other arguments are left to
 /// `params_from`.
@@ -164,6 +166,7 @@ pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
             "tight" => track.confirm_tight = value.parse().expect("tight takes a count"),
             "tightdeg" => track.tight_deg = value.parse().expect("tightdeg takes degrees"),
             "span" => track.weak_span_s = value.parse().expect("span takes seconds"),
+            "alone" => track.alone_s = value.parse().expect("alone takes seconds"),
             "confirm" => track.confirm_s = value.parse().expect("confirm takes seconds"),
             "delay" => track.delay_s = value.parse().expect("delay takes seconds"),
             "gate" => track.gate_deg = value.parse().expect("gate takes degrees"),
