@@ -187,7 +187,7 @@ fn main() {
     let base = Params::default();
     let variants: Vec<(&str, Params)> = vec![
         (
-            "default (Hann, cosine peaks, tol 40 us, gate 100 us, weighted, M 8, calibrated threshold)",
+            "default (Hann, cosine peaks, tol 50 us, gate 100 us, weighted, M 8, calibrated threshold)",
             base.clone(),
         ),
         (

@@ -202,7 +202,10 @@ fn a_frames_own_correlations_find_the_other_talker() {
 /// (6 x 5 x 2.8 m, RT60 0.45 s), the array turned 20 deg: one talker keeps the other
 /// under the threshold, whose candidates come in steady runs (within 1.5 deg). With the
 /// tracker's steady-run rule (`TrackParams::confirm_tight`) both are tracked; without
-/// it (12 candidates needed) the second is found in fewer windows.
+/// it (12 candidates needed) the second is found in fewer windows. That was with the
+/// consistency tolerance of 40 us, kept here; with 50 us, the default since, the second
+/// talker gives enough detections above the threshold that the rule adds nothing in
+/// these two draws (33 and 32 of 48 windows either way, asserted too).
 #[test]
 fn a_steady_run_of_candidates_is_a_talker() {
     let dir = tempdir();
@@ -211,9 +214,12 @@ fn a_steady_run_of_candidates_is_a_talker() {
     }
     write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
     let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
-    let params = ssl::Params::default().for_tracker();
     let mut windows = Vec::new();
-    for seed in [5003, 5004] {
+    for (tolerance_us, seed) in [(40.0, 5003), (40.0, 5004), (50.0, 5003), (50.0, 5004)] {
+        let params = ssl::Params {
+            tolerance_us: Some(tolerance_us),
+            ..ssl::Params::default().for_tracker()
+        };
         let head = format!(
             "sample_rate = 48000\nduration = 4.8\nseed = {seed}\nformat = \"float32\"\n\
              [room]\ndimensions = [6.0, 5.0, 2.8]\nrt60 = 0.45\n[array]\n\
@@ -224,7 +230,7 @@ fn a_steady_run_of_candidates_is_a_talker() {
                 confirm_tight: tight,
                 ..ssl::track::TrackParams::default()
             };
-            eprint!("seed {seed}, confirm_tight {tight}: ");
+            eprint!("{tolerance_us} us, seed {seed}, confirm_tight {tight}: ");
             let (rows, truth) = two_talkers_rows(
                 dir.path(),
                 &geometry,
@@ -245,10 +251,13 @@ fn a_steady_run_of_candidates_is_a_talker() {
             windows.push(t.overlap_detected);
         }
     }
-    // Measured: 18 and 27 of 48 windows without the rule (the first draw tracks one
-    // talker only), 27 and 27 with it (16 / 20 and 25 / 24 before the talkers'
-    // patterns were removed, `Params::patterns_s`).
-    assert!(gained(&windows) >= 8, "{windows:?}");
+    // Measured at 40 us: 17 and 31 of 48 windows without the rule (the first draw
+    // tracks one talker only), 26 and 31 with it (18 / 27 and 27 / 27 before the
+    // tracker's runs needed a span and its strong detections one heard alone; 16 / 20
+    // and 25 / 24 before the talkers' patterns were removed, `Params::patterns_s`).
+    assert!(gained(&windows[..4]) >= 8, "{windows:?}");
+    // At 50 us: more windows than either at 40 us, without the rule's help.
+    assert!(windows[4..].iter().all(|&w| w >= 30), "{windows:?}");
 }
 
 /// Two talkers at once, 60 deg apart, on the prism at 48 kHz in the paper's room: the

@@ -26,7 +26,8 @@
 //!   cleared, down to the candidates' share of the longer average's own threshold (the
 //!   frame's with its chance part scaled by the average's spread, `sqrt((1 - a) / (1 +
 //!   a))` for an exponential average of factor `a`). What it gives is a further source of
-//!   the frame when it is heard in the frame's span too ([`NOW_SHARE`], [`NOW_FLOOR`])
+//!   the frame when it is heard in the frame's span too ([`NOW_SHARE`], [`NOW_FLOOR`],
+//!   [`NOW_SAMPLES`])
 //!   and is no vertical reflection of a source of the frame or of a talker heard lately
 //!   ([`IMAGE_ELEVATION_DEG`]).
 //!
@@ -91,6 +92,14 @@ pub const NOW_SHARE: f64 = 0.5;
 /// it came in the next one's first 0.05-0.1 s (its span scored 0.12-0.21 of the floor;
 /// the second talkers of the tracking benchmark 0.21-0.72, the lowest tenth cut).
 pub const NOW_FLOOR: f64 = 0.25;
+
+/// The direction found is heard in the frame's span when each pair's correlation there
+/// peaks within this many samples of its delay (not the consistency tolerance: with 50
+/// us, 2.4 samples at 48 kHz, a noise burst that had ended 0.45 s before still passed
+/// in `tests/accuracy.rs`, its pairs' best values over five lags adding up to the floor;
+/// with one sample the tracking benchmark's prism at 48 kHz finds 0-4 points fewer of
+/// two talkers' windows than with the tolerance, docs/tracking.md).
+pub const NOW_SAMPLES: f64 = 1.0;
 
 /// A talker whose direction now is further than this (degrees) from its direction
 /// averaged as the longer average is, is moving: its pattern, smeared along its way, is
@@ -208,13 +217,14 @@ impl Patterns {
     }
 
     /// The score of direction `u` in the correlations averaged over `span` (as the
-    /// frame's own stages average them): per live pair, the highest value within the
-    /// tolerance of `u`'s delay, summed over the pairs.
+    /// frame's own stages average them): per live pair, the highest value within
+    /// [`NOW_SAMPLES`] (or the tolerance, when smaller) of `u`'s delay, summed over the
+    /// pairs.
     fn score_now(&self, setup: &Setup, span: &[FrameState], u: &Vector3<f64>) -> f64 {
         let reach = 2.0 * setup.params.tolerance as f64 + CLEAR_SAMPLES as f64;
         let state = span.last().expect("a frame");
         let (live, mics) = (&state.live, setup.mics());
-        let tolerance = setup.params.tolerance as f64;
+        let tolerance = (setup.params.tolerance as f64).min(NOW_SAMPLES);
         let mut total = 0.0;
         for (i, &a) in live.iter().enumerate() {
             for &b in &live[i + 1..] {
