@@ -35,6 +35,17 @@ impl Candidate {
             .filter(move |d| last - d.time_s <= window_s)
     }
 
+    /// Takes out its isolated first hits, each followed by a silence longer than
+    /// `gap_s` (seconds): no part of the run that confirms the candidate. Gives their
+    /// rows.
+    pub fn strays(&mut self, gap_s: f64) -> Vec<u64> {
+        let mut rows = Vec::new();
+        while self.hits.len() > 1 && self.hits[1].1.time_s - self.hits[0].1.time_s > gap_s {
+            rows.extend(self.hits.pop_front().map(|(row, _)| row));
+        }
+        rows
+    }
+
     /// Whether the hits within the confirmation window confirm the candidate.
     pub fn confirmed(&self, p: &TrackParams) -> bool {
         let recent = self.recent(p.confirm_s);

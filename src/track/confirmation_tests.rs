@@ -118,6 +118,34 @@ fn a_source_heard_only_beside_a_talker_needs_a_moment_alone() {
     assert_eq!(second, vec![20, 30, 40, 50, 75, 80, 90, 100, 110]);
 }
 
+/// A candidate's detection before a silence longer than the confirmation window is no
+/// part of the run that confirms it: it is dropped, and the event starts with the run.
+/// (A stray candidate 0.77 s before a talker's turn, 6 deg from it, had started the
+/// turn's event that early in a tracking-benchmark meeting.)
+#[test]
+fn a_stray_before_a_long_silence_is_not_the_run_that_confirms() {
+    // A candidate at 40 deg at frame 10, then the talker at 46 deg above the threshold
+    // every other frame from frame 90 (0.8 s later, within the 1 s delay).
+    let frames: Vec<Vec<(f64, f64)>> = (0..200u64)
+        .map(|f| match f {
+            10 => vec![(40.0, 0.9)],
+            90..=130 if f % 2 == 0 => vec![(46.0, 2.0)],
+            _ => Vec::new(),
+        })
+        .collect();
+    let (rows, events) = track_margins(&frames);
+    assert_eq!(rows.first().map(|r| r.0), Some(90));
+    assert_eq!(rows.len(), 21);
+    assert_eq!(events.len(), 1);
+    assert!((events[0].start_s - 90.0 * HOP).abs() < 1e-9);
+    // With the stray 0.4 s before the run instead (within the window), it is kept.
+    let mut near = frames.clone();
+    near[10].clear();
+    near[50] = vec![(40.0, 0.9)];
+    let (rows, _) = track_margins(&near);
+    assert_eq!(rows.first().map(|r| r.0), Some(50));
+}
+
 /// A run under the threshold confirms only when it spans `weak_span_s` (0.15 s): the
 /// same steady run packed into consecutive frames (what one reflection left in the
 /// averaged correlations gives) is one observation and starts nothing, a dense run

@@ -28,7 +28,9 @@
 //!   [`TrackParams::confirm_weak`] under it, or [`TrackParams::confirm_tight`] under it
 //!   within [`TrackParams::tight_deg`] of their mean), counted over the window of that length
 //!   that ends at its latest detection. Its detections wait up to
-//!   [`TrackParams::delay_s`] for that, and then all become the track's rows; a
+//!   [`TrackParams::delay_s`] for that, and then all become the track's rows (but an
+//!   isolated first one followed by a silence longer than [`TrackParams::confirm_s`],
+//!   no part of the run that confirmed it); a
 //!   detection still unconfirmed after it is dropped (isolated outliers never reach the output, unless
 //!   [`TrackParams::keep_unconfirmed`] gives them out without an id), and a candidate
 //!   with none left is forgotten. A candidate at the azimuth of a talking track but far

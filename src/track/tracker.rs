@@ -335,8 +335,13 @@ impl Tracker {
     /// A candidate becomes a track: the nearest track's when one is within its gate
     /// (a live track takes its detections; a silent one is taken up again), else a new
     /// one.
-    fn confirm(&mut self, c: Candidate) {
+    fn confirm(&mut self, mut c: Candidate) {
         let now = c.last_s;
+        // Detections before a silence longer than the confirmation window are not the
+        // run that confirmed it: a stray there would start the event early.
+        for row in c.strays(self.params.confirm_s) {
+            self.resolved.insert(row, None);
+        }
         // A talking track's floor or ceiling image starts nothing (see `image`).
         if self.tracks.iter().any(|t| {
             t.event.is_some()
