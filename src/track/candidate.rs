@@ -1,6 +1,7 @@
 //! A candidate track: detections that no track took, waiting to be confirmed (see the
 //! [`track`](super) module), and the gate within which further detections join it.
 
+use super::motion::Track;
 use super::{TrackParams, MAX_CANDIDATE_GATE_DEG};
 use crate::geometry::Geometry;
 use crate::method::Detection;
@@ -68,6 +69,16 @@ impl Candidate {
         }
         hits >= p.confirm_weak || (hits >= p.confirm_tight && spread_deg(recent) <= p.tight_deg)
     }
+}
+
+/// Whether the frame at `time_s` with `detections` is heard alone (see
+/// [`TrackParams::alone_s`]): its only detection, riders aside, with no talking track
+/// heard within `alone_s` before it.
+pub fn heard_alone(detections: &[Detection], tracks: &[Track], time_s: f64, alone_s: f64) -> bool {
+    detections.iter().filter(|d| !d.rider).count() == 1
+        && !tracks
+            .iter()
+            .any(|t| t.event.is_some() && time_s - t.last_s <= alone_s)
 }
 
 /// The largest angle (degrees) between a detection's direction and their mean.

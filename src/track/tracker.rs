@@ -1,6 +1,6 @@
 //! The tracker: association, confirmation, activity (see the module's documentation).
 
-use super::candidate::{candidate_gate_deg, Candidate};
+use super::candidate::{candidate_gate_deg, heard_alone, Candidate};
 use super::event::{Accumulator, Event};
 use super::image::{is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
@@ -164,14 +164,7 @@ impl Tracker {
     /// [`Tracker::take_rows`] and [`Tracker::take_events`].
     pub fn push(&mut self, time_s: f64, detections: &[Detection]) {
         self.advance(time_s);
-        // Heard alone: the frame's only detection (riders aside), no talking track heard
-        // within `alone_s` before it.
-        let alone_s = self.params.alone_s;
-        self.alone = detections.iter().filter(|d| !d.rider).count() == 1
-            && !self
-                .tracks
-                .iter()
-                .any(|t| t.event.is_some() && time_s - t.last_s <= alone_s);
+        self.alone = heard_alone(detections, &self.tracks, time_s, self.params.alone_s);
         // Nearest first: every (detection, track or candidate) within its gate.
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
