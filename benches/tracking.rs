@@ -182,6 +182,22 @@ fn opt(v: Option<f64>, d: usize) -> String {
     v.map_or("-".into(), |x| format!("{x:.d$}"))
 }
 
+/// A meeting's cells from events recalled to the rows' azimuth error.
+fn meeting_cells(report: &ssl::evaluate::Report, t: &TrackReport, azimuth: Option<f64>) -> String {
+    format!(
+        "{} ({}/{}) | {:.1} | {} | {} | {} / {} deg | {} deg",
+        pct(t.events_recalled, t.true_events),
+        t.events_recalled,
+        t.true_events,
+        t.false_events_per_minute,
+        opt(t.tracks_per_source, 2),
+        opt(t.min_purity.map(|p| 100.0 * p), 0) + "%",
+        opt(report.mean_error_deg, 1),
+        opt(t.event_error_deg, 1),
+        opt(azimuth, 1),
+    )
+}
+
 fn main() -> Result<(), Box<dyn Error>> {
     let started = std::time::Instant::now();
     let dir = tempfile::tempdir()?;
@@ -235,18 +251,10 @@ fn main() -> Result<(), Box<dyn Error>> {
                 let seed = offset + 100 + 10 * k as u64 + j as u64 + rate as u64 / 16000;
                 let (report, t, azimuth) = run(&meeting(array, rate, rt60, seed))?;
                 meetings += &format!(
-                    "| {} | {} kHz | {rt60} s | {} ({}/{}) | {:.1} | {} | {} | {} / {} deg | {} deg | {} / {} s |\n",
+                    "| {} | {} kHz | {rt60} s | {} | {} / {} s |\n",
                     array.name,
                     rate / 1000,
-                    pct(t.events_recalled, t.true_events),
-                    t.events_recalled,
-                    t.true_events,
-                    t.false_events_per_minute,
-                    opt(t.tracks_per_source, 2),
-                    opt(t.min_purity.map(|p| 100.0 * p), 0) + "%",
-                    opt(report.mean_error_deg, 1),
-                    opt(t.event_error_deg, 1),
-                    opt(azimuth, 1),
+                    meeting_cells(&report, &t, azimuth),
                     opt(t.onset_error_s, 2),
                     opt(t.offset_error_s, 2),
                 );
@@ -255,18 +263,10 @@ fn main() -> Result<(), Box<dyn Error>> {
                 let seed = offset + 600 + 10 * k as u64 + rate as u64 / 16000;
                 let (report, t, azimuth) = run(&office_meeting(array, rate, seed))?;
                 office += &format!(
-                    "| {} | {} kHz | {} ({}/{}) | {:.1} | {} | {} | {} / {} deg | {} deg |\n",
+                    "| {} | {} kHz | {} |\n",
                     array.name,
                     rate / 1000,
-                    pct(t.events_recalled, t.true_events),
-                    t.events_recalled,
-                    t.true_events,
-                    t.false_events_per_minute,
-                    opt(t.tracks_per_source, 2),
-                    opt(t.min_purity.map(|p| 100.0 * p), 0) + "%",
-                    opt(report.mean_error_deg, 1),
-                    opt(t.event_error_deg, 1),
-                    opt(azimuth, 1),
+                    meeting_cells(&report, &t, azimuth),
                 );
             }
             let scenes = [(30.0, 2), (60.0, 2), (90.0, 2), (60.0, 3)];
