@@ -7,14 +7,15 @@ use support::*;
 
 /// An ARCTIC talker 2 m from the prism at 48 kHz in a 5 x 4 x 2.7 m office at RT60
 /// 0.5 s, with a fan in a corner near the ceiling and diffuse noise 10 dB below the
-/// talker, drawn with `seed` at `azimuth`, analysed as `ssl analyze` does with a
-/// consistency tolerance of `tolerance_us`: the rows and the truth.
+/// talker, drawn with `seed` at `azimuth`, analysed as `ssl analyze` does (with a
+/// consistency tolerance of `tolerance_us` instead of the default when given): the rows
+/// and the truth.
 fn office(
     dir: &std::path::Path,
     geometry: &ssl::Geometry,
     seed: u64,
     azimuth: f64,
-    tolerance_us: f64,
+    tolerance_us: Option<f64>,
 ) -> (Vec<ssl::DetectionRecord>, ssl::Truth) {
     let scene = format!(
         "sample_rate = 48000\nduration = 4.0\nseed = {seed}\nformat = \"float32\"\n\
@@ -28,9 +29,10 @@ fn office(
     );
     let path = write(dir, "office.toml", &scene);
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
+    let defaults = ssl::Params::default().for_tracker();
     let params = ssl::Params {
-        tolerance_us: Some(tolerance_us),
-        ..ssl::Params::default().for_tracker()
+        tolerance_us: tolerance_us.or(defaults.tolerance_us),
+        ..defaults
     };
     let track = ssl::track::TrackParams::default();
     harness::analyse_scene(dir, &scene, geometry, &params, Some(track)).unwrap()
@@ -48,7 +50,7 @@ fn a_talker_beyond_the_critical_distance_of_a_small_office_is_heard_at_48_khz() 
     let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
     let (mut rows_now, mut rows_before) = (0, 0);
     for (seed, azimuth) in [(1, 120.0), (2, -60.0), (3, 30.0)] {
-        let (rows, truth) = office(dir.path(), &geometry, seed, azimuth, 50.0);
+        let (rows, truth) = office(dir.path(), &geometry, seed, azimuth, None);
         let report = ssl::evaluate::evaluate(&truth, &rows, 0.25).unwrap();
         let tracking = report.tracking.clone().unwrap();
         eprintln!(
@@ -65,7 +67,9 @@ fn a_talker_beyond_the_critical_distance_of_a_small_office_is_heard_at_48_khz() 
         assert_eq!(tracking.tracks, 1);
         assert_eq!((tracking.events_recalled, tracking.false_events), (1, 0));
         rows_now += rows.len();
-        rows_before += office(dir.path(), &geometry, seed, azimuth, 40.0).0.len();
+        rows_before += office(dir.path(), &geometry, seed, azimuth, Some(40.0))
+            .0
+            .len();
     }
     eprintln!("{rows_now} rows with 50 us, {rows_before} with 40 us");
     assert!(2 * rows_before < rows_now);

@@ -78,8 +78,6 @@ pub struct Tracker {
     /// Per frame, reused: candidate pairings, detections placed, tracks and candidates
     /// taken (`true` for a track, then its id or key).
     pairs: Vec<(f64, usize, Slot)>,
-    /// Whether the frame being pushed is heard alone ([`TrackParams::alone_s`]).
-    alone: bool,
     used: Vec<Option<Slot>>,
     taken: Vec<(bool, u64)>,
 }
@@ -102,7 +100,6 @@ impl Tracker {
             events: Vec::new(),
             stats: TrackStats::default(),
             pairs: Vec::new(),
-            alone: false,
             used: Vec::new(),
             taken: Vec::new(),
         }
@@ -164,7 +161,7 @@ impl Tracker {
     /// [`Tracker::take_rows`] and [`Tracker::take_events`].
     pub fn push(&mut self, time_s: f64, detections: &[Detection]) {
         self.advance(time_s);
-        self.alone = heard_alone(detections, &self.tracks, time_s, self.params.alone_s);
+        let alone = heard_alone(detections, &self.tracks, time_s, self.params.alone_s);
         // Nearest first: every (detection, track or candidate) within its gate.
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
@@ -206,7 +203,7 @@ impl Tracker {
             if used[i].is_some() || taken.contains(&key) {
                 continue;
             }
-            used[i] = Some(self.join(&detections[i], slot));
+            used[i] = Some(self.join(&detections[i], slot, alone));
             taken.push(key);
         }
         // Riders: rows of the talking tracks near them that the frame's other detections
@@ -270,7 +267,7 @@ impl Tracker {
                 hits: VecDeque::new(),
                 alone_s: f64::NEG_INFINITY,
             });
-            *placed = Some(self.join(d, Slot::Candidate(key, 0)));
+            *placed = Some(self.join(d, Slot::Candidate(key, 0), alone));
         }
         // Rows wait in the frame's order of its detections.
         for (d, slot) in detections.iter().zip(&used) {
@@ -284,7 +281,8 @@ impl Tracker {
 
     /// Adds `d` to a track or a candidate (confirming the candidate when it has enough);
     /// returns the slot its row waits in (a candidate's with the row's number).
-    fn join(&mut self, d: &Detection, slot: Slot) -> Slot {
+    /// `alone`: its frame is heard alone ([`TrackParams::alone_s`]).
+    fn join(&mut self, d: &Detection, slot: Slot, alone: bool) -> Slot {
         let (max_speed, plane) = (self.max_speed(), self.plane);
         match slot {
             Slot::Track(id) => {
@@ -313,7 +311,7 @@ impl Tracker {
                 c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
                 c.hits.push_back((row, *d));
-                if self.alone {
+                if alone {
                     c.alone_s = d.time_s;
                 }
                 if c.confirmed(&self.params) {
