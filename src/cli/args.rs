@@ -174,7 +174,7 @@ pub struct AnalyzeArgs {
     pub background_s: f64,
 
     /// The paper's method as published: a tolerance of 2 samples, no residual gate, no averaging over frames, no background subtraction
-    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "min_score", "threshold_sigmas", "reverb_level", "background_s", "dereverb"])]
+    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "min_score", "threshold_sigmas", "reverb_level", "background_s", "dereverb", "wpe"])]
     pub paper: bool,
 
     /// Speed of sound in m/s [default: the geometry's, else 343]
@@ -204,6 +204,10 @@ pub struct AnalyzeArgs {
     /// Remove the reverberation's diffuse part from each pair's cross-spectrum (its coherence over the frames averaged) before correlating: a room shortens the delays by a few percent, which raises a planar array's elevations by 5-13 deg
     #[arg(long, default_value = "auto", value_parser = choice::<Dereverb>())]
     pub dereverb: Dereverb,
+
+    /// Dereverberate the input before analysis (multichannel linear prediction, WPE, below 4 kHz): more of a reverberant room's speech is found (two talkers 2 m from the prism at RT60 0.45 s: 76% of the 0.1 s windows instead of 68%), at about 30 times the cost
+    #[arg(long)]
+    pub wpe: bool,
 
     /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, and delays rows by up to --delay-s)
     #[arg(long)]
@@ -475,6 +479,7 @@ impl AnalyzeArgs {
             // the calibrated threshold (under a fixed one they were mostly reflections).
             candidates: self.tracker_share(self.candidates, DEFAULT_CANDIDATES),
             riders: self.tracker_share(self.riders, DEFAULT_RIDERS),
+            wpe: self.wpe,
             ..Params::default()
         }
     }

@@ -104,6 +104,10 @@ pub struct Params {
     /// [`Params::average_frames`] averages (default [`Dereverb::Auto`]: for planar and
     /// linear arrays; `--paper`: never).
     pub dereverb: Dereverb,
+    /// Whether the input is dereverberated by multichannel linear prediction before the
+    /// frames are cut ([`crate::stream::wpe`], beyond the paper; `--wpe`). Default off:
+    /// it costs about 30 times the rest of the analysis.
+    pub wpe: bool,
 }
 
 impl Params {
@@ -194,6 +198,7 @@ impl Default for Params {
             candidates: 1.0,
             riders: 1.0,
             dereverb: Dereverb::Auto,
+            wpe: false,
         }
     }
 }

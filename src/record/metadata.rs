@@ -140,6 +140,10 @@ pub struct ParametersInfo {
     /// this array (`--dereverb`: by default for planar and linear arrays).
     #[serde(default)]
     pub dereverb: bool,
+    /// Whether the input was dereverberated by multichannel linear prediction (`--wpe`;
+    /// a document written before it has none: false).
+    #[serde(default)]
+    pub wpe: bool,
     /// The tracker's parameters, or null with tracking off.
     pub track: Option<TrackParams>,
 }
@@ -186,6 +190,7 @@ impl RunMetadata {
                 candidates: params.candidates,
                 riders: params.riders,
                 dereverb: params.dereverb.applies(&geometry.shape),
+                wpe: params.wpe,
                 track: None,
             },
         }

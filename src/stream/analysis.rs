@@ -4,8 +4,10 @@
 
 use super::source::{Channels, Framer, SampleSource};
 use super::wav::WavStream;
+use super::wpe::{Filtered, Wpe};
 use super::InputError;
 use crate::geometry::Geometry;
+use crate::method::frames::FrameBlock;
 use crate::method::{Analyzer, Detection, FrameStats, Params, ParamsError, StageTimes};
 use std::fmt;
 use std::io::Read;
@@ -27,6 +29,8 @@ pub struct Analysis<S> {
     source: S,
     framer: Framer,
     analyzer: Analyzer,
+    /// The input's dereverberation, with [`Params::wpe`](crate::Params::wpe).
+    wpe: Option<Wpe>,
 }
 
 /// Why a recording could not be analysed (or not to its end): the file's name and what
@@ -266,10 +270,15 @@ impl<S: SampleSource> Analysis<S> {
             channels,
             analyzer.priming_frames(),
         );
+        let wpe = params.wpe.then(|| {
+            let mics = geometry.mics.iter().map(|m| m.channel).collect();
+            Wpe::new(channels, mics, sample_rate)
+        });
         Ok(Analysis {
             source,
             framer,
             analyzer,
+            wpe,
         })
     }
 
@@ -341,8 +350,17 @@ impl<S: SampleSource> Analysis<S> {
     ) -> Result<(), InputError> {
         let mut current = self.analyzer.block();
         let mut next = self.analyzer.block();
-        let (framer, source) = (&mut self.framer, &mut self.source);
-        let mut error = framer.fill(source, &mut current);
+        let live = self.source.is_live();
+        let (framer, source, wpe) = (&mut self.framer, &mut self.source, &mut self.wpe);
+        // Through the dereverberation, when on.
+        let mut fill = |framer: &mut Framer, block: &mut FrameBlock| match wpe.as_mut() {
+            Some(filter) => {
+                let source = &mut *source;
+                framer.fill(&mut Filtered { filter, source }, block)
+            }
+            None => framer.fill(&mut *source, block),
+        };
+        let mut error = fill(framer, &mut current);
         loop {
             if current.count == 0 {
                 return error.map_or(Ok(()), Err);
@@ -350,10 +368,9 @@ impl<S: SampleSource> Analysis<S> {
             let mut next_error = None;
             // A live source is read after the frames at hand are handed on: reading ahead
             // would hold them until more audio arrives.
-            let live = source.is_live();
             let detections = self.analyzer.analyse(&current, || {
                 if !live {
-                    next_error = framer.fill(source, &mut next);
+                    next_error = fill(framer, &mut next);
                 }
             });
             for (detection, index) in detections.iter().zip(current.first..) {
@@ -362,7 +379,7 @@ impl<S: SampleSource> Analysis<S> {
                 }
             }
             if live && error.is_none() {
-                next_error = framer.fill(source, &mut next);
+                next_error = fill(framer, &mut next);
             }
             // A read error (a truncated file) ends the run after the frames read before it.
             if let Some(e) = error {

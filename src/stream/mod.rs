@@ -12,6 +12,7 @@ pub mod analysis;
 mod header;
 pub mod source;
 pub mod wav;
+pub mod wpe;
 
 pub use analysis::{Analysis, AnalysisError, ErrorKind, Summary, Warning};
 pub use source::{Channels, SampleSource};
