@@ -70,7 +70,7 @@ fn named<T: ssl::Named>(arg: &str) -> T {
 /// method; otherwise the defaults changed by any of `fixed` (`--min-score` at its
 /// default) or `min=X` (a fixed threshold per pair, without late reverberation),
 /// `rev=X` (late reverberation, after them), `riders=X` (riders' share; 1: none), `sig=X` (the calibrated threshold's sigmas), `steer=0` (no steered response), `k=N` (sources per frame), `own=0` (no further sources from a frame's own correlations), `avg=N` (frames
-/// averaged), `ms=X` (the frame length), `drv=auto|on|off` (the diffuse part removed), `bg=S` (the coherent background's time constant, 0: none), and a tolerance and a residual gate in microseconds (`0` turns the gate
+/// averaged), `ms=X` (the frame length), `drv=auto|on|off` (the diffuse part removed), `wpe` (the input dereverberated first, `--wpe`), `bg=S` (the coherent background's time constant, 0: none), and a tolerance and a residual gate in microseconds (`0` turns the gate
 /// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
@@ -128,6 +128,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("interp") => params.interpolation = named(arg),
             // When the diffuse part is removed, by name.
             Some("drv") => params.dereverb = named(arg),
+            // The input dereverberated first (`--wpe`).
+            _ if arg == "wpe" => params.wpe = true,
             // The tracker's (see `track_from`).
             Some(
                 "weak" | "tight" | "tightdeg" | "span" | "alone" | "confirm" | "delay" | "gate"
