@@ -107,6 +107,61 @@ fn the_diffuse_part_is_removed_for_a_3d_array_only_when_asked() {
     assert_ne!(default.stdout, on.stdout);
 }
 
+/// `--wpe` says so in the JSON document, and the example's sources are still found where
+/// they are (the truth beside it), on one thread as on two.
+#[test]
+fn the_input_dereverberated_keeps_the_example_s_sources() {
+    let one = example(&["--wpe", "-f", "json", "-j", "1"]);
+    let two = example(&["--wpe", "-f", "json", "-j", "2"]);
+    assert!(one.status.success(), "{}", stderr(&one));
+    assert_eq!(one.stdout, two.stdout);
+    let doc: serde_json::Value = serde_json::from_slice(&one.stdout).unwrap();
+    assert_eq!(doc["parameters"]["wpe"], true);
+    let plain: serde_json::Value =
+        serde_json::from_slice(&example(&["-f", "json"]).stdout).unwrap();
+    assert_eq!(plain["parameters"]["wpe"], false);
+    let truth: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/example.truth.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let sources: Vec<[f64; 3]> = truth["sources"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            [
+                s["x"].as_f64().unwrap(),
+                s["y"].as_f64().unwrap(),
+                s["z"].as_f64().unwrap(),
+            ]
+        })
+        .collect();
+    let rows = doc["detections"].as_array().unwrap();
+    let near = |r: &serde_json::Value| {
+        let v = [
+            r["x"].as_f64().unwrap(),
+            r["y"].as_f64().unwrap(),
+            r["z"].as_f64().unwrap(),
+        ];
+        sources
+            .iter()
+            .map(|s| {
+                (s[0] * v[0] + s[1] * v[1] + s[2] * v[2])
+                    .clamp(-1.0, 1.0)
+                    .acos()
+                    .to_degrees()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let plain_rows = plain["detections"].as_array().unwrap().len();
+    eprintln!("{} rows with --wpe, {plain_rows} without", rows.len());
+    assert!(rows.len() * 10 >= plain_rows * 8);
+    assert!(rows.iter().all(|r| near(r) < 5.0));
+}
+
 #[test]
 fn min_score_is_per_microphone_pair() {
     // Frame by frame: averaging over frames already finds the example's one weak frame.

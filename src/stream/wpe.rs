@@ -94,6 +94,8 @@ pub struct Wpe {
     read: u64,
     given: u64,
     ended: bool,
+    /// A read error, given once the samples read before it have been.
+    error: Option<InputError>,
     bins: Vec<Bin>,
     spectra: Vec<Vec<Complex32>>,
     time: Vec<f32>,
@@ -246,6 +248,7 @@ impl Wpe {
             read: 0,
             given: 0,
             ended: false,
+            error: None,
             bins: (0..bins).map(|_| Bin::new(mics.len())).collect(),
             spectra: vec![vec![Complex32::default(); n / 2 + 1]; mics.len()],
             time: vec![0.0; n],
@@ -357,7 +360,8 @@ impl Wpe {
     }
 
     /// Reads up to `out.len() / channels` sample frames of `source` through the filter,
-    /// as [`SampleSource::read`] does; 0 at the end.
+    /// as [`SampleSource::read`] does; 0 at the end. A read error comes after the
+    /// samples read before it.
     pub fn read(
         &mut self,
         source: &mut dyn SampleSource,
@@ -367,7 +371,14 @@ impl Wpe {
         while self.ready.len() == self.ready_at && !self.ended {
             let mut chunk = std::mem::take(&mut self.chunk);
             chunk.resize(4096 * ch, 0.0);
-            let got = source.read(&mut chunk)?;
+            let got = match source.read(&mut chunk) {
+                Ok(got) => got,
+                Err(e) => {
+                    // The samples before the error first, as without the filter.
+                    self.error = Some(e);
+                    0
+                }
+            };
             if got == 0 {
                 self.ended = true;
                 self.finish();
@@ -378,6 +389,11 @@ impl Wpe {
                 }
             }
             self.chunk = chunk;
+        }
+        if self.ready.len() == self.ready_at {
+            if let Some(e) = self.error.take() {
+                return Err(e);
+            }
         }
         let count = ((self.ready.len() - self.ready_at) / ch).min(out.len() / ch);
         out[..count * ch].copy_from_slice(&self.ready[self.ready_at..self.ready_at + count * ch]);
@@ -483,6 +499,56 @@ mod tests {
             assert_eq!(peak, 3000);
             assert!(c.iter().all(|v| v.is_finite()));
         }
+    }
+
+    /// A source that fails after `len` sample frames.
+    struct Failing {
+        len: usize,
+        at: usize,
+    }
+
+    impl SampleSource for Failing {
+        fn name(&self) -> &str {
+            "failing"
+        }
+        fn channels(&self) -> usize {
+            2
+        }
+        fn sample_rate(&self) -> u32 {
+            16_000
+        }
+        fn frames(&self) -> Option<u64> {
+            None
+        }
+        fn read(&mut self, out: &mut [f32]) -> Result<usize, InputError> {
+            let count = (out.len() / 2).min(self.len - self.at);
+            if count == 0 {
+                return Err(InputError::Corrupt("cut short".into()));
+            }
+            out[..2 * count].fill(0.1);
+            self.at += count;
+            Ok(count)
+        }
+    }
+
+    #[test]
+    fn a_read_error_comes_after_every_sample_read_before_it() {
+        let mut source = Failing { len: 5000, at: 0 };
+        let mut wpe = Wpe::new(2, vec![0, 1], 16_000);
+        let mut buf = vec![0.0; 2 * 700];
+        let mut given = 0;
+        let error = loop {
+            match wpe.read(&mut source, &mut buf) {
+                Ok(0) => panic!("an end instead of the error"),
+                Ok(got) => {
+                    assert!(buf[..2 * got].iter().all(|&v| v == 0.1));
+                    given += got;
+                }
+                Err(e) => break e,
+            }
+        };
+        assert_eq!(given, 5000);
+        assert!(error.to_string().contains("cut short"));
     }
 
     #[test]
