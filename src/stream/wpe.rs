@@ -53,6 +53,13 @@ pub const DELAY: usize = 2;
 /// Forgetting factor of the recursive least squares, per hop (about 0.5 s at 48 kHz).
 pub const FORGET: f64 = 0.99;
 
+/// Seconds of the input the filter learns from before it starts, then filters again from
+/// the start: while it learns, a steady source's output changes, and the coherent
+/// background learned from the first frames no longer fits it (a fan 0.9 m from the
+/// prism at 16 kHz made a track in the first 5 s of the field benchmark's near-fan
+/// minutes, 28.6 false detections a minute, none with this).
+pub const WARM_UP_S: f64 = 2.0;
+
 /// The inverse correlation matrix starts at this times the identity (the filter starts
 /// from no prediction and learns within tens of frames).
 const P_START: f64 = 100.0;
@@ -96,6 +103,13 @@ pub struct Wpe {
     ended: bool,
     /// A read error, given once the samples read before it have been.
     error: Option<InputError>,
+    /// The first [`WARM_UP_S`] of the input, learned from and then filtered, from
+    /// `replay_at`; `None` before the start.
+    replay: Option<Vec<f32>>,
+    replay_at: usize,
+    /// A read error met while warming up, for after the replay.
+    pending: Option<InputError>,
+    rate: u32,
     bins: Vec<Bin>,
     spectra: Vec<Vec<Complex32>>,
     time: Vec<f32>,
@@ -134,6 +148,12 @@ impl Bin {
         };
         bin.restart();
         bin
+    }
+
+    /// The past frames forgotten (the filter kept), for the input's start again.
+    fn rewind(&mut self) {
+        self.past.fill(Complex64::default());
+        self.last_power = 0.0;
     }
 
     /// No prediction, and the inverse correlation at its start.
@@ -249,6 +269,10 @@ impl Wpe {
             given: 0,
             ended: false,
             error: None,
+            replay: None,
+            replay_at: 0,
+            pending: None,
+            rate,
             bins: (0..bins).map(|_| Bin::new(mics.len())).collect(),
             spectra: vec![vec![Complex32::default(); n / 2 + 1]; mics.len()],
             time: vec![0.0; n],
@@ -359,6 +383,63 @@ impl Wpe {
         }
     }
 
+    /// Learns from the first [`WARM_UP_S`] of `source`, then rewinds to its start with
+    /// what it learned: they are read again from memory.
+    fn warm_up(&mut self, source: &mut dyn SampleSource) {
+        let ch = self.channels;
+        let want = (WARM_UP_S * self.rate as f64) as usize * ch;
+        let mut first = Vec::with_capacity(want);
+        let mut chunk = vec![0.0; 4096 * ch];
+        while first.len() < want {
+            match source.read(&mut chunk) {
+                Ok(0) => break,
+                Ok(got) => first.extend_from_slice(&chunk[..got * ch]),
+                Err(e) => {
+                    self.pending = Some(e);
+                    break;
+                }
+            }
+        }
+        for frame in first.chunks_exact(ch) {
+            self.push(frame);
+        }
+        // Back to the start, the filter kept.
+        let n = self.n;
+        for c in 0..ch {
+            self.input[c].fill(0.0);
+            self.sum[c].fill(0.0);
+        }
+        self.constant_run.fill(0);
+        self.last.clear();
+        self.fresh = 0;
+        self.ready.clear();
+        self.ready_at = 0;
+        self.latency = n - self.hop;
+        self.bins.iter_mut().for_each(Bin::rewind);
+        self.replay = Some(first);
+    }
+
+    /// The next samples: the warm-up's again, then the source's.
+    fn next(
+        &mut self,
+        source: &mut dyn SampleSource,
+        chunk: &mut [f32],
+    ) -> Result<usize, InputError> {
+        let ch = self.channels;
+        let replay = self.replay.as_ref().expect("warmed up");
+        if self.replay_at < replay.len() {
+            let count = ((replay.len() - self.replay_at) / ch).min(chunk.len() / ch);
+            chunk[..count * ch]
+                .copy_from_slice(&replay[self.replay_at..self.replay_at + count * ch]);
+            self.replay_at += count * ch;
+            return Ok(count);
+        }
+        if let Some(e) = self.pending.take() {
+            return Err(e);
+        }
+        source.read(chunk)
+    }
+
     /// Reads up to `out.len() / channels` sample frames of `source` through the filter,
     /// as [`SampleSource::read`] does; 0 at the end. A read error comes after the
     /// samples read before it.
@@ -368,10 +449,13 @@ impl Wpe {
         out: &mut [f32],
     ) -> Result<usize, InputError> {
         let ch = self.channels;
+        if self.replay.is_none() {
+            self.warm_up(source);
+        }
         while self.ready.len() == self.ready_at && !self.ended {
             let mut chunk = std::mem::take(&mut self.chunk);
             chunk.resize(4096 * ch, 0.0);
-            let got = match source.read(&mut chunk) {
+            let got = match self.next(source, &mut chunk) {
                 Ok(got) => got,
                 Err(e) => {
                     // The samples before the error first, as without the filter.
