@@ -21,19 +21,26 @@
 //!   lowering it is left as it was: the filter learned on one talker predicts nothing of
 //!   the next one's onset (without this, the tracking benchmark's meetings recalled 50-92%
 //!   of their turns with up to 49 false events a minute; with it, all of them and none).
+//! - **Warm-up:** the filter learns from the first [`WARM_UP_S`] of the input, then
+//!   filters from the start again (those seconds are kept in memory), so a steady source
+//!   does not change while it learns (see [`WARM_UP_S`]); a live source's first rows
+//!   therefore come that much later. From the start, the share of the prediction taken
+//!   out rises over [`RAMP_S`], so that the analysis learns a steady source's new sound
+//!   as it comes.
 //!
 //! Measured on twelve two-talker scenes outside the repository (prism, 6 x 5 x 2.8 m,
-//! RT60 0.45 s, fan and diffuse noise): 599 of 792 windows with both talkers' rows
+//! RT60 0.45 s, fan and diffuse noise): 604 of 792 windows with both talkers' rows
 //! instead of 535, no false event, the rows' errors unchanged or lower; the bins above
 //! 4 kHz left alone because the whole band made a fan near the ceiling a source (296
 //! rows). It costs about 30 times the rest of the analysis (docs/tracking.md), so it is
 //! an option.
 //!
 //! The filter runs on the samples in order, before the framer, so the output does not
-//! depend on the thread count, and its memory is fixed (a few KB per bin). Channels the
-//! geometry does not use go through as they are, as does a microphone whose channel
-//! stays at one value (a dead microphone stays dead for the analysis), all delayed
-//! alike by `frame - hop` samples and given back in step, so no time moves.
+//! depend on the thread count, and its memory is fixed (a few KB per bin, and the
+//! warm-up's seconds). Channels the geometry does not use go through as they are, as
+//! does a microphone whose channel stays at one value (a dead microphone stays dead for
+//! the analysis), all delayed alike by `frame - hop` samples and given back in step, so
+//! no time moves.
 
 use super::{InputError, SampleSource};
 use realfft::num_complex::{Complex32, Complex64};
@@ -59,6 +66,14 @@ pub const FORGET: f64 = 0.99;
 /// prism at 16 kHz made a track in the first 5 s of the field benchmark's near-fan
 /// minutes, 28.6 false detections a minute, none with this).
 pub const WARM_UP_S: f64 = 2.0;
+
+/// Seconds over which the share of the prediction taken out rises from none to all at
+/// the start of the input: the coherent background subtracted from the correlations
+/// ([`crate::method::background`], learned over about 2 s) follows a steady source as it
+/// turns from reverberant to direct. At once, a fan on the table 0.9 m from the prism at
+/// 16 kHz was reported in the first second of the field benchmark's near-fan minute (9
+/// rows; 0 with this, and 0 without `--wpe`).
+pub const RAMP_S: f64 = 2.0;
 
 /// The inverse correlation matrix starts at this times the identity (the filter starts
 /// from no prediction and learns within tens of frames).
@@ -167,7 +182,7 @@ impl Bin {
     }
 
     /// Dereverberates `y` (this frame of every microphone) and learns from it.
-    fn step(&mut self, y: &mut [Complex64]) {
+    fn step(&mut self, y: &mut [Complex64], share: f64) {
         let m = y.len();
         let l = self.stacked.len();
         for k in 0..TAPS {
@@ -229,7 +244,9 @@ impl Bin {
             self.p.iter_mut().for_each(|v| *v *= s);
         }
         if after <= before && after.is_finite() {
-            y.copy_from_slice(&self.out);
+            for (y, out) in y.iter_mut().zip(&self.out) {
+                *y += share * (out - *y);
+            }
         }
     }
 }
@@ -314,6 +331,13 @@ impl Wpe {
     /// then complete and handed on.
     fn frame(&mut self) {
         let (n, hop) = (self.n, self.hop);
+        // The share of the prediction taken out: all while warming up (whose output is
+        // not given), then from none at the start to all after RAMP_S.
+        let share = if self.replay.is_none() {
+            1.0
+        } else {
+            (self.read as f64 / (RAMP_S * self.rate as f64)).min(1.0)
+        };
         for (i, &c) in self.mics.iter().enumerate() {
             for ((w, &x), &h) in self
                 .windowed
@@ -331,7 +355,7 @@ impl Wpe {
             for (y, s) in self.y.iter_mut().zip(&self.spectra) {
                 *y = Complex64::new(s[k].re as f64, s[k].im as f64);
             }
-            bin.step(&mut self.y);
+            bin.step(&mut self.y, share);
             for (y, s) in self.y.iter().zip(self.spectra.iter_mut()) {
                 s[k] = Complex32::new(y.re as f32, y.im as f32);
             }
@@ -432,6 +456,11 @@ impl Wpe {
             chunk[..count * ch]
                 .copy_from_slice(&replay[self.replay_at..self.replay_at + count * ch]);
             self.replay_at += count * ch;
+            if self.replay_at == replay.len() {
+                // Replayed: its memory back.
+                self.replay = Some(Vec::new());
+                self.replay_at = 0;
+            }
             return Ok(count);
         }
         if let Some(e) = self.pending.take() {
