@@ -29,7 +29,7 @@
 //!   as it comes.
 //!
 //! Measured on twelve two-talker scenes outside the repository (prism, 6 x 5 x 2.8 m,
-//! RT60 0.45 s, fan and diffuse noise): 604 of 792 windows with both talkers' rows
+//! RT60 0.45 s, fan and diffuse noise): 589 of 792 windows with both talkers' rows
 //! instead of 535, no false event, the rows' errors unchanged or lower; the bins above
 //! 4 kHz left alone because the whole band made a fan near the ceiling a source (296
 //! rows). It costs about 30 times the rest of the analysis (docs/tracking.md), so it is
