@@ -45,6 +45,7 @@
 mod predictor;
 
 use super::{InputError, SampleSource};
+use crate::method::Window;
 use predictor::Bin;
 use realfft::num_complex::{Complex32, Complex64};
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -139,9 +140,7 @@ impl Wpe {
         let n = frame_size(rate);
         let hop = n / 4;
         let mut planner = RealFftPlanner::<f32>::new();
-        let window = (0..n)
-            .map(|i| (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos()) as f32)
-            .collect();
+        let window = Window::Hann.coefficients(n);
         let bins = ((MAX_HZ * n as f64 / rate as f64) as usize + 1).min(n / 2 + 1);
         let mut filtered = vec![false; channels];
         for &c in &mics {
@@ -240,6 +239,10 @@ impl Wpe {
             for (y, s) in self.y.iter().zip(self.spectra.iter_mut()) {
                 s[k] = Complex32::new(y.re as f32, y.im as f32);
             }
+        }
+        if self.replay.is_none() {
+            // Warming up: the filter learns, nothing is given.
+            return;
         }
         // realfft does not normalise; the squared windows add up to 3/2.
         let scale = 1.0 / (n as f32 * 1.5);
