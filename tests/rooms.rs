@@ -5,6 +5,16 @@ mod support;
 
 use support::*;
 
+/// A directory with the prism's geometry (`prism.toml`) and the speech clips, and the
+/// geometry.
+fn prism_with_speech() -> (tempfile::TempDir, ssl::Geometry) {
+    let dir = tempdir();
+    copy_speech(dir.path()).unwrap();
+    write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
+    let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
+    (dir, geometry)
+}
+
 /// An ARCTIC talker 2 m from the prism at 48 kHz in a 5 x 4 x 2.7 m office at RT60
 /// 0.5 s, with a fan in a corner near the ceiling and diffuse noise 10 dB below the
 /// talker, drawn with `seed` at `azimuth`, analysed as `ssl analyze` does (with a
@@ -44,10 +54,7 @@ fn office(
 #[test]
 fn a_talker_beyond_the_critical_distance_of_a_small_office_is_heard_at_48_khz() {
     assert_eq!(ssl::method::DEFAULT_TOLERANCE_US, 50.0);
-    let dir = tempdir();
-    copy_speech(dir.path()).unwrap();
-    write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
-    let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
+    let (dir, geometry) = prism_with_speech();
     let (mut rows_now, mut rows_before) = (0, 0);
     for (seed, azimuth) in [(1, 120.0), (2, -60.0), (3, 30.0)] {
         let (rows, truth) = office(dir.path(), &geometry, seed, azimuth, None);
@@ -133,10 +140,7 @@ fn two_talkers(
 /// both and no false event.
 #[test]
 fn dereverberation_hears_more_of_two_talkers_in_a_reverberant_room() {
-    let dir = tempdir();
-    copy_speech(dir.path()).unwrap();
-    write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
-    let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
+    let (dir, geometry) = prism_with_speech();
     let (mut with, mut without) = (0, 0);
     for (seed, separation) in [(1, 60.0), (2, 90.0)] {
         let (a, n, off) = two_talkers(dir.path(), &geometry, seed, separation, true);
@@ -160,10 +164,7 @@ fn dereverberation_hears_more_of_two_talkers_in_a_reverberant_room() {
 /// (`wpe::RAMP_S`) 9.
 #[test]
 fn a_fan_next_to_the_array_is_background_with_dereverberation_too() {
-    let dir = tempdir();
-    copy_speech(dir.path()).unwrap();
-    write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
-    let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
+    let (dir, geometry) = prism_with_speech();
     let scene = "sample_rate = 16000\nduration = 64.6\nseed = 707\nformat = \"float32\"\n\
          [room]\ndimensions = [8.0, 7.0, 3.0]\nrt60 = 0.2\n\
          [array]\ngeometry = \"prism.toml\"\nposition = [4.0, 3.5, 0.8]\n\
