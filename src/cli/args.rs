@@ -205,7 +205,7 @@ pub struct AnalyzeArgs {
     #[arg(long, default_value = "auto", value_parser = choice::<Dereverb>())]
     pub dereverb: Dereverb,
 
-    /// Dereverberate the input before analysis (multichannel linear prediction, WPE, below 4 kHz): more of a reverberant room's speech is found (two talkers 2 m from the prism at RT60 0.45 s: 74% of the 0.1 s windows instead of 68%), at about 24 times the time
+    /// Dereverberate the input before analysis (multichannel linear prediction, WPE, below 4 kHz): more of a reverberant room's speech is found (two talkers 2 m from the prism at RT60 0.45 s: 74% of the 0.1 s windows instead of 68%), at about 15 times the time
     #[arg(long)]
     pub wpe: bool,
 

@@ -106,7 +106,7 @@ pub struct Params {
     pub dereverb: Dereverb,
     /// Whether the input is dereverberated by multichannel linear prediction before the
     /// frames are cut ([`crate::stream::wpe`], beyond the paper; `--wpe`). Default off:
-    /// it costs about 24 times the rest of the analysis.
+    /// it costs about 15 times the rest of the analysis.
     pub wpe: bool,
 }
 

@@ -32,11 +32,12 @@
 //! RT60 0.45 s, fan and diffuse noise): 589 of 792 windows with both talkers' rows
 //! instead of 535, no false event, the rows' errors unchanged or lower; the bins above
 //! 4 kHz left alone because the whole band made a fan near the ceiling a source (296
-//! rows). It costs about 24 times the rest of the analysis (README, "Performance"), so it is
-//! an option.
+//! rows). It costs about 15 times the rest of the analysis (README, "Performance"), so it
+//! is an option.
 //!
-//! The filter runs on the samples in order, before the framer, so the output does not
-//! depend on the thread count, and its memory is fixed (a few KB per bin, and the
+//! The filter runs on the samples in order, before the framer; each bin is a filter of
+//! its own, and the bins share the threads, so the output does not depend on the thread
+//! count. Its memory is fixed (a few KB per bin, and the
 //! warm-up's seconds). Channels the geometry does not use go through as they are, as
 //! does a microphone whose channel stays at one value (a dead microphone stays dead for
 //! the analysis), all delayed alike by `frame - hop` samples and given back in step, so
@@ -47,6 +48,7 @@ mod predictor;
 use super::{InputError, SampleSource};
 use crate::method::Window;
 use predictor::Bin;
+use rayon::prelude::*;
 use realfft::num_complex::{Complex32, Complex64};
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use std::sync::Arc;
@@ -129,6 +131,7 @@ pub struct Wpe {
     spectra: Vec<Vec<Complex32>>,
     time: Vec<f32>,
     windowed: Vec<f32>,
+    /// Per bin, its frame of every microphone (`bins` rows of `mics`).
     y: Vec<Complex64>,
     chunk: Vec<f32>,
 }
@@ -174,7 +177,7 @@ impl Wpe {
             spectra: vec![vec![Complex32::default(); n / 2 + 1]; mics.len()],
             time: vec![0.0; n],
             windowed: vec![0.0; n],
-            y: vec![Complex64::default(); mics.len()],
+            y: vec![Complex64::default(); bins * mics.len()],
             chunk: Vec::new(),
             mics,
         }
@@ -231,12 +234,26 @@ impl Wpe {
                 .process(&mut self.windowed, &mut self.spectra[i])
                 .expect("buffers sized by the plan");
         }
-        for (k, bin) in self.bins.iter_mut().enumerate() {
-            for (y, s) in self.y.iter_mut().zip(&self.spectra) {
+        let m = self.mics.len();
+        for (k, y) in self.y.chunks_exact_mut(m).enumerate() {
+            for (y, s) in y.iter_mut().zip(&self.spectra) {
                 *y = Complex64::new(s[k].re as f64, s[k].im as f64);
             }
-            bin.step(&mut self.y, share);
-            for (y, s) in self.y.iter().zip(self.spectra.iter_mut()) {
+        }
+        // Every bin is its own filter: they share the threads, and the output does not
+        // depend on how many there are.
+        if rayon::current_num_threads() > 1 {
+            self.bins
+                .par_iter_mut()
+                .zip(self.y.par_chunks_exact_mut(m))
+                .for_each(|(bin, y)| bin.step(y, share));
+        } else {
+            for (bin, y) in self.bins.iter_mut().zip(self.y.chunks_exact_mut(m)) {
+                bin.step(y, share);
+            }
+        }
+        for (k, y) in self.y.chunks_exact(m).enumerate() {
+            for (y, s) in y.iter().zip(self.spectra.iter_mut()) {
                 s[k] = Complex32::new(y.re as f32, y.im as f32);
             }
         }

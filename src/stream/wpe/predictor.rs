@@ -2,6 +2,7 @@
 //! multichannel linear prediction filter learned by recursive least squares.
 
 use super::{DELAY, FORGET, TAPS};
+use multiversion::multiversion;
 use realfft::num_complex::Complex64;
 
 /// The inverse correlation matrix starts at this times the identity (the filter starts
@@ -74,13 +75,16 @@ impl Bin {
             // Digital silence: nothing to learn.
             return;
         }
-        let mut denominator = FORGET * power;
-        for i in 0..l {
-            let row = &self.p[i * l..(i + 1) * l];
-            let v: Complex64 = row.iter().zip(&self.stacked).map(|(a, b)| a * b).sum();
-            self.p_stacked[i] = v;
-            denominator += (self.stacked[i].conj() * v).re;
-        }
+        // P x, read off P's rows (P is Hermitian, so row j holds column j conjugated):
+        // contiguous multiply-adds instead of a sum per row.
+        hermitian_times(&self.p, &self.stacked, &mut self.p_stacked);
+        let denominator = FORGET * power
+            + self
+                .stacked
+                .iter()
+                .zip(&self.p_stacked)
+                .map(|(x, v)| (x.conj() * v).re)
+                .sum::<f64>();
         if !(denominator.is_finite() && denominator > 0.0) {
             self.restart();
             return;
@@ -102,15 +106,7 @@ impl Bin {
                 *f += g * out.conj();
             }
         }
-        let mut trace = 0.0;
-        for i in 0..l {
-            let g = self.gain[i];
-            let row = &mut self.p[i * l..(i + 1) * l];
-            for (pij, pj) in row.iter_mut().zip(&self.p_stacked) {
-                *pij = (*pij - g * pj.conj()) / FORGET;
-            }
-            trace += row[i].re;
-        }
+        let trace = rank_one_down(&mut self.p, &self.gain, &self.p_stacked);
         // What the input does not excite grows by 1 / FORGET a hop (a dead microphone,
         // a band with nothing in it): kept from overflowing.
         let cap = l as f64 * P_START;
@@ -124,4 +120,38 @@ impl Bin {
             }
         }
     }
+}
+
+/// `out = P x` for a Hermitian `P` (rows of `x.len()`), read off its rows (row `j` holds
+/// column `j` conjugated): contiguous multiply-adds instead of a sum per row.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn hermitian_times(p: &[Complex64], x: &[Complex64], out: &mut [Complex64]) {
+    out.fill(Complex64::default());
+    for (row, x) in p.chunks_exact(x.len()).zip(x) {
+        for (acc, pji) in out.iter_mut().zip(row) {
+            *acc += pji.conj() * x;
+        }
+    }
+}
+
+/// The recursive least squares' update of the inverse correlation, `P = (P - g v^H) /
+/// FORGET`, computed on and above the diagonal and mirrored below it, so that `P` stays
+/// exactly Hermitian (rounding would otherwise let it drift, which recursive least
+/// squares with forgetting amplifies); its trace after.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn rank_one_down(p: &mut [Complex64], gain: &[Complex64], v: &[Complex64]) -> f64 {
+    let l = gain.len();
+    let mut trace = 0.0;
+    for (i, g) in gain.iter().enumerate() {
+        let row = &mut p[i * l..(i + 1) * l];
+        for (pij, pj) in row[i..].iter_mut().zip(&v[i..]) {
+            *pij = (*pij - g * pj.conj()) * (1.0 / FORGET);
+        }
+        row[i].im = 0.0;
+        trace += row[i].re;
+        for j in i + 1..l {
+            p[j * l + i] = p[i * l + j].conj();
+        }
+    }
+    trace
 }
