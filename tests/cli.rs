@@ -107,6 +107,26 @@ fn the_diffuse_part_is_removed_for_a_3d_array_only_when_asked() {
     assert_ne!(default.stdout, on.stdout);
 }
 
+/// The single bins' riders are on with the tracker and say so in the JSON document, off
+/// with `--no-bin-votes`, `--no-track` and `--paper`; on the example's prism (pairs of
+/// 36-71 cm, too long for a bin's phase to be its delay) they change no row.
+#[test]
+fn the_single_bins_riders_leave_the_prism_as_it_was() {
+    let json = |args: &[&str]| -> serde_json::Value {
+        let out = example(&[args, &["-f", "json"]].concat());
+        assert!(out.status.success(), "{}", stderr(&out));
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let on = json(&[]);
+    let off = json(&["--no-bin-votes"]);
+    assert_eq!(on["parameters"]["bin_votes"], true);
+    assert_eq!(off["parameters"]["bin_votes"], false);
+    assert_eq!(json(&["--no-track"])["parameters"]["bin_votes"], false);
+    assert_eq!(json(&["--paper"])["parameters"]["bin_votes"], false);
+    assert!(!on["detections"].as_array().unwrap().is_empty());
+    assert_eq!(on["detections"], off["detections"]);
+}
+
 /// `--wpe` says so in the JSON document, and the example's sources are still found where
 /// they are (the truth beside it), on one thread as on two.
 #[test]

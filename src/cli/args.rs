@@ -209,6 +209,10 @@ pub struct AnalyzeArgs {
     #[arg(long)]
     pub wpe: bool,
 
+    /// No riders from single frequency bins: on arrays a few centimetres across, each bin's own direction finds a talker that a louder one hides in the correlations, and adds its rows to that talker's track (two talkers on a 6-mic circle at 16 kHz: 60-70% of the 0.1 s windows instead of 56-66%)
+    #[arg(long, conflicts_with_all = ["no_track", "paper"])]
+    pub no_bin_votes: bool,
+
     /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, and delays rows by up to --delay-s)
     #[arg(long)]
     pub no_track: bool,
@@ -480,6 +484,7 @@ impl AnalyzeArgs {
             candidates: self.tracker_share(self.candidates, DEFAULT_CANDIDATES),
             riders: self.tracker_share(self.riders, DEFAULT_RIDERS),
             wpe: self.wpe,
+            bin_votes: !self.paper && self.min_score.is_none() && !self.no_bin_votes,
             ..Params::default()
         }
     }

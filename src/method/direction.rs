@@ -96,14 +96,7 @@ impl DirectionSolver {
                 }
             }
             Shape::Planar { normal } => {
-                // An orthonormal basis of the plane.
-                let helper = if normal.x.abs() < 0.9 {
-                    Vector3::x()
-                } else {
-                    Vector3::y()
-                };
-                let e1 = (helper - normal * normal.dot(&helper)).normalize();
-                let e2 = normal.cross(&e1);
+                let (e1, e2) = plane_basis(&normal);
                 let mut dp = DMatrix::<f64>::zeros(p, 2);
                 for r in 0..p {
                     let row = Vector3::new(d[(r, 0)], d[(r, 1)], d[(r, 2)]);
@@ -238,6 +231,17 @@ impl DirectionSolver {
             .sum();
         (sum / self.diffs.len().max(1) as f64).sqrt()
     }
+}
+
+/// An orthonormal basis `(e1, e2)` of the plane with unit `normal` (`e1 x e2 = normal`).
+pub(crate) fn plane_basis(normal: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if normal.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = (helper - normal * normal.dot(&helper)).normalize();
+    (e1, normal.cross(&e1))
 }
 
 /// Azimuth and elevation in degrees (docs/interface.md, "Directions"): azimuth = atan2(y, x) in

@@ -43,6 +43,7 @@ pub mod spectrum;
 mod state;
 pub mod steered;
 pub mod threshold;
+pub mod votes;
 pub mod weighting;
 mod worker;
 

@@ -108,6 +108,11 @@ pub struct Params {
     /// frames are cut ([`crate::stream::wpe`], beyond the paper; `--wpe`). Default off:
     /// it costs about 15 times the rest of the analysis.
     pub wpe: bool,
+    /// Riders from the directions of single frequency bins ([`super::votes`], beyond the
+    /// paper), on arrays small enough that their pairs are shorter than half a
+    /// wavelength over part of the band, with a tracker only (`candidates` under 1).
+    /// Default on; `--paper` and `--min-score`: off.
+    pub bin_votes: bool,
 }
 
 impl Params {
@@ -122,6 +127,7 @@ impl Params {
             // Under a fixed threshold, sums of chance peaks pass the steered response.
             steered: false,
             max_sources: 1,
+            bin_votes: false,
             ..Params::default()
         }
     }
@@ -162,6 +168,7 @@ impl Params {
             candidates: 1.0,
             riders: 1.0,
             dereverb: Dereverb::Off,
+            bin_votes: false,
             // As measured before the cosine became the default (docs/accuracy.md).
             interpolation: Interpolation::Parabolic,
             ..Params::default()
@@ -199,6 +206,7 @@ impl Default for Params {
             riders: 1.0,
             dereverb: Dereverb::Auto,
             wpe: false,
+            bin_votes: true,
         }
     }
 }

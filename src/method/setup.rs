@@ -12,6 +12,7 @@ use super::peaks::MAX_PEAKS;
 use super::threshold::{
     chance_sigma, diffuse_coherence, steady_weight, DIFFUSE_MARGIN, STEADY_FRAME,
 };
+use super::votes::BinVotes;
 use crate::geometry::Geometry;
 
 /// What the method needs that does not change during a run: the parameters checked
@@ -46,6 +47,9 @@ pub(crate) struct Setup {
     /// their two neighbours, `2 max_lag + 3` values), and their total length.
     pub window_starts: Vec<usize>,
     pub windows_len: usize,
+    /// The bins' solvers when they vote ([`Params::bin_votes`] with a tracker, on an
+    /// array small enough).
+    pub votes: Option<BinVotes>,
 }
 
 impl Setup {
@@ -160,6 +164,9 @@ impl Setup {
             .dereverb
             .applies(&geometry.shape)
             .then(|| DiffuseCoherence::new(geometry, n, rate, speed));
+        let votes = (params.bin_votes && params.candidates < 1.0)
+            .then(|| BinVotes::new(geometry, n, rate, speed))
+            .flatten();
         let mut windows_len = 0;
         let window_starts = max_lag
             .iter()
@@ -183,6 +190,7 @@ impl Setup {
             dereverb,
             window_starts,
             windows_len,
+            votes,
         })
     }
 

@@ -42,6 +42,8 @@ pub(crate) struct FrameState {
     /// The coherent background learns from this frame ([`super::background`]): it is
     /// correlated in full even when no detection needs it.
     pub teaches: bool,
+    /// The directions of its bins ([`super::votes`]), when they vote.
+    pub(super) votes: Vec<super::votes::Vote>,
 }
 
 /// Whether a frame's correlations were computed.
@@ -76,6 +78,7 @@ impl FrameState {
             windows: vec![0.0; setup.windows_len],
             correlated: Correlated::No,
             teaches: false,
+            votes: Vec::new(),
         }
     }
 }

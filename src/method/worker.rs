@@ -20,6 +20,7 @@ use super::setup::Setup;
 use super::spectrum::{frame_spectra, ForwardFft};
 use super::state::{span_ceiling, Correlated, FrameState};
 use super::steered::{Query, Steered, FURTHER_SHARE};
+use super::votes::{add_riders, BinVotes, Vote, VotePeak};
 use super::weighting::enhanced_weights;
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
@@ -44,6 +45,9 @@ pub(crate) struct Worker {
     directions: Vec<nalgebra::Vector3<f64>>,
     /// The diffuse part removed from the cross-spectra ([`super::dereverb`]), when on.
     dereverb: Option<Dereverberator>,
+    /// The votes of a span and their peaks ([`super::votes`]).
+    votes: Vec<Vote>,
+    vote_peaks: Vec<VotePeak>,
     /// Leave out correlations that cannot lead to a detection (always, but in a test).
     pub prune: bool,
 }
@@ -72,6 +76,8 @@ impl Worker {
                 Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag)
             }),
             dereverb: setup.dereverb.is_some().then(|| Dereverberator::new(setup)),
+            votes: Vec::new(),
+            vote_peaks: Vec::new(),
             prune: true,
         }
     }
@@ -143,6 +149,11 @@ impl Worker {
         state.steady = setup.params.threshold_sigmas.is_some()
             && setup.params.weighting
             && state.ceiling <= setup.steady_ceiling;
+        if let Some(votes) = &setup.votes {
+            let mut out = std::mem::take(&mut state.votes);
+            votes.collect(state, setup.rate, setup.n, setup.speed, &mut out);
+            state.votes = out;
+        }
     }
 
     /// Whitening and the correlation of every live pair (eq. 6 divided by N, see
@@ -227,6 +238,38 @@ impl Worker {
     /// value of an average exceeds the mean of its frames' ceilings: when even that cannot
     /// reach the threshold, the average is not searched.
     pub fn decide(
+        &mut self,
+        setup: &Setup,
+        span: &[FrameState],
+        index: u64,
+        times: Option<&mut StageTimes>,
+    ) -> Outcome {
+        let outcome = self.decide_frame(setup, span, index, times);
+        match &setup.votes {
+            Some(votes) => self.vote_riders(setup, votes, span, index, outcome),
+            None => outcome,
+        }
+    }
+
+    /// Riders from the bins' votes over `span` beside what the frame gave
+    /// ([`super::votes::add_riders`]).
+    fn vote_riders(
+        &mut self,
+        setup: &Setup,
+        votes: &BinVotes,
+        span: &[FrameState],
+        index: u64,
+        outcome: Outcome,
+    ) -> Outcome {
+        let Outcome::Detected(mut found, budget) = outcome else {
+            return outcome;
+        };
+        let scratch = (&mut self.votes, &mut self.vote_peaks);
+        add_riders(setup, votes, span, index, &mut found, scratch);
+        Outcome::Detected(found, budget)
+    }
+
+    fn decide_frame(
         &mut self,
         setup: &Setup,
         span: &[FrameState],

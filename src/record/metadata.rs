@@ -144,6 +144,10 @@ pub struct ParametersInfo {
     /// a document written before it has none: false).
     #[serde(default)]
     pub wpe: bool,
+    /// Whether the directions of single frequency bins give riders (`--no-bin-votes`
+    /// turns them off; a document written before them has none: false).
+    #[serde(default)]
+    pub bin_votes: bool,
     /// The tracker's parameters, or null with tracking off.
     pub track: Option<TrackParams>,
 }
@@ -191,6 +195,7 @@ impl RunMetadata {
                 riders: params.riders,
                 dereverb: params.dereverb.applies(&geometry.shape),
                 wpe: params.wpe,
+                bin_votes: params.bin_votes && params.candidates < 1.0,
                 track: None,
             },
         }

@@ -130,6 +130,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             Some("drv") => params.dereverb = named(arg),
             // The input dereverberated first (`--wpe`).
             _ if arg == "wpe" => params.wpe = true,
+            // No riders from the bins' directions (`--no-bin-votes`).
+            _ if arg == "novotes" => params.bin_votes = false,
             // The tracker's (see `track_from`).
             Some(
                 "weak" | "tight" | "tightdeg" | "span" | "alone" | "confirm" | "delay" | "gate"
