@@ -373,3 +373,54 @@ fn frame_length_in_milliseconds() {
     let out = example(&["--frame-ms", "32", "--frame-size", "512"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// A recording the tracker makes nothing of, though the method detected something (a
+/// fan in a corner of a small office and a 50 ms blip of speech, on a 6-mic circle at
+/// 16 kHz): no row, and a line that says why and what shows the detections.
+#[test]
+fn a_file_whose_detections_no_track_confirms_says_so() {
+    let dir = tempdir();
+    let d = dir.path();
+    copy_speech(d).unwrap();
+    write(d, "circle.toml", geometry_toml(&circle(6, 0.0463), ""));
+    write(
+        d,
+        "bg.toml",
+        "sample_rate = 16000\nduration = 5.0\nseed = 11\nformat = \"float32\"\n\
+         [room]\ndimensions = [5.0, 4.0, 2.7]\nrt60 = 0.5\n\
+         [array]\ngeometry = \"circle.toml\"\nposition = [2.3, 1.9, 0.75]\nyaw_deg = 10.0\n\
+         [[source]]\nazimuth_deg = 50.0\nelevation_deg = 15.0\ndistance = 1.5\n\
+         signal = \"file\"\nfile = \"cmu_arctic_us_aew_a0001.wav\"\nlevel_db = -26\n\
+         active = [[4.9, 4.95]]\n\
+         [noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\nposition = [0.3, 0.4, 2.5]\n\
+         signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n",
+    );
+    let run = |args: &[&str]| {
+        let out = ssl().current_dir(d).args(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+        out
+    };
+    run(&["simulate", "bg.toml", "-o", "bg.wav"]);
+    let tracked = run(&["analyze", "bg.wav", "-g", "circle.toml"]);
+    assert_eq!(String::from_utf8_lossy(&tracked.stdout).lines().count(), 1);
+    let said = stderr(&tracked);
+    assert!(
+        said.contains("no source confirmed: the tracker dropped all")
+            && said.contains("--keep-unconfirmed"),
+        "{said}"
+    );
+    let kept = run(&[
+        "analyze",
+        "bg.wav",
+        "-g",
+        "circle.toml",
+        "--keep-unconfirmed",
+    ]);
+    let rows = String::from_utf8_lossy(&kept.stdout).lines().count() - 1;
+    assert!(rows > 0);
+    assert!(
+        stderr(&kept).contains(&format!("all {rows} detections")),
+        "{}",
+        stderr(&kept)
+    );
+}

@@ -160,6 +160,13 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         for w in &summary.warnings {
             warn(args.quiet, &warning_with_hint(&summary.name, w));
         }
+        let kept = args.keep_unconfirmed;
+        if let Some(note) = tracker
+            .as_ref()
+            .and_then(|t| nothing_confirmed(&t.stats(), kept))
+        {
+            warn(args.quiet, &format!("{}: {note}", summary.name));
+        }
         let message = result.err().map(|e| with_hint(&e));
         if let Some(e) = &message {
             error(e);
@@ -180,6 +187,27 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         .map_err(|e| out.failed(e.into_error().into()))?;
     sink.commit()?;
     Ok(all_ok)
+}
+
+/// Why a tracked file gave no row although the method detected something: every
+/// detection (candidates included) was isolated, and the tracker dropped it (or, with
+/// `--keep-unconfirmed`, `kept`, wrote it without a source). `None` when a track was
+/// confirmed or nothing was detected (the method's own warnings say why).
+fn nothing_confirmed(stats: &ssl::track::TrackStats, kept: bool) -> Option<String> {
+    (stats.rows == 0 && stats.unconfirmed > 0).then(|| {
+        let rule = "a track starts from 2 detections above the threshold within --confirm-s, 4 of which 1 is above it, or 12 candidates";
+        if kept {
+            format!(
+                "no source confirmed: all {} detections (candidates included) were isolated ({rule}); they are written with an empty source",
+                stats.unconfirmed
+            )
+        } else {
+            format!(
+                "no source confirmed: the tracker dropped all {} detections (candidates included) as isolated ({rule}); --keep-unconfirmed writes them with an empty source, --no-track writes every frame's detection",
+                stats.unconfirmed
+            )
+        }
+    })
 }
 
 /// Warns when the same file is given twice (its detections would be written twice).
