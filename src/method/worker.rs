@@ -20,7 +20,7 @@ use super::setup::Setup;
 use super::spectrum::{frame_spectra, ForwardFft};
 use super::state::{span_ceiling, Correlated, FrameState};
 use super::steered::{Query, Steered, FURTHER_SHARE};
-use super::votes::{add_riders, BinVotes, Vote, VotePeak};
+use super::votes::{add_riders, Vote, VotePeak};
 use super::weighting::enhanced_weights;
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
@@ -237,6 +237,9 @@ impl Worker {
     /// its end into the frames after it. A set's score is one peak value per pair, and no
     /// value of an average exceeds the mean of its frames' ceilings: when even that cannot
     /// reach the threshold, the average is not searched.
+    ///
+    /// Beside a frame's detection, on a small array, the peaks of its bins' directions
+    /// add riders ([`super::votes`]).
     pub fn decide(
         &mut self,
         setup: &Setup,
@@ -245,28 +248,15 @@ impl Worker {
         times: Option<&mut StageTimes>,
     ) -> Outcome {
         let outcome = self.decide_frame(setup, span, index, times);
-        match &setup.votes {
-            Some(votes) => self.vote_riders(setup, votes, span, index, outcome),
-            None => outcome,
+        // Riders from the bins' votes beside what the frame gave (`super::votes`).
+        match (&setup.votes, outcome) {
+            (Some(votes), Outcome::Detected(mut found, budget)) => {
+                let scratch = (&mut self.votes, &mut self.vote_peaks);
+                add_riders(setup, votes, span, index, &mut found, scratch);
+                Outcome::Detected(found, budget)
+            }
+            (_, outcome) => outcome,
         }
-    }
-
-    /// Riders from the bins' votes over `span` beside what the frame gave
-    /// ([`super::votes::add_riders`]).
-    fn vote_riders(
-        &mut self,
-        setup: &Setup,
-        votes: &BinVotes,
-        span: &[FrameState],
-        index: u64,
-        outcome: Outcome,
-    ) -> Outcome {
-        let Outcome::Detected(mut found, budget) = outcome else {
-            return outcome;
-        };
-        let scratch = (&mut self.votes, &mut self.vote_peaks);
-        add_riders(setup, votes, span, index, &mut found, scratch);
-        Outcome::Detected(found, budget)
     }
 
     fn decide_frame(
