@@ -143,12 +143,16 @@ impl BinVotes {
         let mut band_of = Vec::new();
         for k in first..n / 2 {
             let f = k as f64 * rate / n as f64;
-            let pairs: Vec<(usize, usize)> = (0..mics)
+            let length = |&(a, b): &(usize, usize)| {
+                (geometry.mics[b].position - geometry.mics[a].position).norm()
+            };
+            let mut pairs: Vec<(usize, usize)> = (0..mics)
                 .flat_map(|a| (a + 1..mics).map(move |b| (a, b)))
-                .filter(|&(a, b)| {
-                    (geometry.mics[b].position - geometry.mics[a].position).norm() * f / speed < 0.5
-                })
+                .filter(|pair| length(pair) * f / speed < 0.5)
                 .collect();
+            // The shortest, when there are more.
+            pairs.sort_by(|x, y| length(x).total_cmp(&length(y)).then(x.cmp(y)));
+            pairs.truncate(MAX_PAIRS);
             if bands.last().is_none_or(|b| b.pairs != pairs) {
                 match Band::new(geometry, pairs, plane, rank) {
                     Some(band) => bands.push(band),

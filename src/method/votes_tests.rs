@@ -11,13 +11,18 @@ const N: usize = 256;
 const C: f64 = 343.0;
 
 fn circle() -> Geometry {
-    let toml: String = (0..6)
+    ring(6, 0.0463)
+}
+
+/// `k` microphones on a horizontal circle of radius `r` (m).
+fn ring(k: usize, r: f64) -> Geometry {
+    let toml: String = (0..k)
         .map(|i| {
-            let a = std::f64::consts::TAU * i as f64 / 6.0;
+            let a = std::f64::consts::TAU * i as f64 / k as f64;
             format!(
                 "[[mic]]\nposition = [{}, {}, 0.0]\n",
-                0.0463 * a.cos(),
-                0.0463 * a.sin()
+                r * a.cos(),
+                r * a.sin()
             )
         })
         .collect();
@@ -113,4 +118,19 @@ fn the_prism_and_a_line_do_not_vote() {
     )
     .unwrap();
     assert!(BinVotes::new(&line, N, RATE, C).is_none());
+}
+
+/// A ring of 16 (120 pairs, more than a bin uses) votes with its 66 shortest pairs.
+#[test]
+fn a_large_ring_votes_with_its_shortest_pairs() {
+    let geometry = ring(16, 0.04);
+    let bins = BinVotes::new(&geometry, N, RATE, C).expect("it votes");
+    assert!(bins.bands.iter().all(|b| b.pairs.len() <= MAX_PAIRS));
+    assert_eq!(bins.bands[0].pairs.len(), MAX_PAIRS);
+    let u = unit_from_angles(-100.0, 10.0);
+    let (_, votes) = votes_of(&geometry, &frame(&geometry, |_| Some(u)));
+    assert_eq!(votes.len(), bins.band_of.len());
+    assert!(votes
+        .iter()
+        .all(|v| v.direction.angle(&u).to_degrees() < 0.01));
 }
