@@ -409,6 +409,16 @@ fn a_file_whose_detections_no_track_confirms_says_so() {
             && said.contains("--keep-unconfirmed"),
         "{said}"
     );
+    // The JSON document's entry for the file carries the same line.
+    let json = run(&["analyze", "bg.wav", "-g", "circle.toml", "-f", "json", "-q"]);
+    let doc: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let warnings = doc["files"][0]["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("no source confirmed")),
+        "{warnings:?}"
+    );
     let kept = run(&[
         "analyze",
         "bg.wav",

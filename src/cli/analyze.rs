@@ -161,11 +161,12 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
             warn(args.quiet, &warning_with_hint(&summary.name, w));
         }
         let kept = args.keep_unconfirmed;
-        if let Some(note) = tracker
+        let unconfirmed = tracker
             .as_ref()
             .and_then(|t| nothing_confirmed(&t.stats(), kept))
-        {
-            warn(args.quiet, &format!("{}: {note}", summary.name));
+            .map(|note| format!("{}: {note}", summary.name));
+        if let Some(note) = &unconfirmed {
+            warn(args.quiet, note);
         }
         let message = result.err().map(|e| with_hint(&e));
         if let Some(e) = &message {
@@ -174,7 +175,8 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         }
         files.push(
             FileEntry::new(path, Some(&summary), message)
-                .with_tracking(tracker.as_ref().map(Tracker::stats)),
+                .with_tracking(tracker.as_ref().map(Tracker::stats))
+                .with_warning(unconfirmed),
         );
     }
     let Some(exporter) = out.exporter.take() else {

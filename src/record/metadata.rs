@@ -313,6 +313,14 @@ impl FileEntry {
             ..self
         }
     }
+
+    /// The entry with one more warning (already naming the file), when there is one.
+    pub fn with_warning(mut self, warning: Option<String>) -> Self {
+        if let Some(w) = warning {
+            self.warnings.get_or_insert_with(Vec::new).push(w);
+        }
+        self
+    }
 }
 
 /// Riders' share in a document written before them: none.
