@@ -116,6 +116,13 @@ pub struct Params {
 }
 
 impl Params {
+    /// Whether riders come from the bins' directions: [`Params::bin_votes`], and a
+    /// tracker to ride along (`candidates` under 1). On arrays too large for them there
+    /// are none either way (see [`super::votes`]).
+    pub fn bin_votes_on(&self) -> bool {
+        self.bin_votes && self.candidates < 1.0
+    }
+
     /// The defaults with a fixed threshold of `min_score_per_pair` per pair instead of
     /// the calibrated one, and no late reverberation in the noise estimate (which lowers
     /// speech scores under a fixed threshold): `--min-score`.

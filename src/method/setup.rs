@@ -164,7 +164,8 @@ impl Setup {
             .dereverb
             .applies(&geometry.shape)
             .then(|| DiffuseCoherence::new(geometry, n, rate, speed));
-        let votes = (params.bin_votes && params.candidates < 1.0)
+        let votes = params
+            .bin_votes_on()
             .then(|| BinVotes::new(geometry, n, rate, speed))
             .flatten();
         let mut windows_len = 0;

@@ -195,7 +195,7 @@ impl RunMetadata {
                 riders: params.riders,
                 dereverb: params.dereverb.applies(&geometry.shape),
                 wpe: params.wpe,
-                bin_votes: params.bin_votes && params.candidates < 1.0,
+                bin_votes: params.bin_votes_on(),
                 track: None,
             },
         }
