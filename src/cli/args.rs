@@ -9,7 +9,7 @@ use ssl::method::{
     DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
     MAX_AVERAGE_FRAMES, MAX_SOURCES,
 };
-use ssl::track::{TrackParams, DEFAULT_CANDIDATES, DEFAULT_RIDERS, MAX_DELAY_S};
+use ssl::track::{TrackParams, DEFAULT_CANDIDATES, DEFAULT_RIDERS, MAX_DELAY_S, MAX_SMOOTH_S};
 use ssl::{Format, Named};
 use std::path::PathBuf;
 
@@ -213,7 +213,7 @@ pub struct AnalyzeArgs {
     #[arg(long, conflicts_with_all = ["no_track", "paper"])]
     pub no_bin_votes: bool,
 
-    /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, and delays rows by up to --delay-s)
+    /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, smooths each row's direction over its track's (--smooth-s), and delays rows by up to --delay-s and --smooth-s)
     #[arg(long)]
     pub no_track: bool,
 
@@ -248,6 +248,10 @@ pub struct AnalyzeArgs {
     /// Rows wait up to this many seconds for their track to be confirmed (the tracker's delay; never less than --confirm-s): a detection not confirmed by then is dropped, so a talker confirmed late loses its first detections
     #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = tracker_seconds, conflicts_with = "no_track")]
     pub delay_s: f64,
+
+    /// Each tracked row's direction is its track's mean over this many seconds before and after it, corrected for the track's turn (rows come out that much later); 0: each frame's own direction
+    #[arg(long, value_name = "SECONDS", default_value_t = TrackParams::default().smooth_s, value_parser = smoothing_seconds, conflicts_with = "no_track")]
+    pub smooth_s: f64,
 
     /// Threads to analyse with (0: all cores); the output is the same for any number
     #[arg(short = 'j', long, default_value_t = 0, value_name = "N")]
@@ -382,6 +386,15 @@ fn tracker_seconds(s: &str) -> std::result::Result<f64, String> {
     Ok(v)
 }
 
+/// The smoothing window (`--smooth-s`): 0 to [`MAX_SMOOTH_S`].
+fn smoothing_seconds(s: &str) -> std::result::Result<f64, String> {
+    let v = non_negative_f64(s)?;
+    if v > MAX_SMOOTH_S {
+        return Err(format!("{v} is over {MAX_SMOOTH_S} s"));
+    }
+    Ok(v)
+}
+
 /// A share of the threshold: over 0, at most 1.
 fn candidate_share(s: &str) -> Result<f64, String> {
     let v: f64 = s.parse().map_err(|_| format!("{s} is not a number"))?;
@@ -416,6 +429,7 @@ impl AnalyzeArgs {
             weak_span_s: defaults.weak_span_s.min(self.confirm_s),
             delay_s: self.delay_s,
             keep_unconfirmed: self.keep_unconfirmed,
+            smooth_s: self.smooth_s,
             ..defaults
         })
     }

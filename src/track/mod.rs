@@ -44,17 +44,23 @@
 //!   with pauses of up to about half a second between them within a sentence.) A silent track is
 //!   forgotten after [`TrackParams::forget_s`] (at most [`MAX_TRACKS`] are remembered).
 //!
+//! - **smoothing:** each row's direction is its track's around that frame, the mean of the
+//!   track's rows within [`TrackParams::smooth_s`] before and after it, each turned along
+//!   the track's measured turn ([`smoother`]).
+//!
 //! Every detection that comes out carries its track's id (`source`, from 1, never reused
 //! within one recording), but for the unconfirmed ones [`TrackParams::keep_unconfirmed`]
-//! keeps. Rows come out in frame order, at most
-//! [`TrackParams::delay_s`] after their frame: that is the tracker's delay. Memory
-//! holds the open candidates and the rows still waiting, bounded by that delay.
+//! keeps. Rows come out in frame order, at most [`TrackParams::latency`] after their
+//! frame ([`TrackParams::delay_s`], then [`TrackParams::smooth_s`]): that is the
+//! tracker's delay. Memory holds the open candidates and the rows still waiting, bounded
+//! by that delay (and the last second of rows, for the turn).
 //! Measured in docs/tracking.md.
 
 mod candidate;
 mod event;
 pub mod image;
 mod motion;
+pub mod smoother;
 mod tracker;
 
 pub use candidate::candidate_gate_deg;
@@ -145,6 +151,11 @@ pub struct TrackParams {
     /// dropping them (`--keep-unconfirmed`).
     #[serde(default)]
     pub keep_unconfirmed: bool,
+    /// Each tracked row's direction is the mean of its track's rows within this many
+    /// seconds of it, before and after ([`smoother`]); rows come out that much later.
+    /// 0: every row keeps its frame's own direction.
+    #[serde(default = "default_smooth_s")]
+    pub smooth_s: f64,
 }
 
 impl Default for TrackParams {
@@ -167,8 +178,13 @@ impl Default for TrackParams {
             end_s: 1.0,
             forget_s: 120.0,
             keep_unconfirmed: false,
+            smooth_s: 0.1,
         }
     }
+}
+
+fn default_smooth_s() -> f64 {
+    TrackParams::default().smooth_s
 }
 
 fn default_confirm_weak() -> usize {
@@ -224,6 +240,9 @@ pub const MAX_CANDIDATE_GATE_DEG: f64 = 8.0;
 /// so memory stays bounded whatever the recording's length.
 pub const MAX_DELAY_S: f64 = 10.0;
 
+/// The widest smoothing window ([`TrackParams::smooth_s`], seconds each side).
+pub const MAX_SMOOTH_S: f64 = 1.0;
+
 /// At most this many tracks are remembered at once (the oldest silent one goes first).
 pub const MAX_TRACKS: usize = 64;
 
@@ -240,6 +259,12 @@ impl TrackParams {
     /// that is longer.
     pub fn delay(&self) -> f64 {
         self.delay_s.max(self.confirm_s)
+    }
+
+    /// How long after its frame a row comes out at most: the tracker's delay, then the
+    /// smoothing window after it ([`TrackParams::smooth_s`]).
+    pub fn latency(&self) -> f64 {
+        self.delay() + self.smooth_s
     }
 
     /// Checks every parameter.
@@ -295,6 +320,13 @@ impl TrackParams {
                 TrackParamsError::Invalid,
                 "the time a detection must be heard alone must be 0 to {MAX_DELAY_S} s, got {}",
                 self.alone_s
+            );
+        }
+        if !(self.smooth_s.is_finite() && (0.0..=MAX_SMOOTH_S).contains(&self.smooth_s)) {
+            fail!(
+                TrackParamsError::Invalid,
+                "the smoothing window must be 0 to {MAX_SMOOTH_S} s, got {}",
+                self.smooth_s
             );
         }
         if !(self.max_speed_deg_s.is_finite() && self.max_speed_deg_s >= 0.0) {

@@ -14,12 +14,12 @@ const SMOOTHING_FRAME_S: f64 = 0.0107;
 
 /// A track's turn is measured over at least this long (seconds): over a shorter time, a
 /// degree of noise in its direction reads as several degrees per second.
-const VELOCITY_SPAN_S: f64 = 0.5;
+pub(super) const VELOCITY_SPAN_S: f64 = 0.5;
 
 /// A track measured turning slower than this (radians per second, 10 deg/s) is taken
 /// as still: the noise of a small array's directions measures about that much, and
 /// the gate follows slower talkers anyway.
-const STILL_SPEED: f64 = 10.0 * std::f64::consts::PI / 180.0;
+pub(super) const STILL_SPEED: f64 = 10.0 * std::f64::consts::PI / 180.0;
 
 /// A track is predicted at most this far past its last detection (seconds).
 const PREDICT_S: f64 = 1.0;

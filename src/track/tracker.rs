@@ -4,6 +4,7 @@ use super::candidate::{candidate_gate_deg, heard_alone, Candidate};
 use super::event::{Accumulator, Event};
 use super::image::{is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
+use super::smoother::Smoother;
 use super::{TrackParams, MAX_TRACKS};
 use crate::geometry::{Geometry, Shape};
 use crate::method::direction::angle_between_deg;
@@ -72,6 +73,8 @@ pub struct Tracker {
     next_id: u64,
     next_key: u64,
     next_row: u64,
+    /// Rows given out, their directions smoothed over their track's.
+    smoother: Smoother,
     ready: Vec<Tracked>,
     events: Vec<Event>,
     stats: TrackStats,
@@ -87,6 +90,7 @@ impl Tracker {
     pub fn new(params: TrackParams) -> Self {
         Tracker {
             candidate_gate: params.candidate_gate_deg,
+            smoother: Smoother::new(params.smooth_s),
             params,
             plane: None,
             tracks: Vec::new(),
@@ -277,6 +281,12 @@ impl Tracker {
         }
         self.used = used;
         self.release();
+        // Rows still to come: the waiting ones, then later frames'.
+        let from_s = self
+            .waiting
+            .front()
+            .map_or(time_s + 1e-9, |(d, _)| d.time_s);
+        self.smoother.settle(from_s, &mut self.ready);
     }
 
     /// Adds `d` to a track or a candidate (confirming the candidate when it has enough);
@@ -447,7 +457,8 @@ impl Tracker {
                 None => self.stats.unconfirmed += 1,
             }
             if source.is_some() || self.params.keep_unconfirmed {
-                self.ready.push(Tracked { detection, source });
+                self.smoother
+                    .push(Tracked { detection, source }, &mut self.ready);
             }
         }
     }
@@ -468,6 +479,7 @@ impl Tracker {
         ending.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
         self.events.extend(ending);
         self.release();
+        self.smoother.finish(&mut self.ready);
     }
 
     /// What the tracker has made of the detections so far (complete after

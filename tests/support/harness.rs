@@ -135,7 +135,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             // The tracker's (see `track_from`).
             Some(
                 "weak" | "tight" | "tightdeg" | "span" | "alone" | "confirm" | "delay" | "gate"
-                | "cgate" | "cgs",
+                | "cgate" | "cgs" | "smooth",
             ) => {}
             // A benchmark's own (an offset to its scenes' seeds).
             Some("seed" | "rot" | "only") => {}
@@ -176,6 +176,7 @@ pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
             "gate" => track.gate_deg = value.parse().expect("gate takes degrees"),
             "cgs" => track.candidate_gate_samples = value.parse().expect("cgs takes samples"),
             "cgate" => track.candidate_gate_deg = value.parse().expect("cgate takes degrees"),
+            "smooth" => track.smooth_s = value.parse().expect("smooth takes seconds"),
             _ => {}
         }
     }

@@ -1,0 +1,362 @@
+//! A track's rows smoothed over time (beyond the paper): each row's direction becomes
+//! the mean direction of its track's rows within [`TrackParams::smooth_s`] of it, before
+//! and after, each first moved along the track's turn to the row's time (a fixed-lag
+//! smoother: rows come out that much later).
+//!
+//! A frame's direction errs by its own noise: on a 6.5 cm tetrahedron at 16 kHz two
+//! talkers' rows scatter by 2-4 deg, most of it from frame to frame, and the mean of a
+//! track's neighbouring rows is nearer the talker (docs/tracking.md). Speech comes in
+//! bursts, so the window is often one-sided, where a moving talker's mean lags: the
+//! turn, the least-squares slope of the track's rows over the last second, is taken out
+//! first (when they span half a second and it is at least the tracker's 10 deg/s). A
+//! planar array's elevation, which the room's floor and ceiling bias in every frame
+//! alike, is not improved. Rows with no track (`--keep-unconfirmed`) keep their own
+//! direction.
+//!
+//! [`TrackParams::smooth_s`]: super::TrackParams::smooth_s
+
+use super::motion::{STILL_SPEED, VELOCITY_SPAN_S};
+use super::Tracked;
+use crate::method::direction::angles_deg;
+use nalgebra::Vector3;
+use std::collections::VecDeque;
+
+/// How far back (seconds) a track's rows give the rate at which its direction turns.
+const TURN_S: f64 = 1.0;
+
+/// `u` turned by `turn` (an angular velocity) for `dt` seconds (Rodrigues' formula).
+fn turned(u: &Vector3<f64>, turn: &Vector3<f64>, dt: f64) -> Vector3<f64> {
+    let rate = turn.norm();
+    if rate == 0.0 {
+        return *u;
+    }
+    let (axis, angle) = (turn / rate, rate * dt);
+    let (sin, cos) = angle.sin_cos();
+    u * cos + axis.cross(u) * sin + axis * axis.dot(u) * (1.0 - cos)
+}
+
+/// Holds the tracker's rows until every row of their track within the window after them
+/// has come (see the module's documentation).
+pub(super) struct Smoother {
+    /// Half the window (seconds); 0: rows pass through as they are.
+    half_s: f64,
+    /// Rows in frame order with their own direction: those already given out (the
+    /// first `done`, kept while a waiting row may still need them), then those waiting.
+    rows: VecDeque<(Tracked, Vector3<f64>)>,
+    /// How many of `rows` have been given out.
+    done: usize,
+}
+
+impl Smoother {
+    pub fn new(half_s: f64) -> Self {
+        Smoother {
+            half_s,
+            rows: VecDeque::new(),
+            done: 0,
+        }
+    }
+
+    /// A row from the tracker (in frame order).
+    pub fn push(&mut self, row: Tracked, out: &mut Vec<Tracked>) {
+        if self.half_s <= 0.0 {
+            out.push(row);
+            return;
+        }
+        let own = row.detection.direction;
+        self.rows.push_back((row, own));
+    }
+
+    /// Every row still to come is at `from_s` or later: the rows with their whole window
+    /// before it are smoothed and go to `out`.
+    pub fn settle(&mut self, from_s: f64, out: &mut Vec<Tracked>) {
+        while self.done < self.rows.len()
+            && self.rows[self.done].0.detection.time_s + self.half_s < from_s
+        {
+            self.give_out(out);
+        }
+    }
+
+    /// The end of the recording: every waiting row goes out.
+    pub fn finish(&mut self, out: &mut Vec<Tracked>) {
+        while self.done < self.rows.len() {
+            self.give_out(out);
+        }
+        self.rows.clear();
+        self.done = 0;
+    }
+
+    /// How `source`'s direction turns around `t` (an angular velocity: its axis, and its
+    /// length in radians per second), from the least-squares slope of its rows from
+    /// [`TURN_S`] before `t` to the half window after it; none when they
+    /// spread over less than rows spread evenly over [`VELOCITY_SPAN_S`] (the tracker's
+    /// span for a turn), or when it is under the tracker's [`STILL_SPEED`].
+    fn turn(&self, source: u64, t: f64) -> Vector3<f64> {
+        let mut count = 0.0;
+        let (mut st, mut stt) = (0.0, 0.0);
+        let (mut su, mut stu) = (Vector3::zeros(), Vector3::zeros());
+        for (r, own) in self.rows.iter().filter(|(r, _)| {
+            r.source == Some(source)
+                && r.detection.time_s >= t - TURN_S
+                && r.detection.time_s <= t + self.half_s
+        }) {
+            let dt = r.detection.time_s - t;
+            count += 1.0;
+            st += dt;
+            stt += dt * dt;
+            su += own;
+            stu += own * dt;
+        }
+        if count < 2.0 {
+            return Vector3::zeros();
+        }
+        let mean_t = st / count;
+        let var_t = stt / count - mean_t * mean_t;
+        if var_t < VELOCITY_SPAN_S * VELOCITY_SPAN_S / 12.0 {
+            return Vector3::zeros();
+        }
+        let slope = (stu / count - su / count * mean_t) / var_t;
+        // As a rotation: the rows' arc is curved, and a slope taken at their middle
+        // points off the tangent at `t` by half the angle turned.
+        let middle = su.normalize();
+        let turn = middle.cross(&slope);
+        let rate = turn.norm();
+        if !rate.is_finite() || rate < STILL_SPEED {
+            return Vector3::zeros();
+        }
+        turn
+    }
+
+    /// Smooths the first waiting row and gives it out; forgets the rows no waiting row
+    /// needs any more.
+    fn give_out(&mut self, out: &mut Vec<Tracked>) {
+        let (row, _) = &self.rows[self.done];
+        let mut row = row.clone();
+        if let Some(source) = row.source {
+            let t = row.detection.time_s;
+            let turn = self.turn(source, t);
+            let sum: Vector3<f64> = self
+                .rows
+                .iter()
+                .filter(|(r, _)| {
+                    r.source == Some(source) && (r.detection.time_s - t).abs() <= self.half_s
+                })
+                .map(|(r, own)| turned(own, &turn, t - r.detection.time_s))
+                .sum();
+            let n = sum.norm();
+            if n > 1e-9 && n.is_finite() {
+                let u = sum / n;
+                let (az, el) = angles_deg(&u);
+                row.detection.direction = u;
+                row.detection.azimuth_deg = az;
+                row.detection.elevation_deg = el;
+            }
+        }
+        out.push(row);
+        self.done += 1;
+        // The rows still to come are at the next waiting row's time or later (at the
+        // row just given out's, when none waits).
+        let next = self.rows[self.done.min(self.rows.len() - 1)]
+            .0
+            .detection
+            .time_s;
+        while self.done > 0 && next - self.rows[0].0.detection.time_s > self.half_s.max(TURN_S) {
+            self.rows.pop_front();
+            self.done -= 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::method::direction::{angle_between_deg, unit_from_angles};
+    use crate::method::Detection;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn row(time_s: f64, u: Vector3<f64>, source: Option<u64>) -> Tracked {
+        let (azimuth_deg, elevation_deg) = angles_deg(&u);
+        Tracked {
+            detection: Detection {
+                frame: (time_s / 0.008).round() as u64,
+                time_s,
+                azimuth_deg,
+                elevation_deg,
+                direction: u,
+                score: 1.0,
+                mics: 8,
+                margin: 1.0,
+                rider: false,
+            },
+            source,
+        }
+    }
+
+    fn smooth_all(half_s: f64, rows: &[Tracked]) -> Vec<Tracked> {
+        let mut s = Smoother::new(half_s);
+        let mut out = Vec::new();
+        for r in rows {
+            s.settle(r.detection.time_s, &mut out);
+            s.push(r.clone(), &mut out);
+        }
+        s.finish(&mut out);
+        out
+    }
+
+    /// The oracle: every row's direction the normalised sum of its source's rows
+    /// within `half_s`, computed over the whole list at once.
+    fn brute_force(half_s: f64, rows: &[Tracked]) -> Vec<Vector3<f64>> {
+        rows.iter()
+            .map(|r| match r.source {
+                None => r.detection.direction,
+                Some(s) => rows
+                    .iter()
+                    .filter(|o| {
+                        o.source == Some(s)
+                            && (o.detection.time_s - r.detection.time_s).abs() <= half_s
+                    })
+                    .map(|o| o.detection.direction)
+                    .sum::<Vector3<f64>>()
+                    .normalize(),
+            })
+            .collect()
+    }
+
+    /// Two talkers 40 deg apart with rows scattered by a few degrees, some frames with
+    /// both, a gap, and a row without a track.
+    fn two_talkers(rng: &mut ChaCha8Rng) -> Vec<Tracked> {
+        let mut rows = Vec::new();
+        for k in 0..400 {
+            let t = 0.5 + k as f64 * 0.008;
+            if (1.2..1.6).contains(&t) {
+                continue;
+            }
+            for (source, az) in [(1, 20.0), (2, -20.0)] {
+                if rng.random_bool(0.6) {
+                    let u = unit_from_angles(
+                        az + rng.random_range(-4.0..4.0),
+                        10.0 + rng.random_range(-4.0..4.0),
+                    );
+                    rows.push(row(t, u, Some(source)));
+                }
+            }
+            if k == 150 {
+                rows.push(row(t, unit_from_angles(120.0, 0.0), None));
+            }
+        }
+        rows
+    }
+
+    #[test]
+    fn every_row_is_the_mean_of_its_tracks_rows_around_it() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let rows = two_talkers(&mut rng);
+        let out = smooth_all(0.1, &rows);
+        assert_eq!(out.len(), rows.len());
+        for ((o, r), want) in out.iter().zip(&rows).zip(brute_force(0.1, &rows)) {
+            assert_eq!(o.source, r.source);
+            assert_eq!(o.detection.time_s, r.detection.time_s);
+            assert_eq!(o.detection.score, r.detection.score);
+            assert!(angle_between_deg(&o.detection.direction, &want) < 1e-9);
+            let (az, el) = angles_deg(&want);
+            assert!((o.detection.azimuth_deg - az).abs() < 1e-9);
+            assert!((o.detection.elevation_deg - el).abs() < 1e-9);
+        }
+        let untracked = out.iter().find(|o| o.source.is_none()).expect("kept");
+        assert!((untracked.detection.azimuth_deg - 120.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn smoothing_brings_scattered_rows_nearer_their_talker() {
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let rows = two_talkers(&mut rng);
+        let truth = |s: Option<u64>| match s {
+            Some(1) => unit_from_angles(20.0, 10.0),
+            _ => unit_from_angles(-20.0, 10.0),
+        };
+        let mean = |rows: &[Tracked]| {
+            let tracked = rows.iter().filter(|r| r.source.is_some());
+            let n = tracked.clone().count() as f64;
+            tracked
+                .map(|r| angle_between_deg(&r.detection.direction, &truth(r.source)))
+                .sum::<f64>()
+                / n
+        };
+        let (before, after) = (mean(&rows), mean(&smooth_all(0.1, &rows)));
+        assert!(before > 2.0, "{before}");
+        assert!(after < 0.5 * before, "{before} -> {after}");
+    }
+
+    #[test]
+    fn a_talker_moving_steadily_is_left_where_it_was_at_each_row() {
+        // 60 deg/s, a row every 8 ms: the window's mean is the middle of its arc.
+        let rows: Vec<Tracked> = (0..300)
+            .map(|k| {
+                let t = k as f64 * 0.008;
+                row(t, unit_from_angles(-60.0 + 60.0 * t, 5.0), Some(1))
+            })
+            .collect();
+        let out = smooth_all(0.1, &rows);
+        for (o, r) in out.iter().zip(&rows).skip(13).take(270) {
+            let err = angle_between_deg(&o.detection.direction, &r.detection.direction);
+            assert!(err < 0.05, "{} s: {err} deg", r.detection.time_s);
+        }
+    }
+
+    #[test]
+    fn a_talker_moving_in_bursts_is_not_dragged_back_at_their_edges() {
+        // 60 deg/s, talking 0.6 s in every 0.9 s: at a burst's edges the window is
+        // one-sided, and the plain mean lags by up to a quarter of its span.
+        let truth = |t: f64| unit_from_angles(-60.0 + 60.0 * t, 5.0);
+        let rows: Vec<Tracked> = (0..400)
+            .map(|k| k as f64 * 0.008)
+            .filter(|t| t % 0.9 < 0.6)
+            .map(|t| row(t, truth(t), Some(1)))
+            .collect();
+        let plain = brute_force(0.1, &rows);
+        let out = smooth_all(0.1, &rows);
+        let (mut worst_plain, mut worst) = (0.0f64, 0.0f64);
+        // From the second burst on (the first has no second of turn behind it).
+        for ((o, r), p) in out.iter().zip(&rows).zip(&plain) {
+            if r.detection.time_s < 0.9 {
+                continue;
+            }
+            let want = truth(r.detection.time_s);
+            worst_plain = worst_plain.max(angle_between_deg(p, &want));
+            worst = worst.max(angle_between_deg(&o.detection.direction, &want));
+        }
+        assert!(worst_plain > 2.0, "{worst_plain}");
+        assert!(worst < 0.3, "{worst}");
+    }
+
+    #[test]
+    fn rows_come_out_once_the_window_after_them_has_passed_and_no_later() {
+        let rows: Vec<Tracked> = (0..100)
+            .map(|k| row(k as f64 * 0.01, unit_from_angles(0.0, 0.0), Some(1)))
+            .collect();
+        let mut s = Smoother::new(0.1);
+        let mut out = Vec::new();
+        for r in &rows {
+            let now = r.detection.time_s;
+            s.push(r.clone(), &mut out);
+            // Rows to come are a frame later: out, the rows 0.1 s before now or more.
+            s.settle(now + 1e-9, &mut out);
+            let want = rows
+                .iter()
+                .filter(|o| o.detection.time_s + 0.1 < now + 1e-9)
+                .count();
+            assert_eq!(out.len(), want, "{now}");
+        }
+        // Memory: only the rows of the last turn's span and the window are held.
+        assert!(s.rows.len() <= 113, "{}", s.rows.len());
+        s.finish(&mut out);
+        assert_eq!(out.len(), rows.len());
+    }
+
+    #[test]
+    fn no_window_passes_rows_through_unchanged() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let rows = two_talkers(&mut rng);
+        assert_eq!(smooth_all(0.0, &rows), rows);
+    }
+}
