@@ -168,7 +168,7 @@ fn off_nearest(sources: &[[f64; 3]], r: &serde_json::Value) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Each tracked row's direction is its track's around it (`--smooth-s`, 0.1 s by
+/// Each tracked row's direction is its track's around it (`--smooth-s`, 0.2 s by
 /// default): the same rows as with `--smooth-s 0` (frames, sources, scores), as near the
 /// example's true sources; the JSON document says which; a window over 1 s
 /// is refused, and so is smoothing without a tracker.
@@ -181,7 +181,7 @@ fn tracked_rows_are_smoothed_over_their_track() {
     };
     let smooth = json(&[]);
     let raw = json(&["--smooth-s", "0"]);
-    assert_eq!(smooth["parameters"]["track"]["smooth_s"], 0.1);
+    assert_eq!(smooth["parameters"]["track"]["smooth_s"], 0.2);
     assert_eq!(raw["parameters"]["track"]["smooth_s"], 0.0);
     let (a, b) = (
         smooth["detections"].as_array().unwrap(),

@@ -404,7 +404,7 @@ fn tolerance_in_time_and_the_residual_gate_keep_reverberant_speech_on_target() {
 /// default threshold, calibrated against the background, with late reverberation in the
 /// noise estimate, sharpens it further with every event found and no false detection
 /// (measured without the tracker, whose candidates add rows that err more but whose
-/// smoothing over each track's rows takes the error down again: 1.5 deg with it). The talker
+/// smoothing over each track's rows takes the error down again: 1.3 deg with it). The talker
 /// sits 1.5 m away, 15 deg above the array; one recording serves the four analyses.
 #[test]
 fn averaging_and_the_calibrated_threshold_sharpen_reverberant_speech_on_a_small_array() {
@@ -438,7 +438,7 @@ fn averaging_and_the_calibrated_threshold_sharpen_reverberant_speech_on_a_small_
     // With the tracker this run once had to stay under 0.6 of the averaged error (2.2
     // deg here); the candidates' gate that opens to 8 deg on this array (docs/tracking.md)
     // cost it 0.3 deg (2.3), and each row's direction smoothed over its track's
-    // (src/track/smoother.rs) took it to 1.5.
+    // (src/track/smoother.rs) took it to 1.3.
     assert!(with_tracker < 2.0, "{with_tracker}");
     for report in [&averaged, &calibrated, &tracked] {
         assert_eq!(report.event_detection_rate, Some(1.0));

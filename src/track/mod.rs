@@ -178,7 +178,7 @@ impl Default for TrackParams {
             end_s: 1.0,
             forget_s: 120.0,
             keep_unconfirmed: false,
-            smooth_s: 0.1,
+            smooth_s: 0.2,
         }
     }
 }
