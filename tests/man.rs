@@ -4,6 +4,8 @@
 #[path = "../src/cli/args.rs"]
 #[allow(dead_code)]
 mod args;
+#[path = "../src/cli/values.rs"]
+mod values;
 
 use clap::CommandFactory;
 use std::path::Path;

@@ -1,6 +1,9 @@
 //! The command line's arguments (clap). `man/` is generated from these definitions.
 
-use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use super::values::{
+    candidate_share, choice, non_negative, non_negative_f64, parse_f64, positive,
+    smoothing_seconds, tracker_seconds, unit_interval,
+};
 use clap::{Args, Parser, Subcommand};
 use ssl::method::peaks::MAX_PEAKS;
 use ssl::method::{
@@ -9,8 +12,8 @@ use ssl::method::{
     DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
     MAX_AVERAGE_FRAMES, MAX_SOURCES,
 };
-use ssl::track::{TrackParams, DEFAULT_CANDIDATES, DEFAULT_RIDERS, MAX_DELAY_S, MAX_SMOOTH_S};
-use ssl::{Format, Named};
+use ssl::track::{TrackParams, DEFAULT_CANDIDATES, DEFAULT_RIDERS};
+use ssl::Format;
 use std::path::PathBuf;
 
 /// Find where sounds come from in multichannel microphone-array recordings.
@@ -334,76 +337,6 @@ pub struct EvaluateArgs {
     pub json: bool,
 }
 
-fn parse_f64(s: &str) -> std::result::Result<f64, String> {
-    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
-    if !v.is_finite() {
-        return Err(format!("`{s}` is not a finite number"));
-    }
-    Ok(v)
-}
-
-fn unit_interval(s: &str) -> std::result::Result<f32, String> {
-    let v = parse_f64(s)?;
-    if !(0.0..=1.0).contains(&v) {
-        return Err(format!("{v} is outside 0..=1"));
-    }
-    Ok(v as f32)
-}
-
-fn non_negative(s: &str) -> std::result::Result<f32, String> {
-    let v = parse_f64(s)?;
-    if v < 0.0 {
-        return Err(format!("{v} is negative"));
-    }
-    Ok(v as f32)
-}
-
-fn non_negative_f64(s: &str) -> std::result::Result<f64, String> {
-    let v = parse_f64(s)?;
-    if v < 0.0 {
-        return Err(format!("{v} is negative"));
-    }
-    Ok(v)
-}
-
-fn positive(s: &str) -> std::result::Result<f64, String> {
-    let v = parse_f64(s)?;
-    if v <= 0.0 {
-        return Err(format!("{v} is not positive"));
-    }
-    Ok(v)
-}
-
-/// A tracker's window or delay: positive, at most [`MAX_DELAY_S`] (rows wait that long
-/// in memory).
-fn tracker_seconds(s: &str) -> std::result::Result<f64, String> {
-    let v = positive(s)?;
-    if v > MAX_DELAY_S {
-        return Err(format!(
-            "{v} is over {MAX_DELAY_S} s (rows wait that long in memory)"
-        ));
-    }
-    Ok(v)
-}
-
-/// The smoothing window (`--smooth-s`): 0 to [`MAX_SMOOTH_S`].
-fn smoothing_seconds(s: &str) -> std::result::Result<f64, String> {
-    let v = non_negative_f64(s)?;
-    if v > MAX_SMOOTH_S {
-        return Err(format!("{v} is over {MAX_SMOOTH_S} s"));
-    }
-    Ok(v)
-}
-
-/// A share of the threshold: over 0, at most 1.
-fn candidate_share(s: &str) -> Result<f64, String> {
-    let v: f64 = s.parse().map_err(|_| format!("{s} is not a number"))?;
-    if !(v > 0.0 && v <= 1.0) {
-        return Err(format!("{v} is not over 0 and at most 1"));
-    }
-    Ok(v)
-}
-
 impl AnalyzeArgs {
     /// A share of the threshold for the tracker (`--candidates`, `--riders`): the one
     /// `given`, else `default` under the calibrated threshold; 1 (none) without a tracker,
@@ -502,12 +435,4 @@ impl AnalyzeArgs {
             ..Params::default()
         }
     }
-}
-
-/// A parser for one of the library's named choices, listing each with its help.
-fn choice<T: Named + Send + Sync>() -> impl TypedValueParser<Value = T> {
-    let values = T::ALL
-        .iter()
-        .map(|&(_, name, help)| PossibleValue::new(name).help(help));
-    PossibleValuesParser::new(values).map(|s| T::from_name(&s).expect("a possible value"))
 }

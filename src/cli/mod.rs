@@ -1,6 +1,6 @@
-//! The `ssl` command line: one file per subcommand, the arguments in [`args`], the output
-//! destination in [`sink`]. The library knows nothing of flags; the hints that name them
-//! are added here.
+//! The `ssl` command line: one file per subcommand, the arguments in [`args`] (their
+//! value parsers in [`values`]), the output destination in [`sink`]. The library knows
+//! nothing of flags; the hints that name them are added here.
 
 mod analyze;
 pub mod args;
@@ -9,6 +9,7 @@ mod geometry;
 mod plot;
 mod simulate;
 mod sink;
+mod values;
 
 use args::{Cli, Command};
 use clap::Parser;

@@ -60,12 +60,14 @@ mod candidate;
 mod event;
 pub mod image;
 mod motion;
+mod output;
 pub mod smoother;
 mod tracker;
 
 pub use candidate::candidate_gate_deg;
 pub use event::Event;
-pub use tracker::{TrackStats, Tracked, Tracker, ELEVATION_WEIGHT};
+pub use output::{TrackStats, Tracked};
+pub use tracker::{Tracker, ELEVATION_WEIGHT};
 
 /// The tracker's parameters (see the module's documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -40,9 +40,9 @@ fn turned(u: &Vector3<f64>, turn: &Vector3<f64>, dt: f64) -> Vector3<f64> {
 pub(super) struct Smoother {
     /// Half the window (seconds); 0: rows pass through as they are.
     half_s: f64,
-    /// Rows in frame order with their own direction: those already given out (the
+    /// Rows in frame order, as the tracker gave them: those already given out (the
     /// first `done`, kept while a waiting row may still need them), then those waiting.
-    rows: VecDeque<(Tracked, Vector3<f64>)>,
+    rows: VecDeque<Tracked>,
     /// How many of `rows` have been given out.
     done: usize,
 }
@@ -62,15 +62,14 @@ impl Smoother {
             out.push(row);
             return;
         }
-        let own = row.detection.direction;
-        self.rows.push_back((row, own));
+        self.rows.push_back(row);
     }
 
     /// Every row still to come is at `from_s` or later: the rows with their whole window
     /// before it are smoothed and go to `out`.
     pub fn settle(&mut self, from_s: f64, out: &mut Vec<Tracked>) {
         while self.done < self.rows.len()
-            && self.rows[self.done].0.detection.time_s + self.half_s < from_s
+            && self.rows[self.done].detection.time_s + self.half_s < from_s
         {
             self.give_out(out);
         }
@@ -94,12 +93,12 @@ impl Smoother {
         let mut count = 0.0;
         let (mut st, mut stt) = (0.0, 0.0);
         let (mut su, mut stu) = (Vector3::zeros(), Vector3::zeros());
-        for (r, own) in self.rows.iter().filter(|(r, _)| {
+        for r in self.rows.iter().filter(|r| {
             r.source == Some(source)
                 && r.detection.time_s >= t - TURN_S
                 && r.detection.time_s <= t + self.half_s
         }) {
-            let dt = r.detection.time_s - t;
+            let (dt, own) = (r.detection.time_s - t, &r.detection.direction);
             count += 1.0;
             st += dt;
             stt += dt * dt;
@@ -129,18 +128,17 @@ impl Smoother {
     /// Smooths the first waiting row and gives it out; forgets the rows no waiting row
     /// needs any more.
     fn give_out(&mut self, out: &mut Vec<Tracked>) {
-        let (row, _) = &self.rows[self.done];
-        let mut row = row.clone();
+        let mut row = self.rows[self.done].clone();
         if let Some(source) = row.source {
             let t = row.detection.time_s;
             let turn = self.turn(source, t);
             let sum: Vector3<f64> = self
                 .rows
                 .iter()
-                .filter(|(r, _)| {
+                .filter(|r| {
                     r.source == Some(source) && (r.detection.time_s - t).abs() <= self.half_s
                 })
-                .map(|(r, own)| turned(own, &turn, t - r.detection.time_s))
+                .map(|r| turned(&r.detection.direction, &turn, t - r.detection.time_s))
                 .sum();
             let n = sum.norm();
             if n > 1e-9 && n.is_finite() {
@@ -156,10 +154,9 @@ impl Smoother {
         // The rows still to come are at the next waiting row's time or later (at the
         // row just given out's, when none waits).
         let next = self.rows[self.done.min(self.rows.len() - 1)]
-            .0
             .detection
             .time_s;
-        while self.done > 0 && next - self.rows[0].0.detection.time_s > self.half_s.max(TURN_S) {
+        while self.done > 0 && next - self.rows[0].detection.time_s > self.half_s.max(TURN_S) {
             self.rows.pop_front();
             self.done -= 1;
         }

@@ -4,6 +4,7 @@ use super::candidate::{candidate_gate_deg, heard_alone, Candidate};
 use super::event::{Accumulator, Event};
 use super::image::{is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
+use super::output::{TrackStats, Tracked};
 use super::smoother::Smoother;
 use super::{TrackParams, MAX_TRACKS};
 use crate::geometry::{Geometry, Shape};
@@ -11,33 +12,6 @@ use crate::method::direction::angle_between_deg;
 use crate::method::Detection;
 use nalgebra::Vector3;
 use std::collections::{HashMap, VecDeque};
-
-/// A detection as the tracker gives it out: with its track's id.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Tracked {
-    /// The detection.
-    pub detection: Detection,
-    /// Its track's id (from 1, never reused within one recording), or `None` for a
-    /// detection no track confirmed, given out only with
-    /// [`TrackParams::keep_unconfirmed`].
-    pub source: Option<u64>,
-}
-
-/// What a tracker made of a recording's detections (the JSON document's `files`
-/// entries carry it as `tracking`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct TrackStats {
-    /// Tracks confirmed (ids given).
-    pub tracks: u64,
-    /// Detections given out with a track's id.
-    pub rows: u64,
-    /// Detections no track confirmed: dropped, or given out without an id with
-    /// [`TrackParams::keep_unconfirmed`].
-    pub unconfirmed: u64,
-    /// Of those, the detections of candidates taken for a talking track's floor or
-    /// ceiling image (see [`super::image`]).
-    pub reflections: u64,
-}
 
 /// For a planar array, how much a difference in the angle out of its plane counts
 /// against one in the plane when detections are associated: its elevation errs by 5-10

@@ -1,0 +1,84 @@
+//! The value parsers of the command line's arguments ([`super::args`]): each checks
+//! one kind of number or choice and says what is wrong with it.
+
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use ssl::track::{MAX_DELAY_S, MAX_SMOOTH_S};
+use ssl::Named;
+
+pub(super) fn parse_f64(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("`{s}` is not a finite number"));
+    }
+    Ok(v)
+}
+
+pub(super) fn unit_interval(s: &str) -> std::result::Result<f32, String> {
+    let v = parse_f64(s)?;
+    if !(0.0..=1.0).contains(&v) {
+        return Err(format!("{v} is outside 0..=1"));
+    }
+    Ok(v as f32)
+}
+
+pub(super) fn non_negative(s: &str) -> std::result::Result<f32, String> {
+    let v = parse_f64(s)?;
+    if v < 0.0 {
+        return Err(format!("{v} is negative"));
+    }
+    Ok(v as f32)
+}
+
+pub(super) fn non_negative_f64(s: &str) -> std::result::Result<f64, String> {
+    let v = parse_f64(s)?;
+    if v < 0.0 {
+        return Err(format!("{v} is negative"));
+    }
+    Ok(v)
+}
+
+pub(super) fn positive(s: &str) -> std::result::Result<f64, String> {
+    let v = parse_f64(s)?;
+    if v <= 0.0 {
+        return Err(format!("{v} is not positive"));
+    }
+    Ok(v)
+}
+
+/// A tracker's window or delay: positive, at most [`MAX_DELAY_S`] (rows wait that long
+/// in memory).
+pub(super) fn tracker_seconds(s: &str) -> std::result::Result<f64, String> {
+    let v = positive(s)?;
+    if v > MAX_DELAY_S {
+        return Err(format!(
+            "{v} is over {MAX_DELAY_S} s (rows wait that long in memory)"
+        ));
+    }
+    Ok(v)
+}
+
+/// The smoothing window (`--smooth-s`): 0 to [`MAX_SMOOTH_S`].
+pub(super) fn smoothing_seconds(s: &str) -> std::result::Result<f64, String> {
+    let v = non_negative_f64(s)?;
+    if v > MAX_SMOOTH_S {
+        return Err(format!("{v} is over {MAX_SMOOTH_S} s"));
+    }
+    Ok(v)
+}
+
+/// A share of the threshold: over 0, at most 1.
+pub(super) fn candidate_share(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("{s} is not a number"))?;
+    if !(v > 0.0 && v <= 1.0) {
+        return Err(format!("{v} is not over 0 and at most 1"));
+    }
+    Ok(v)
+}
+
+/// A parser for one of the library's named choices, listing each with its help.
+pub(super) fn choice<T: Named + Send + Sync>() -> impl TypedValueParser<Value = T> {
+    let values = T::ALL
+        .iter()
+        .map(|&(_, name, help)| PossibleValue::new(name).help(help));
+    PossibleValuesParser::new(values).map(|s| T::from_name(&s).expect("a possible value"))
+}
