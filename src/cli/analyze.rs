@@ -160,10 +160,10 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         for w in &summary.warnings {
             warn(args.quiet, &warning_with_hint(&summary.name, w));
         }
-        let kept = args.keep_unconfirmed;
         let unconfirmed = tracker
             .as_ref()
-            .and_then(|t| nothing_confirmed(&t.stats(), kept))
+            .zip(args.track_params())
+            .and_then(|(t, p)| nothing_confirmed(&t.stats(), &p))
             .map(|note| format!("{}: {note}", summary.name));
         if let Some(note) = &unconfirmed {
             warn(args.quiet, note);
@@ -192,13 +192,20 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
 }
 
 /// Why a tracked file gave no row although the method detected something: every
-/// detection (candidates included) was isolated, and the tracker dropped it (or, with
-/// `--keep-unconfirmed`, `kept`, wrote it without a source). `None` when a track was
-/// confirmed or nothing was detected (the method's own warnings say why).
-fn nothing_confirmed(stats: &ssl::track::TrackStats, kept: bool) -> Option<String> {
+/// detection (candidates included) was isolated, and the tracker with parameters `p`
+/// dropped it (or, with `--keep-unconfirmed`, wrote it without a source), with the rule
+/// a track needs. `None` when a track was confirmed or nothing was detected (the
+/// method's own warnings say why).
+fn nothing_confirmed(
+    stats: &ssl::track::TrackStats,
+    p: &ssl::track::TrackParams,
+) -> Option<String> {
     (stats.rows == 0 && stats.unconfirmed > 0).then(|| {
-        let rule = "a track starts from 2 detections above the threshold within --confirm-s, 4 of which 1 is above it, or 12 candidates";
-        if kept {
+        let rule = format!(
+            "a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates",
+            p.confirm_hits, p.confirm_candidates, p.confirm_weak
+        );
+        if p.keep_unconfirmed {
             format!(
                 "no source confirmed: all {} detections (candidates included) were isolated ({rule}); they are written with an empty source",
                 stats.unconfirmed

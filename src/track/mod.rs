@@ -46,7 +46,7 @@
 //!
 //! - **smoothing:** each row's direction is its track's around that frame, the mean of the
 //!   track's rows within [`TrackParams::smooth_s`] before and after it, each turned along
-//!   the track's measured turn ([`smoother`]).
+//!   the turn the track's rows show over the last second ([`smoother`]).
 //!
 //! Every detection that comes out carries its track's id (`source`, from 1, never reused
 //! within one recording), but for the unconfirmed ones [`TrackParams::keep_unconfirmed`]
