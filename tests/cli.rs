@@ -27,6 +27,14 @@ fn example(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// The example analysed as one JSON document (`-f json` after `args`); the run must
+/// succeed.
+fn example_json(args: &[&str]) -> serde_json::Value {
+    let out = example(&[args, &["-f", "json"]].concat());
+    assert!(out.status.success(), "{}", stderr(&out));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 #[test]
 fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     let out = example(&[
@@ -57,8 +65,7 @@ fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     assert_eq!(p["riders"], 1.0);
     // The default frame size: null in the parameters, the size used in the file's entry;
     // the default threshold is calibrated (no fixed score), with late reverberation.
-    let out = example(&["-f", "json"]);
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let doc = example_json(&[]);
     let p = &doc["parameters"];
     assert!(p["frame_size"].is_null());
     assert_eq!(doc["files"][0]["frame_size"], 1024);
@@ -69,15 +76,13 @@ fn the_json_metadata_has_stable_types_and_numbers_as_given() {
     assert_eq!(p["patterns_s"], 0.17);
     assert_eq!(p["candidates"], 0.4);
     assert_eq!(p["riders"], 0.3);
-    let out = example(&["-f", "json", "--riders", "0.35"]);
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let doc = example_json(&["--riders", "0.35"]);
     assert_eq!(doc["parameters"]["riders"], 0.35);
     for (given, written) in [
         ("0.25", serde_json::json!(0.25)),
         ("0", serde_json::Value::Null),
     ] {
-        let out = example(&["-f", "json", "--patterns-s", given]);
-        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let doc = example_json(&["--patterns-s", given]);
         assert_eq!(doc["parameters"]["patterns_s"], written, "{given}");
     }
     for key in [
@@ -112,17 +117,15 @@ fn the_diffuse_part_is_removed_for_a_3d_array_only_when_asked() {
 /// 36-71 cm, too long for a bin's phase to be its delay) they change no row.
 #[test]
 fn the_single_bins_riders_leave_the_prism_as_it_was() {
-    let json = |args: &[&str]| -> serde_json::Value {
-        let out = example(&[args, &["-f", "json"]].concat());
-        assert!(out.status.success(), "{}", stderr(&out));
-        serde_json::from_slice(&out.stdout).unwrap()
-    };
-    let on = json(&[]);
-    let off = json(&["--no-bin-votes"]);
+    let on = example_json(&[]);
+    let off = example_json(&["--no-bin-votes"]);
     assert_eq!(on["parameters"]["bin_votes"], true);
     assert_eq!(off["parameters"]["bin_votes"], false);
-    assert_eq!(json(&["--no-track"])["parameters"]["bin_votes"], false);
-    assert_eq!(json(&["--paper"])["parameters"]["bin_votes"], false);
+    assert_eq!(
+        example_json(&["--no-track"])["parameters"]["bin_votes"],
+        false
+    );
+    assert_eq!(example_json(&["--paper"])["parameters"]["bin_votes"], false);
     assert!(!on["detections"].as_array().unwrap().is_empty());
     assert_eq!(on["detections"], off["detections"]);
 }
@@ -174,13 +177,8 @@ fn off_nearest(sources: &[[f64; 3]], r: &serde_json::Value) -> f64 {
 /// is refused, and so is smoothing without a tracker.
 #[test]
 fn tracked_rows_are_smoothed_over_their_track() {
-    let json = |args: &[&str]| -> serde_json::Value {
-        let out = example(&[args, &["-f", "json"]].concat());
-        assert!(out.status.success(), "{}", stderr(&out));
-        serde_json::from_slice(&out.stdout).unwrap()
-    };
-    let smooth = json(&[]);
-    let raw = json(&["--smooth-s", "0"]);
+    let smooth = example_json(&[]);
+    let raw = example_json(&["--smooth-s", "0"]);
     assert_eq!(smooth["parameters"]["track"]["smooth_s"], 0.2);
     assert_eq!(raw["parameters"]["track"]["smooth_s"], 0.0);
     let (a, b) = (
@@ -412,13 +410,7 @@ fn an_array_whose_delays_are_a_few_samples_draws_a_warning() {
 /// was asked and what was used.
 #[test]
 fn frame_length_in_milliseconds() {
-    let out = example(&["-f", "json", "--frame-ms", "32"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let doc = example_json(&["--frame-ms", "32"]);
     assert_eq!(doc["parameters"]["frame_ms"], 32.0);
     assert!(doc["parameters"]["frame_size"].is_null());
     assert_eq!(doc["files"][0]["frame_size"], 2048);
