@@ -60,6 +60,10 @@ fn score(
     (report, tracking)
 }
 
+/// A small array's talkers: 1.5 m away at 15 deg (a seated talker's mouth seen from an
+/// array on a table).
+const SMALL_PLACEMENT: &str = "elevation_deg = 15\ndistance = 1.5";
+
 /// Two talkers in the paper's room (8 x 7 x 3 m, RT60 0.35 s, its fan): the array
 /// (`file`, written in the scene's directory) at its centre 0.8 m up, at `rate` Hz,
 /// `float` for 32-bit float samples; the first two ARCTIC sentences over 1.0-3.8 s at
@@ -126,36 +130,58 @@ impl PapersRoom<'static> {
     /// A 6.5 cm tetrahedron at 16 kHz in the paper's room, its talkers 1.5 m away at
     /// 15 deg: as [`PapersRoom::prism`].
     fn tetrahedron() -> (tempfile::TempDir, ssl::Geometry, Self) {
-        let dir = tempdir();
-        copy_speech(dir.path()).unwrap();
-        write(
-            dir.path(),
+        Self::with(
             "tetra.toml",
-            geometry_toml(&tetrahedron(0.065), ""),
-        );
-        let geometry = ssl::Geometry::from_file(&dir.path().join("tetra.toml")).unwrap();
-        let room = PapersRoom {
-            file: "tetra.toml",
-            rate: 16000,
-            float: false,
-            placement: "elevation_deg = 15\ndistance = 1.5",
-        };
-        (dir, geometry, room)
+            &tetrahedron(0.065),
+            16000,
+            false,
+            SMALL_PLACEMENT,
+        )
+    }
+
+    /// A 6-mic circle of radius 4.63 cm at 16 kHz (32-bit float samples) in the paper's
+    /// room, its talkers 1.5 m away at 15 deg: as [`PapersRoom::prism`].
+    fn circle() -> (tempfile::TempDir, ssl::Geometry, Self) {
+        Self::with(
+            "circle.toml",
+            &circle(6, 0.0463),
+            16000,
+            true,
+            SMALL_PLACEMENT,
+        )
     }
 
     /// The prism at `rate` (`float` for 32-bit float samples) in the paper's room, its
     /// talkers 2 m away at -7 deg: a directory holding its geometry file and the ARCTIC
     /// clips, the geometry, and the room.
     fn prism(rate: u32, float: bool) -> (tempfile::TempDir, ssl::Geometry, Self) {
-        let dir = tempdir();
-        copy_speech(dir.path()).unwrap();
-        write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
-        let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
-        let room = PapersRoom {
-            file: "prism.toml",
+        Self::with(
+            "prism.toml",
+            &prism(),
             rate,
             float,
-            placement: "elevation_deg = -7\ndistance = 2.0",
+            "elevation_deg = -7\ndistance = 2.0",
+        )
+    }
+
+    /// A directory holding the array `mics` as `file` and the ARCTIC clips, the
+    /// geometry, and the room.
+    fn with(
+        file: &'static str,
+        mics: &[nalgebra::Vector3<f64>],
+        rate: u32,
+        float: bool,
+        placement: &'static str,
+    ) -> (tempfile::TempDir, ssl::Geometry, Self) {
+        let dir = tempdir();
+        copy_speech(dir.path()).unwrap();
+        write(dir.path(), file, geometry_toml(mics, ""));
+        let geometry = ssl::Geometry::from_file(&dir.path().join(file)).unwrap();
+        let room = PapersRoom {
+            file,
+            rate,
+            float,
+            placement,
         };
         (dir, geometry, room)
     }
@@ -464,20 +490,7 @@ fn riders_add_a_talkers_weakest_frames() {
 /// those of the talkers (every row within 10 deg of one in azimuth).
 #[test]
 fn single_bins_find_the_talker_another_hides_on_a_small_circle() {
-    let dir = tempdir();
-    copy_speech(dir.path()).unwrap();
-    write(
-        dir.path(),
-        "circle.toml",
-        geometry_toml(&circle(6, 0.0463), ""),
-    );
-    let geometry = ssl::Geometry::from_file(&dir.path().join("circle.toml")).unwrap();
-    let room = PapersRoom {
-        file: "circle.toml",
-        rate: 16000,
-        float: true,
-        placement: "elevation_deg = 15\ndistance = 1.5",
-    };
+    let (dir, geometry, room) = PapersRoom::circle();
     let azimuths = [20.0, -40.0];
     let mut windows = Vec::new();
     for seed in [31, 32, 33] {
