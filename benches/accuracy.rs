@@ -257,7 +257,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ),
         (
             "the paper's method (2 samples, no gate, no averaging)",
-            Params::paper(),
+            ssl::Options::paper().settings().expect("valid").method,
         ),
     ];
     // Each without the tracker, then the defaults through it as `ssl analyze` runs them.
@@ -265,14 +265,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         variants.into_iter().map(|(l, p)| (l, p, None)).collect();
     variants.push((
         "tracked, as `ssl analyze` (candidates down to 0.4 of the threshold, riders to 0.3)",
-        params.clone().for_tracker(),
+        support::for_tracker(params.clone()),
         Some(TrackParams::default()),
     ));
     variants.push((
         "tracked, without candidates (--candidates 1)",
         Params {
             candidates: 1.0,
-            ..params.clone().for_tracker()
+            ..support::for_tracker(params.clone())
         },
         Some(TrackParams::default()),
     ));
@@ -281,7 +281,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Params {
             steered: false,
             max_sources: 1,
-            ..params.clone().for_tracker()
+            ..support::for_tracker(params.clone())
         },
         Some(TrackParams::default()),
     ));

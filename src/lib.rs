@@ -92,6 +92,7 @@ macro_rules! fail {
 
 pub mod evaluate;
 pub mod geometry;
+pub mod localize;
 pub mod method;
 mod named;
 #[cfg(feature = "plot")]
@@ -103,6 +104,7 @@ pub mod stream;
 pub mod track;
 
 pub use geometry::{Geometry, GeometryError};
+pub use localize::{Localizer, Options};
 pub use method::{Detection, Params, ParamsError};
 pub use named::Named;
 pub use record::{DetectionRecord, Exporter, Format, OutputError, RunMetadata, Truth};

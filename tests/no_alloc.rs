@@ -62,7 +62,7 @@ fn analysing_frames_does_not_allocate() {
     for dereverb in [Dereverb::Auto, Dereverb::On] {
         let params = Params {
             dereverb,
-            ..Params::default().for_tracker()
+            ..support::tracked_params()
         };
         count_allocations(&pool, &ch, &g, &params);
     }

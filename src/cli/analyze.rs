@@ -9,13 +9,12 @@ use super::sink::{same_file, Sink};
 use super::{error, output_error, warn, warning_with_hint, with_hint};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use ssl::record::EventRecord;
+use ssl::localize::{Output as Found, RunError};
 use ssl::record::FileEntry;
 use ssl::stream::SampleSource;
-use ssl::track::Tracker;
-use ssl::{Analysis, DetectionRecord, Exporter, Format, Geometry, OutputError, RunMetadata};
+use ssl::{Analysis, Exporter, Format, Geometry, Localizer, OutputError, RunMetadata};
+use std::cell::RefCell;
 use std::io::{self, BufWriter, IsTerminal};
-use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -61,29 +60,6 @@ impl Output<'_> {
     fn failed(&self, e: OutputError) -> anyhow::Error {
         output_error(&self.shown, e)
     }
-
-    /// Writes what the tracker has given out (or, without one, `detections`).
-    fn write(
-        &mut self,
-        name: &str,
-        tracker: Option<&mut Tracker>,
-        detections: &[ssl::Detection],
-    ) -> Result<(), OutputError> {
-        let exporter = self.exporter()?;
-        let Some(tracker) = tracker else {
-            for d in detections {
-                exporter.detection(&DetectionRecord::new(name, d)?)?;
-            }
-            return Ok(());
-        };
-        for row in tracker.take_rows() {
-            exporter.detection(&DetectionRecord::tracked(name, &row.detection, row.source)?)?;
-        }
-        for event in tracker.take_events() {
-            exporter.event(&EventRecord::new(name, &event)?)?;
-        }
-        Ok(())
-    }
 }
 
 /// Runs `ssl analyze`. Returns whether every file succeeded.
@@ -93,18 +69,14 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     for w in &geometry.warnings {
         warn(args.quiet, &format!("{geometry_path}: {w}"));
     }
-    let params = args.params();
-    let track = args.track_params();
-    if let Some(t) = &track {
-        t.check()?;
-    }
+    let localizer = Localizer::new(geometry, &args.options())?;
     let mut inputs: Vec<&Path> = args.files.iter().map(Path::new).collect();
     inputs.push(&args.geometry);
     let sink = Sink::open(args.output.as_deref(), &inputs)?;
     warn_about_repeats(args);
     let mut out = Output {
         args,
-        meta: RunMetadata::new(&geometry, &geometry_path, &params).with_tracking(track.clone()),
+        meta: localizer.metadata(&geometry_path),
         shown: sink.shown().to_string(),
         sink: Some(sink),
         exporter: None,
@@ -114,8 +86,8 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let mut all_ok = true;
     let mut files = Vec::new();
     for path in &args.files {
-        let analysis = match Analysis::open(path, &geometry, &params) {
-            Ok(a) => a,
+        let recording = match localizer.open(path) {
+            Ok(r) => r,
             Err(e) => {
                 let message = with_hint(&e);
                 error(&message);
@@ -124,46 +96,39 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
                 continue;
             }
         };
-        let progress = Progress::new(show_progress, &analysis);
-        let name = analysis.name().to_string();
-        let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
-        let rate = analysis.sample_rate() as f64;
-        let mut tracker = track
-            .clone()
-            .map(|p| Tracker::for_array(p, &geometry, rate, speed));
-        // Frame i's centre is at (i + 1) hops (docs/interface.md, "Frames and time").
-        let hop = analysis.frame_size() as f64 / 2.0 / analysis.sample_rate() as f64;
-        let mut output_failure = None;
-        let (summary, result) = analysis.run(|index, detections| {
-            progress.frame(index);
-            if let Some(t) = tracker.as_mut() {
-                t.push((index as f64 + 1.0) * hop, detections);
-            }
-            match out.write(&name, tracker.as_mut(), detections) {
-                Ok(()) => ControlFlow::Continue(()),
-                Err(e) => {
-                    output_failure = Some(e);
-                    ControlFlow::Break(())
+        let progress = Progress::new(show_progress, recording.analysis());
+        // The output opens on the first frame of the first file that gives one.
+        let shared = RefCell::new(&mut out);
+        let (report, result) = recording.run_observed(
+            |index| {
+                progress.frame(index);
+                shared.borrow_mut().exporter().map(|_| ())
+            },
+            |found| {
+                let mut out = shared.borrow_mut();
+                let exporter = out.exporter()?;
+                match found {
+                    Found::Row(row) => exporter.detection(&row),
+                    Found::Event(event) => exporter.event(&event),
+                    _ => Ok(()),
                 }
-            }
-        });
-        progress.finish(&summary);
-        if let Some(t) = tracker.as_mut() {
-            t.finish();
-            if output_failure.is_none() && summary.stats.frames > 0 {
-                output_failure = out.write(&name, Some(t), &[]).err();
-            }
-        }
-        if let Some(e) = output_failure {
-            return Err(out.failed(e));
-        }
+            },
+        );
+        progress.finish(&report.summary);
+        let result = match result {
+            Err(RunError::Output(e)) => return Err(out.failed(e)),
+            Err(RunError::Input(e)) => Err(e),
+            Err(e) => return Err(e.into()),
+            Ok(()) => Ok(()),
+        };
+        let summary = &report.summary;
         for w in &summary.warnings {
             warn(args.quiet, &warning_with_hint(&summary.name, w));
         }
-        let unconfirmed = tracker
-            .as_ref()
-            .zip(args.track_params())
-            .and_then(|(t, p)| nothing_confirmed(&t.stats(), &p))
+        let unconfirmed = report
+            .tracking
+            .zip(localizer.tracking())
+            .and_then(|(stats, p)| nothing_confirmed(&stats, p))
             .map(|note| format!("{}: {note}", summary.name));
         if let Some(note) = &unconfirmed {
             warn(args.quiet, note);
@@ -174,8 +139,8 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
             all_ok = false;
         }
         files.push(
-            FileEntry::new(path, Some(&summary), message)
-                .with_tracking(tracker.as_ref().map(Tracker::stats))
+            FileEntry::new(path, Some(summary), message)
+                .with_tracking(report.tracking)
                 .with_warning(unconfirmed),
         );
     }

@@ -5,15 +5,13 @@ use super::values::{
     smoothing_seconds, tracker_seconds, unit_interval,
 };
 use clap::{Args, Parser, Subcommand};
-use ssl::method::peaks::MAX_PEAKS;
 use ssl::method::{
-    Dereverb, Interpolation, Params, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S,
-    DEFAULT_MAX_SOURCES, DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_PATTERNS_S, DEFAULT_RESIDUAL_GATE_US,
-    DEFAULT_REVERB_LEVEL, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
-    MAX_AVERAGE_FRAMES, MAX_SOURCES,
+    Dereverb, Interpolation, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S,
+    DEFAULT_MAX_SOURCES, DEFAULT_PATTERNS_S, DEFAULT_PEAKS, DEFAULT_RESIDUAL_GATE_US,
+    DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES, MAX_PEAKS, MAX_SOURCES,
 };
-use ssl::track::{TrackParams, DEFAULT_CANDIDATES, DEFAULT_RIDERS};
-use ssl::Format;
+use ssl::track::TrackParams;
+use ssl::{Format, Options};
 use std::path::PathBuf;
 
 /// Find where sounds come from in multichannel microphone-array recordings.
@@ -141,11 +139,11 @@ pub struct AnalyzeArgs {
     pub frame_ms: Option<f64>,
 
     /// Noise over-subtraction alpha of the spectral weighting (paper eq. 4)
-    #[arg(long, default_value_t = 0.4, value_parser = unit_interval)]
+    #[arg(long, default_value_t = Options::default().alpha, value_parser = unit_interval)]
     pub alpha: f32,
 
     /// Exponent gamma that favours high-SNR bins (paper eq. 5)
-    #[arg(long, default_value_t = 0.3, value_parser = unit_interval)]
+    #[arg(long, default_value_t = Options::default().gamma, value_parser = unit_interval)]
     pub gamma: f32,
 
     /// Plain PHAT: skip the spectral weighting (w_e = 1), for comparison
@@ -153,7 +151,7 @@ pub struct AnalyzeArgs {
     pub no_weighting: bool,
 
     /// Peaks M kept in each pair's cross-correlation
-    #[arg(short = 'm', long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=MAX_PEAKS as i64))]
+    #[arg(short = 'm', long, default_value_t = DEFAULT_PEAKS as u16, value_parser = clap::value_parser!(u16).range(1..=MAX_PEAKS as i64))]
     pub peaks: u16,
 
     /// Consistency tolerance in samples: how far a pair's peak may be from the delay the reference pairs imply [default: --tolerance-us]
@@ -241,7 +239,7 @@ pub struct AnalyzeArgs {
     pub keep_unconfirmed: bool,
 
     /// A track is confirmed by 2 detections within this many seconds (of its latest)
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = tracker_seconds, conflicts_with = "no_track")]
+    #[arg(long, value_name = "SECONDS", default_value_t = TrackParams::default().confirm_s, value_parser = tracker_seconds, conflicts_with = "no_track")]
     pub confirm_s: f64,
 
     /// Learn each talker's correlation pattern (its reflections too) while it dominates, and look for other talkers once it is removed from each pair's correlation averaged over about this many seconds (arrays whose longest delay is 8 samples or more); 0: none
@@ -249,7 +247,7 @@ pub struct AnalyzeArgs {
     pub patterns_s: f64,
 
     /// Rows wait up to this many seconds for their track to be confirmed (the tracker's delay; never less than --confirm-s): a detection not confirmed by then is dropped, so a talker confirmed late loses its first detections
-    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = tracker_seconds, conflicts_with = "no_track")]
+    #[arg(long, value_name = "SECONDS", default_value_t = TrackParams::default().delay_s, value_parser = tracker_seconds, conflicts_with = "no_track")]
     pub delay_s: f64,
 
     /// Each tracked row's direction is its track's mean over this many seconds before and after it, corrected for the track's turn (rows come out that much later); 0: each frame's own direction
@@ -338,101 +336,40 @@ pub struct EvaluateArgs {
 }
 
 impl AnalyzeArgs {
-    /// A share of the threshold for the tracker (`--candidates`, `--riders`): the one
-    /// `given`, else `default` under the calibrated threshold; 1 (none) without a tracker,
-    /// with `--paper`, and by default with `--min-score`.
-    fn tracker_share(&self, given: Option<f64>, default: f64) -> f64 {
-        if self.paper || self.no_track {
-            1.0
-        } else {
-            given.unwrap_or(if self.min_score.is_some() {
-                1.0
-            } else {
-                default
-            })
-        }
-    }
-
-    /// The tracker's parameters, or `None` with `--no-track`.
-    pub fn track_params(&self) -> Option<TrackParams> {
-        let defaults = TrackParams::default();
-        (!self.no_track).then(|| TrackParams {
-            confirm_s: self.confirm_s,
-            // A run of candidates spans at most the window it is counted over.
-            weak_span_s: defaults.weak_span_s.min(self.confirm_s),
-            delay_s: self.delay_s,
-            keep_unconfirmed: self.keep_unconfirmed,
-            smooth_s: self.smooth_s,
-            ..defaults
-        })
-    }
-
-    pub fn params(&self) -> Params {
-        Params {
-            frame_size: self.frame_size,
-            frame_ms: self.frame_ms,
-            alpha: self.alpha,
-            gamma: self.gamma,
-            weighting: !self.no_weighting,
-            peaks: self.peaks as usize,
-            tolerance: self.tolerance.unwrap_or(DEFAULT_TOLERANCE),
-            tolerance_us: (!self.paper && self.tolerance.is_none()).then_some(self.tolerance_us),
-            residual_gate_us: (!self.paper && self.residual_gate_us > 0.0)
-                .then_some(self.residual_gate_us),
-            speed_of_sound: self.speed_of_sound,
-            min_score_per_pair: self.min_score.unwrap_or(DEFAULT_MIN_SCORE_PER_PAIR),
-            threshold_sigmas: (!self.paper && self.min_score.is_none())
-                .then_some(self.threshold_sigmas),
-            reverb_level: self
-                .reverb_level
-                .unwrap_or(if self.paper || self.min_score.is_some() {
-                    0.0
-                } else {
-                    DEFAULT_REVERB_LEVEL
-                }),
-            window: self.window,
-            interpolation: self.interpolation.unwrap_or(if self.paper {
-                Interpolation::Parabolic
-            } else {
-                Interpolation::Cosine
-            }),
-            background_s: (!self.paper && self.background_s > 0.0).then_some(self.background_s),
-            dereverb: if self.paper {
-                Dereverb::Off
-            } else {
-                self.dereverb
-            },
-            average_frames: if self.paper {
-                1
-            } else {
-                self.average_frames as usize
-            },
-            // The steered response only for the tracker to confirm, and only under the
-            // calibrated threshold: under a fixed one, sums of chance peaks pass it
-            // (tests/simulate.rs; Params::for_tracker).
-            steered: !self.paper && !self.no_track && self.min_score.is_none(),
-            // Further sources from each frame's own correlations, with the steered
-            // response's (src/method/frame_sources.rs).
-            frame_sources: !self.paper && !self.no_track && self.min_score.is_none(),
-            // Each talker's pattern removed before a second look, with the steered
-            // response's (src/method/patterns.rs).
-            patterns_s: (!self.paper
-                && !self.no_track
-                && self.min_score.is_none()
-                && self.patterns_s > 0.0)
-                .then_some(self.patterns_s),
-            max_sources: if self.paper || self.no_track || self.min_score.is_some() {
-                1
-            } else {
-                self.max_sources as usize
-            },
-            // Candidates and riders only for a tracker to confirm, by default only under
-            // the calibrated threshold (under a fixed one they were mostly reflections).
-            candidates: self.tracker_share(self.candidates, DEFAULT_CANDIDATES),
-            riders: self.tracker_share(self.riders, DEFAULT_RIDERS),
-            wpe: self.wpe,
-            bin_votes: !self.paper && self.min_score.is_none() && !self.no_bin_votes,
-            ..Params::default()
-        }
+    /// The options the flags ask for, one field each; the library resolves them
+    /// ([`Options::settings`]).
+    pub fn options(&self) -> Options {
+        let mut o = Options::default();
+        o.paper = self.paper;
+        o.track = !self.no_track;
+        o.frame_size = self.frame_size;
+        o.frame_ms = self.frame_ms;
+        o.alpha = self.alpha;
+        o.gamma = self.gamma;
+        o.weighting = !self.no_weighting;
+        o.peaks = self.peaks as usize;
+        o.tolerance = self.tolerance;
+        o.tolerance_us = self.tolerance_us;
+        o.residual_gate_us = self.residual_gate_us;
+        o.average_frames = self.average_frames as usize;
+        o.background_s = self.background_s;
+        o.speed_of_sound = self.speed_of_sound;
+        o.min_score = self.min_score;
+        o.threshold_sigmas = self.threshold_sigmas;
+        o.reverb_level = self.reverb_level;
+        o.window = self.window;
+        o.interpolation = self.interpolation;
+        o.dereverb = self.dereverb;
+        o.wpe = self.wpe;
+        o.bin_votes = !self.no_bin_votes;
+        o.max_sources = self.max_sources as usize;
+        o.candidates = self.candidates;
+        o.riders = self.riders;
+        o.patterns_s = self.patterns_s;
+        o.keep_unconfirmed = self.keep_unconfirmed;
+        o.confirm_s = self.confirm_s;
+        o.delay_s = self.delay_s;
+        o.smooth_s = self.smooth_s;
+        o
     }
 }

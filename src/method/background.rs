@@ -37,9 +37,6 @@ pub const GATE: f64 = STEADY_FRAME;
 /// time on the 10-minute recording of docs/speed.md than 8, for no gain measured).
 pub const STRIDE: u64 = 8;
 
-/// Default time constant of the background estimate (seconds).
-pub const DEFAULT_BACKGROUND_S: f64 = 2.0;
-
 /// Every pair's background correlation at the lags searched, laid out as the frames'
 /// windows ([`Setup::window_starts`]).
 pub(crate) struct Background {

@@ -24,55 +24,16 @@
 //! is the direct sound's cross-spectrum up to a positive factor, and its phase replaces
 //! the frame's in eq. (6), weighted by `w_e(k)^2` averaged over the same frames. In free
 //! field a source's coherence is near 1 and its phase is kept (a planar array's
-//! directions move by under 0.02 deg, tests/accuracy.rs); a bin with no direct sound
+//! directions move by under 0.02 deg, tests/integration/accuracy.rs); a bin with no direct sound
 //! gives a phase at random, as PHAT does.
 
 use super::correlation::{peak_ceiling, Correlator};
 use super::pairs::pair_index;
 use super::setup::Setup;
 use super::state::FrameState;
-use crate::geometry::{Geometry, Shape};
-use crate::Named;
+use crate::geometry::Geometry;
 use multiversion::multiversion;
 use realfft::num_complex::Complex32;
-
-/// When the diffuse part is removed ([`Params::dereverb`](super::Params::dereverb)).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Dereverb {
-    /// For planar and linear arrays (the default): they read directions from how long
-    /// their delays are, which the diffuse part shortens. A 3-D array's directions hardly
-    /// move, and summing cross-spectra over frames favours the louder of two talkers at
-    /// once (measured in docs/field.md and docs/tracking.md).
-    Auto,
-    /// For every array.
-    On,
-    /// Never (`--paper`'s).
-    Off,
-}
-
-impl Named for Dereverb {
-    const ALL: &'static [(Dereverb, &'static str, &'static str)] = &[
-        (
-            Dereverb::Auto,
-            "auto",
-            "For planar and linear arrays, whose directions the reverberation biases most (the default)",
-        ),
-        (Dereverb::On, "on", "For every array"),
-        (Dereverb::Off, "off", "Never (--paper's)"),
-    ];
-}
-
-impl Dereverb {
-    /// Whether it applies to an array of this shape.
-    pub fn applies(self, shape: &Shape) -> bool {
-        match self {
-            Dereverb::Auto => !matches!(shape, Shape::Volumetric),
-            Dereverb::On => true,
-            Dereverb::Off => false,
-        }
-    }
-}
 
 /// The stage's buffers, one set per thread (the diffuse coherences are the run's,
 /// [`Setup::dereverb`]).

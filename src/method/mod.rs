@@ -48,17 +48,14 @@ pub mod weighting;
 mod worker;
 
 pub(crate) use analyzer::Analyzer;
-pub use background::DEFAULT_BACKGROUND_S;
-pub use dereverb::Dereverb;
-pub use outcome::{
-    Detection, Detections, FrameStats, StageTimes, DEFAULT_MAX_SOURCES, MAX_SOURCES,
-};
+pub use outcome::{Detection, Detections, FrameStats, StageTimes};
 pub use params::{
-    default_frame_size, frame_size_for_ms, Params, ParamsError, DEFAULT_AVERAGE_FRAMES,
-    DEFAULT_MIN_SCORE_PER_PAIR, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL, DEFAULT_TOLERANCE,
-    DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, PRIMING_S, REVERB_TAU_S,
+    default_frame_size, frame_size_for_ms, Dereverb, Params, ParamsError, DEFAULT_AVERAGE_FRAMES,
+    DEFAULT_BACKGROUND_S, DEFAULT_CANDIDATES, DEFAULT_MAX_SOURCES, DEFAULT_MIN_SCORE_PER_PAIR,
+    DEFAULT_PATTERNS_S, DEFAULT_PEAKS, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL,
+    DEFAULT_RIDERS, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
+    MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, MAX_PEAKS, MAX_SOURCES, PRIMING_S, REVERB_TAU_S,
 };
-pub use patterns::DEFAULT_PATTERNS_S;
 pub use peaks::Interpolation;
 pub use spectrum::Window;
-pub use threshold::{DEFAULT_THRESHOLD_SIGMAS, DIFFUSE_MARGIN};
+pub use threshold::DIFFUSE_MARGIN;

@@ -1,6 +1,7 @@
 //! What the method makes of a frame: a detection or the reason there is none, the run's
 //! counters, and the time spent in each stage.
 
+use super::params::MAX_SOURCES;
 use nalgebra::Vector3;
 use std::time::{Duration, Instant};
 
@@ -34,12 +35,6 @@ pub struct Detection {
     /// talking track (see [`track`](crate::track)).
     pub rider: bool,
 }
-
-/// The most sources one frame can give ([`Params::max_sources`](super::Params::max_sources)).
-pub const MAX_SOURCES: usize = 4;
-
-/// The most sources one frame gives by default ([`Params::max_sources`](super::Params::max_sources)).
-pub const DEFAULT_MAX_SOURCES: usize = 2;
 
 /// A frame's detections, strongest first (at most [`MAX_SOURCES`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -1,12 +1,11 @@
 //! The method's parameters, their defaults, and their validation against an array and a
 //! sample rate.
 
-use super::background::DEFAULT_BACKGROUND_S;
-use super::dereverb::Dereverb;
-use super::peaks::{Interpolation, MAX_PEAKS};
+use super::peaks::Interpolation;
 use super::spectrum::Window;
-use super::threshold::DEFAULT_THRESHOLD_SIGMAS;
 use super::weighting::NoiseSettings;
+use crate::geometry::Shape;
+use crate::Named;
 
 /// The method's parameters (defaults are the paper's where it gives them).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -63,14 +62,14 @@ pub struct Params {
     pub average_frames: usize,
     /// Time constant (seconds) of the coherent background subtracted from every pair's
     /// correlation (beyond the paper, see the `background` module; `None`: none, as in
-    /// the paper; default [`DEFAULT_BACKGROUND_S`](super::background::DEFAULT_BACKGROUND_S)).
+    /// the paper; default [`DEFAULT_BACKGROUND_S`]).
     pub background_s: Option<f64>,
     /// The steered response ([`super::steered`], beyond the paper): a direction for
     /// frames whose pairs do not all agree, and further sources (default off; on with a
     /// tracker, [`Params::for_tracker`]).
     pub steered: bool,
-    /// The most sources one frame gives, `1..=`[`MAX_SOURCES`](super::MAX_SOURCES) (with
-    /// `steered`; default 1, [`DEFAULT_MAX_SOURCES`](super::DEFAULT_MAX_SOURCES) with a
+    /// The most sources one frame gives, `1..=`[`MAX_SOURCES`] (with
+    /// `steered`; default 1, [`DEFAULT_MAX_SOURCES`] with a
     /// tracker).
     pub max_sources: usize,
     /// When the averaged correlations give a source, the frame's own are searched too
@@ -82,20 +81,20 @@ pub struct Params {
     /// pattern is removed before a second look for further sources
     /// ([`super::patterns`], beyond the paper; with `steered`, on arrays whose longest
     /// delay is [`MIN_LAGS`](super::patterns::MIN_LAGS) samples or more; `None`: none,
-    /// the default; [`DEFAULT_PATTERNS_S`](super::patterns::DEFAULT_PATTERNS_S) with a
+    /// the default; [`DEFAULT_PATTERNS_S`] with a
     /// tracker, [`Params::for_tracker`]).
     pub patterns_s: Option<f64>,
     /// Candidates scoring down to this share of the detection threshold are reported
     /// too, with [`Detection::margin`](super::Detection::margin) under 1, for a tracker to
     /// confirm or drop (default 1: none; `ssl analyze` uses
-    /// [`DEFAULT_CANDIDATES`](crate::track::DEFAULT_CANDIDATES) when it tracks).
+    /// [`DEFAULT_CANDIDATES`] when it tracks).
     pub candidates: f64,
     /// A frame that gives nothing down to [`Params::candidates`] has its own
     /// correlations (not averaged over frames) searched again down to this share of the
     /// threshold; what they then give are riders
     /// ([`Detection::rider`](super::Detection::rider)), which a tracker only lets add
     /// rows to a talking track (see [`track`](crate::track)). Default 1: none; `ssl
-    /// analyze` uses [`DEFAULT_RIDERS`](crate::track::DEFAULT_RIDERS) when it tracks. At
+    /// analyze` uses [`DEFAULT_RIDERS`] when it tracks. At
     /// or above `candidates`, or without candidates (`candidates` 1: no tracker to ride
     /// along): none.
     pub riders: f64,
@@ -116,70 +115,72 @@ pub struct Params {
 }
 
 impl Params {
+    /// Checks every parameter that needs no recording (the frame against the array's
+    /// delays is checked when a recording's sample rate is known).
+    pub fn check(&self) -> Result<(), ParamsError> {
+        if let Some(ms) = self.frame_ms.filter(|ms| !(ms.is_finite() && *ms > 0.0)) {
+            return Err(ParamsError::FrameMs(ms));
+        }
+        if let Some(n) = self
+            .frame_size
+            .filter(|n| !(16..=MAX_FRAME_SIZE).contains(n) || n % 2 != 0)
+        {
+            return Err(ParamsError::FrameSize(n));
+        }
+        if self.peaks == 0 || self.peaks > MAX_PEAKS {
+            return Err(ParamsError::Peaks(self.peaks));
+        }
+        if !(1..=MAX_AVERAGE_FRAMES).contains(&self.average_frames) {
+            return Err(ParamsError::AverageFrames(self.average_frames));
+        }
+        if !(self.candidates > 0.0 && self.candidates <= 1.0) {
+            return Err(ParamsError::Candidates(self.candidates));
+        }
+        if !(self.riders > 0.0 && self.riders <= 1.0) {
+            return Err(ParamsError::Riders(self.riders));
+        }
+        if !(1..=MAX_SOURCES).contains(&self.max_sources) {
+            return Err(ParamsError::MaxSources(self.max_sources));
+        }
+        match self.tolerance_us {
+            Some(us) if !(us.is_finite() && us >= 0.0) => return Err(ParamsError::ToleranceUs(us)),
+            None if !(self.tolerance.is_finite() && self.tolerance >= 0.0) => {
+                return Err(ParamsError::Tolerance(self.tolerance))
+            }
+            _ => {}
+        }
+        if let Some(g) = self.residual_gate_us.filter(|g| g.is_nan() || *g <= 0.0) {
+            return Err(ParamsError::ResidualGate(g));
+        }
+        if let Some(z) = self
+            .threshold_sigmas
+            .filter(|z| !(z.is_finite() && *z >= 0.0))
+        {
+            return Err(ParamsError::ThresholdSigmas(z));
+        }
+        if !(0.0..=1.0).contains(&self.reverb_level) {
+            return Err(ParamsError::ReverbLevel(self.reverb_level));
+        }
+        if let Some(s) = self.background_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(ParamsError::BackgroundS(s));
+        }
+        if let Some(s) = self.patterns_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(ParamsError::PatternsS(s));
+        }
+        if self.min_score_per_pair.is_nan() {
+            return Err(ParamsError::MinScore(self.min_score_per_pair));
+        }
+        if let Some(c) = self.speed_of_sound.filter(|c| !(c.is_finite() && *c > 0.0)) {
+            return Err(ParamsError::SpeedOfSound(c));
+        }
+        Ok(())
+    }
+
     /// Whether riders come from the bins' directions: [`Params::bin_votes`], and a
     /// tracker to ride along (`candidates` under 1). On arrays too large for them there
     /// are none either way (see [`super::votes`]).
     pub fn bin_votes_on(&self) -> bool {
         self.bin_votes && self.candidates < 1.0
-    }
-
-    /// The defaults with a fixed threshold of `min_score_per_pair` per pair instead of
-    /// the calibrated one, and no late reverberation in the noise estimate (which lowers
-    /// speech scores under a fixed threshold): `--min-score`.
-    pub fn fixed_threshold(min_score_per_pair: f64) -> Self {
-        Params {
-            min_score_per_pair,
-            threshold_sigmas: None,
-            reverb_level: 0.0,
-            // Under a fixed threshold, sums of chance peaks pass the steered response.
-            steered: false,
-            max_sources: 1,
-            bin_votes: false,
-            ..Params::default()
-        }
-    }
-
-    /// `self` for a tracker to confirm what it gives (what `ssl analyze` runs with its
-    /// tracker, the default): the steered response on, up to
-    /// [`DEFAULT_MAX_SOURCES`](super::DEFAULT_MAX_SOURCES) sources a frame, and
-    /// candidates down to [`DEFAULT_CANDIDATES`](crate::track::DEFAULT_CANDIDATES) of the
-    /// threshold. Measured without a tracker, the directions these add held a few wrong
-    /// ones (clicks on the prism: 0.76 deg against 0.11, docs/accuracy.md), and under a
-    /// fixed threshold far more (tests/simulate.rs): this is for the calibrated one.
-    pub fn for_tracker(self) -> Self {
-        Params {
-            steered: true,
-            max_sources: super::DEFAULT_MAX_SOURCES,
-            frame_sources: true,
-            patterns_s: Some(super::patterns::DEFAULT_PATTERNS_S),
-            candidates: crate::track::DEFAULT_CANDIDATES,
-            riders: crate::track::DEFAULT_RIDERS,
-            ..self
-        }
-    }
-
-    /// The paper's consistency check as published: a tolerance of 2 samples and no
-    /// residual gate (everything else as the defaults).
-    pub fn paper() -> Self {
-        Params {
-            tolerance: DEFAULT_TOLERANCE,
-            tolerance_us: None,
-            residual_gate_us: None,
-            average_frames: 1,
-            threshold_sigmas: None,
-            reverb_level: 0.0,
-            background_s: None,
-            patterns_s: None,
-            steered: false,
-            max_sources: 1,
-            candidates: 1.0,
-            riders: 1.0,
-            dereverb: Dereverb::Off,
-            bin_votes: false,
-            // As measured before the cosine became the default (docs/accuracy.md).
-            interpolation: Interpolation::Parabolic,
-            ..Params::default()
-        }
     }
 }
 
@@ -191,7 +192,7 @@ impl Default for Params {
             alpha: 0.4,
             gamma: 0.3,
             weighting: true,
-            peaks: 8,
+            peaks: DEFAULT_PEAKS,
             tolerance: DEFAULT_TOLERANCE,
             tolerance_us: Some(DEFAULT_TOLERANCE_US),
             residual_gate_us: Some(DEFAULT_RESIDUAL_GATE_US),
@@ -217,6 +218,77 @@ impl Default for Params {
         }
     }
 }
+
+/// When the diffuse part is removed ([`Params::dereverb`](super::Params::dereverb)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Dereverb {
+    /// For planar and linear arrays (the default): they read directions from how long
+    /// their delays are, which the diffuse part shortens. A 3-D array's directions hardly
+    /// move, and summing cross-spectra over frames favours the louder of two talkers at
+    /// once (measured in docs/field.md and docs/tracking.md).
+    Auto,
+    /// For every array.
+    On,
+    /// Never (`--paper`'s).
+    Off,
+}
+
+impl Named for Dereverb {
+    const ALL: &'static [(Dereverb, &'static str, &'static str)] = &[
+        (
+            Dereverb::Auto,
+            "auto",
+            "For planar and linear arrays, whose directions the reverberation biases most (the default)",
+        ),
+        (Dereverb::On, "on", "For every array"),
+        (Dereverb::Off, "off", "Never (--paper's)"),
+    ];
+}
+
+impl Dereverb {
+    /// Whether it applies to an array of this shape.
+    pub fn applies(self, shape: &Shape) -> bool {
+        match self {
+            Dereverb::Auto => !matches!(shape, Shape::Volumetric),
+            Dereverb::On => true,
+            Dereverb::Off => false,
+        }
+    }
+}
+
+/// Peaks M kept per pair (the paper's M = 8).
+pub const DEFAULT_PEAKS: usize = 8;
+
+/// The largest M that [`find_peaks`](super::peaks::find_peaks) accepts.
+pub const MAX_PEAKS: usize = 64;
+
+/// The most sources one frame can give ([`Params::max_sources`]).
+pub const MAX_SOURCES: usize = 4;
+
+/// The most sources one frame gives by default with a tracker ([`Params::max_sources`]).
+pub const DEFAULT_MAX_SOURCES: usize = 2;
+
+/// Default time constant of the coherent background estimate (seconds).
+pub const DEFAULT_BACKGROUND_S: f64 = 2.0;
+
+/// Default time constant (seconds) of the longer average each talker's pattern is
+/// removed from.
+pub const DEFAULT_PATTERNS_S: f64 = 0.17;
+
+/// Default allowance for chance of the calibrated threshold, in standard deviations of a
+/// pair's correlation.
+pub const DEFAULT_THRESHOLD_SIGMAS: f64 = 6.0;
+
+/// The share of the detection threshold down to which candidates are reported for a
+/// tracker ([`Params::candidates`]): 0.4 finds two and three talkers at once in more
+/// windows than 0.5 with no false event or track in any benchmark (docs/method.md).
+pub const DEFAULT_CANDIDATES: f64 = 0.4;
+
+/// The share of the detection threshold down to which the frames that give nothing down
+/// to [`DEFAULT_CANDIDATES`] are searched again for riders ([`Params::riders`]): a
+/// talking track's rows in the frames where its talker is weakest (docs/method.md).
+pub const DEFAULT_RIDERS: f64 = 0.3;
 
 /// How much of the start of a recording primes the noise estimate before it is analysed
 /// (seconds, at most one block of frames; see the `analyzer` module).
@@ -283,6 +355,7 @@ pub fn frame_size_for_ms(ms: f64, sample_rate: u32) -> usize {
 
 /// Parameters that cannot be used with this array at this sample rate.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ParamsError {
     /// The frame size is odd, under 16 samples, or over [`MAX_FRAME_SIZE`].
     #[error(
@@ -310,6 +383,9 @@ pub enum ParamsError {
     /// The tolerance is negative or not a number.
     #[error("the consistency tolerance must be a non-negative number of samples, got {0}")]
     Tolerance(f32),
+    /// The tolerance in microseconds is negative or not a number.
+    #[error("the consistency tolerance must be a non-negative number of microseconds, got {0}")]
+    ToleranceUs(f64),
     /// The residual gate is not a positive number of microseconds.
     #[error("the residual gate must be a positive number of microseconds, got {0}")]
     ResidualGate(f64),

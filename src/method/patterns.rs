@@ -88,7 +88,7 @@ pub const TALKING_S: f64 = 0.5;
 pub const NOW_SHARE: f64 = 0.5;
 
 /// ...and at least this share of the frame's candidates' floor there. Without these two,
-/// `tests/accuracy.rs` failed: after each noise burst or train of clicks ended, rows of
+/// `tests/integration/accuracy.rs` failed: after each noise burst or train of clicks ended, rows of
 /// it came in the next one's first 0.05-0.1 s (its span scored 0.12-0.21 of the floor;
 /// the second talkers of the tracking benchmark 0.21-0.72, the lowest tenth cut).
 pub const NOW_FLOOR: f64 = 0.25;
@@ -96,7 +96,7 @@ pub const NOW_FLOOR: f64 = 0.25;
 /// The direction found is heard in the frame's span when each pair's correlation there
 /// peaks within this many samples of its delay (not the consistency tolerance: with 50
 /// us, 2.4 samples at 48 kHz, a noise burst that had ended 0.45 s before still passed
-/// in `tests/accuracy.rs`, its pairs' best values over five lags adding up to the floor;
+/// in `tests/integration/accuracy.rs`, its pairs' best values over five lags adding up to the floor;
 /// with one sample the tracking benchmark's prism at 48 kHz finds 0-4 points fewer of
 /// two talkers' windows than with the tolerance, docs/tracking.md).
 pub const NOW_SAMPLES: f64 = 1.0;
@@ -122,9 +122,6 @@ pub const MIN_LAGS: usize = 8;
 
 /// The longer average's scale under which it is multiplied out.
 const RESCALE: f32 = 1e-6;
-
-/// Default time constant (seconds) of the longer average.
-pub const DEFAULT_PATTERNS_S: f64 = 0.17;
 
 struct Slot {
     direction: Vector3<f64>,
@@ -176,7 +173,7 @@ impl Patterns {
             slots: Vec::with_capacity(SLOTS),
             steered: Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag),
             solvers: HashMap::new(),
-            directions: Vec::with_capacity(super::MAX_SOURCES),
+            directions: Vec::with_capacity(super::params::MAX_SOURCES),
         })
     }
 

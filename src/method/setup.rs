@@ -5,10 +5,7 @@
 use super::background::GATE;
 use super::dereverb::DiffuseCoherence;
 use super::pairs::{pair_count, pair_index};
-use super::params::{
-    default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE,
-};
-use super::peaks::MAX_PEAKS;
+use super::params::{default_frame_size, frame_size_for_ms, Params, ParamsError};
 use super::threshold::{
     chance_sigma, diffuse_coherence, steady_weight, DIFFUSE_MARGIN, STEADY_FRAME,
 };
@@ -73,64 +70,17 @@ impl Setup {
         sample_rate: u32,
         params: &Params,
     ) -> Result<Self, ParamsError> {
-        if let Some(ms) = params.frame_ms.filter(|ms| !(ms.is_finite() && *ms > 0.0)) {
-            return Err(ParamsError::FrameMs(ms));
-        }
+        params.check()?;
         let n = params.frame_size.unwrap_or_else(|| match params.frame_ms {
             Some(ms) => frame_size_for_ms(ms, sample_rate),
             None => default_frame_size(sample_rate),
         });
-        if !(16..=MAX_FRAME_SIZE).contains(&n) || n % 2 != 0 {
-            return Err(ParamsError::FrameSize(n));
-        }
-        if params.peaks == 0 || params.peaks > MAX_PEAKS {
-            return Err(ParamsError::Peaks(params.peaks));
-        }
-        if !(1..=MAX_AVERAGE_FRAMES).contains(&params.average_frames) {
-            return Err(ParamsError::AverageFrames(params.average_frames));
-        }
-        if !(params.candidates > 0.0 && params.candidates <= 1.0) {
-            return Err(ParamsError::Candidates(params.candidates));
-        }
-        if !(params.riders > 0.0 && params.riders <= 1.0) {
-            return Err(ParamsError::Riders(params.riders));
-        }
-        if !(1..=super::MAX_SOURCES).contains(&params.max_sources) {
-            return Err(ParamsError::MaxSources(params.max_sources));
-        }
         let mut params = params.clone();
         if let Some(us) = params.tolerance_us {
             // Not under one sample: at low rates the peaks' own error is that large.
             params.tolerance = (us * sample_rate as f64 / 1e6).max(1.0) as f32;
         }
-        if !(params.tolerance.is_finite() && params.tolerance >= 0.0) {
-            return Err(ParamsError::Tolerance(params.tolerance));
-        }
-        if let Some(g) = params.residual_gate_us.filter(|g| g.is_nan() || *g <= 0.0) {
-            return Err(ParamsError::ResidualGate(g));
-        }
-        if let Some(z) = params
-            .threshold_sigmas
-            .filter(|z| !(z.is_finite() && *z >= 0.0))
-        {
-            return Err(ParamsError::ThresholdSigmas(z));
-        }
-        if !(0.0..=1.0).contains(&params.reverb_level) {
-            return Err(ParamsError::ReverbLevel(params.reverb_level));
-        }
-        if let Some(s) = params.background_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err(ParamsError::BackgroundS(s));
-        }
-        if let Some(s) = params.patterns_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err(ParamsError::PatternsS(s));
-        }
-        if params.min_score_per_pair.is_nan() {
-            return Err(ParamsError::MinScore(params.min_score_per_pair));
-        }
         let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
-        if !(speed.is_finite() && speed > 0.0) {
-            return Err(ParamsError::SpeedOfSound(speed));
-        }
         let rate = sample_rate as f64;
         let mics = geometry.mics.len();
         let mut max_lag = vec![0; pair_count(mics)];

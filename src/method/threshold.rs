@@ -41,9 +41,6 @@ use crate::geometry::Geometry;
 /// minute; 0.5 none; 1.0 lost a third of the speech events at 8 kHz; docs/field.md).
 pub const DIFFUSE_MARGIN: f64 = 0.5;
 
-/// Default allowance for chance, in standard deviations of a pair's correlation.
-pub const DEFAULT_THRESHOLD_SIGMAS: f64 = 6.0;
-
 /// The weight eq. (4) gives a bin at the level of the noise estimate, `X = X_n + R`,
 /// with the late reverberation `R = reverb_level X` of a steady sound.
 pub fn steady_weight(alpha: f32, reverb_level: f32) -> f64 {

@@ -36,8 +36,9 @@
 use super::detect::detection;
 use super::direction::plane_basis;
 use super::frame_sources::{apart, IMAGE_ELEVATION_DEG};
-use super::outcome::{Detections, MAX_SOURCES};
+use super::outcome::Detections;
 use super::pairs::pair_index;
+use super::params::MAX_SOURCES;
 use super::setup::Setup;
 use super::state::{Correlated, FrameState};
 use super::weighting::MAX_SNR_RATIO;

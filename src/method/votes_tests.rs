@@ -3,7 +3,6 @@
 use super::*;
 use crate::method::direction::{angles_deg, unit_from_angles};
 use crate::method::setup::Setup;
-use crate::Params;
 use realfft::num_complex::Complex32;
 
 const RATE: f64 = 16000.0;
@@ -32,7 +31,12 @@ fn ring(k: usize, r: f64) -> Geometry {
 /// A frame whose bin `k` holds a plane wave from `source(k)` (none: noise of the
 /// given seed's phases), 100 times the noise estimate.
 fn frame(geometry: &Geometry, source: impl Fn(usize) -> Option<Vector3<f64>>) -> FrameState {
-    let setup = Setup::new(geometry, RATE as u32, &Params::default().for_tracker()).unwrap();
+    let setup = Setup::new(
+        geometry,
+        RATE as u32,
+        &crate::Options::default().settings().unwrap().method,
+    )
+    .unwrap();
     let mut state = FrameState::new(&setup);
     state.live = (0..geometry.mics.len()).collect();
     let mut seed = 12345u64;

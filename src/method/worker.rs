@@ -70,7 +70,7 @@ impl Worker {
             } else {
                 Vec::new()
             },
-            directions: Vec::with_capacity(super::MAX_SOURCES),
+            directions: Vec::with_capacity(super::params::MAX_SOURCES),
             steered: setup.params.steered.then(|| {
                 let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
                 Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag)

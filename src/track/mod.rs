@@ -217,21 +217,6 @@ fn default_alone_s() -> f64 {
     TrackParams::default().alone_s
 }
 
-/// The share of the detection threshold down to which `ssl analyze` reports candidates
-/// for its tracker ([`Params::candidates`](crate::Params::candidates)): 0.4 finds two
-/// and three talkers at once in more windows than 0.5 with no false event or track in
-/// any benchmark (docs/tracking.md, "Choosing the candidates' share").
-pub const DEFAULT_CANDIDATES: f64 = 0.4;
-
-/// The share of the detection threshold down to which `ssl analyze` searches the own
-/// correlations of the frames that give nothing down to [`DEFAULT_CANDIDATES`], for riders
-/// ([`Params::riders`](crate::Params::riders)): a talking track's rows in the frames
-/// where its talker is weakest. Over the tracking benchmark's three draws, three
-/// talkers at once on the prism were found in 63-74% of the windows (61-72% without),
-/// two in 76-88% (74-88%), no row was lost, and no false event or track was made;
-/// outside the benchmark, two talkers in 520 of 792 windows (477) (docs/tracking.md).
-pub const DEFAULT_RIDERS: f64 = 0.3;
-
 /// The widest a candidate's gate opens with the array's scatter
 /// ([`TrackParams::candidate_gate_samples`]): the 6.5 cm tetrahedron at 8 kHz would open
 /// 16 deg, and its single talkers' rows (`cargo bench --bench field -- track`) erred by
@@ -249,7 +234,7 @@ pub const MAX_SMOOTH_S: f64 = 1.0;
 pub const MAX_TRACKS: usize = 64;
 
 /// Why tracker parameters were refused.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Debug, Clone, thiserror::Error, PartialEq)]
 pub enum TrackParamsError {
     /// A parameter is out of its range.
     #[error("{0}")]

@@ -1,6 +1,6 @@
 //! The accuracy benchmark's scenes: simulated after the paper's experiments, analysed
 //! and scored. `cargo bench --bench accuracy` runs it in full and prints the markdown
-//! tables committed in `docs/accuracy.md`; `tests/benchmark.rs` runs a reduced version.
+//! tables committed in `docs/accuracy.md`; `tests/integration/benchmark.rs` runs a reduced version.
 //!
 //! Every case is a recording of one signal type with 8 events (or fewer in the reduced
 //! runs), one per horizontal angle, each 0.8 s long with 0.5 s gaps, after 1 s of
@@ -15,7 +15,7 @@ use ssl::sim::scene::{
 };
 use ssl::sim::{simulate, write_wav, Encoding};
 use ssl::track::TrackParams;
-use ssl::{Analysis, DetectionRecord, Geometry, Params, Truth};
+use ssl::{DetectionRecord, Geometry, Params, Truth};
 use std::error::Error;
 use std::path::{Path, PathBuf};
 
@@ -160,9 +160,8 @@ impl Bench {
     ) -> Result<Vec<DetectionRecord>> {
         let geometry = Geometry::from_file(&self.dir.path().join("prism.toml"))?;
         let name = wav.display().to_string();
-        let params = super::harness::untracked(params, &track);
-        let analysis = Analysis::open(&name, &geometry, &params)?;
-        super::harness::track_records(analysis, &name, &geometry, &params, track)
+        let localizer = super::harness::localizer(&geometry, params, track)?;
+        super::harness::rows(localizer.open(&name)?)
     }
 
     /// Analyses a recording with `params` and scores it.

@@ -74,11 +74,11 @@ fn named<T: ssl::Named>(arg: &str) -> T {
 /// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
-        return ssl::Params::paper();
+        return ssl::Options::paper().settings().expect("valid").method;
     }
     // As `ssl analyze`: candidates for the tracker (none without one, see
     // `analyse_scene`).
-    let mut params = ssl::Params::default().for_tracker();
+    let mut params = super::tracked_params();
     let mut numbers = Vec::new();
     for arg in args {
         let value = |what: &str| -> f64 {
@@ -94,7 +94,9 @@ pub fn params_from(args: &[String]) -> ssl::Params {
                 if let Some((_, v)) = arg.split_once('=') {
                     params.min_score_per_pair = v.parse().expect("min takes a number");
                 }
-                let f = ssl::Params::fixed_threshold(params.min_score_per_pair);
+                let mut fixed = ssl::Options::fixed_threshold(params.min_score_per_pair);
+                fixed.track = false;
+                let f = fixed.settings().expect("valid").method;
                 params.threshold_sigmas = f.threshold_sigmas;
                 params.reverb_level = f.reverb_level;
                 params.steered = f.steered;
@@ -209,62 +211,42 @@ pub fn analyse_channels(
     track: Option<ssl::track::TrackParams>,
 ) -> Result<Vec<ssl::DetectionRecord>, Box<dyn std::error::Error>> {
     let channels = channels.iter().map(|c| &c[..]).collect();
-    let params = &untracked(params, &track);
-    let analysis = ssl::Analysis::from_channels("scene", channels, rate, geometry, params)?;
-    track_records(analysis, "scene", geometry, params, track)
+    let localizer = localizer(geometry, params, track)?;
+    rows(localizer.from_channels("scene", channels, rate)?)
 }
 
-/// `params` as `ssl analyze` runs them: without a tracker, no candidates, no steered
-/// response, one source a frame (as `--no-track`).
-pub fn untracked(params: &ssl::Params, track: &Option<ssl::track::TrackParams>) -> ssl::Params {
-    match track {
-        Some(_) => params.clone(),
-        None => ssl::Params {
-            candidates: 1.0,
-            riders: 1.0,
-            steered: false,
-            max_sources: 1,
-            frame_sources: false,
-            ..params.clone()
-        },
-    }
-}
-
-/// Runs `analysis` (of `geometry`, with `params`) as `ssl analyze` does, through a
-/// tracker with `track` (else every frame's detection): the records, named `name`.
-pub fn track_records<S: ssl::stream::SampleSource>(
-    analysis: ssl::Analysis<S>,
-    name: &str,
+/// A localizer of `geometry` with `params` and `track`; without a tracker, `params` as
+/// `ssl analyze --no-track` runs them (no candidates, no steered response, one source a
+/// frame).
+pub fn localizer(
     geometry: &ssl::Geometry,
     params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
+) -> Result<ssl::Localizer, ssl::localize::SettingsError> {
+    let mut params = params.clone();
+    if track.is_none() {
+        let untracked = ssl::Options::untracked().settings()?.method;
+        params.candidates = untracked.candidates;
+        params.riders = untracked.riders;
+        params.steered = untracked.steered;
+        params.max_sources = untracked.max_sources;
+        params.frame_sources = untracked.frame_sources;
+    }
+    let settings = ssl::localize::Settings::new(params, track)?;
+    Ok(ssl::Localizer::with_settings(geometry.clone(), settings))
+}
+
+/// The rows of `recording`, as `ssl analyze` writes them.
+pub fn rows<S: ssl::stream::SampleSource>(
+    recording: ssl::localize::Recording<'_, S>,
 ) -> Result<Vec<ssl::DetectionRecord>, Box<dyn std::error::Error>> {
-    use ssl::track::{Tracked, Tracker};
-    use ssl::DetectionRecord;
-    let rate = analysis.sample_rate() as f64;
-    let hop = analysis.frame_size() as f64 / 2.0 / rate;
-    let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
-    let mut tracker = track.map(|p| Tracker::for_array(p, geometry, rate, speed));
-    let record =
-        |t: Tracked| DetectionRecord::tracked(name, &t.detection, t.source).expect("finite");
-    let mut records = Vec::new();
-    let (_, result) = analysis.run(|i, d| {
-        match tracker.as_mut() {
-            Some(t) => {
-                t.push((i as f64 + 1.0) * hop, d);
-                records.extend(t.take_rows().map(record));
-            }
-            None => records.extend(
-                d.iter()
-                    .map(|d| DetectionRecord::new(name, d).expect("finite")),
-            ),
+    let mut rows = Vec::new();
+    let (_, result) = recording.run(|out| {
+        if let ssl::localize::Output::Row(row) = out {
+            rows.push(row);
         }
-        std::ops::ControlFlow::Continue(())
+        Ok(())
     });
     result?;
-    if let Some(t) = tracker.as_mut() {
-        t.finish();
-        records.extend(t.take_rows().map(record));
-    }
-    Ok(records)
+    Ok(rows)
 }

@@ -54,6 +54,25 @@ pub fn tetrahedron(edge: f64) -> Vec<Vector3<f64>> {
 }
 
 /// The shipped files: `testdata/NAME`.
+/// The method's parameters `ssl analyze` runs with its tracker (the defaults).
+pub fn tracked_params() -> ssl::Params {
+    ssl::Options::default().settings().expect("valid").method
+}
+
+/// `params` with what only a tracker confirms turned on as `ssl analyze` does (the
+/// steered response, further sources, patterns, candidates, riders).
+pub fn for_tracker(params: ssl::Params) -> ssl::Params {
+    let t = tracked_params();
+    let mut p = params;
+    p.steered = t.steered;
+    p.max_sources = t.max_sources;
+    p.frame_sources = t.frame_sources;
+    p.patterns_s = t.patterns_s;
+    p.candidates = t.candidates;
+    p.riders = t.riders;
+    p
+}
+
 pub fn testdata(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("testdata")

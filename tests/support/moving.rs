@@ -1,6 +1,6 @@
 //! A talker turning around the array (real speech, far field, free field with sensor
 //! noise 20 dB below), analysed and tracked as `ssl analyze` does, and scored against
-//! its trajectory: the tracking benchmark's "A talker moving" and tests/tracking.rs.
+//! its trajectory: the tracking benchmark's "A talker moving" and tests/integration/tracking.rs.
 
 use super::harness::analyse_channels;
 use super::{testdata, SPEECH};
@@ -10,7 +10,7 @@ use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::recorded::read_mono;
 use ssl::sim::signals::Signal;
 use ssl::track::TrackParams;
-use ssl::{Geometry, Params};
+use ssl::Geometry;
 
 /// What a moving talker's analysis gives, against the truth.
 #[derive(Debug, Clone)]
@@ -59,7 +59,7 @@ pub fn moving_talker(
         seed,
     };
     let channels = render(&scene);
-    let params = Params::default().for_tracker();
+    let params = super::tracked_params();
     let rows = analyse_channels(
         &channels,
         rate,

@@ -2,7 +2,7 @@
 //! bound, run for hours, panic, or print NaN; what cannot be meant is refused with the
 //! limit in the message.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 use std::time::{Duration, Instant};

@@ -1,7 +1,7 @@
 //! Real speech in small reverberant rooms: what the method's defaults must still hear
 //! (docs/field.md, README "Tolerance"), and what dereverberating the input adds.
 
-mod support;
+use crate::support;
 
 use support::*;
 
@@ -39,7 +39,7 @@ fn office(
     );
     let path = write(dir, "office.toml", &scene);
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
-    let defaults = ssl::Params::default().for_tracker();
+    let defaults = support::tracked_params();
     let params = ssl::Params {
         tolerance_us: tolerance_us.or(defaults.tolerance_us),
         ..defaults
@@ -114,7 +114,7 @@ fn two_talkers(
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
     let params = ssl::Params {
         wpe,
-        ..ssl::Params::default().for_tracker()
+        ..support::tracked_params()
     };
     let track = ssl::track::TrackParams::default();
     let (rows, truth) =
@@ -177,7 +177,7 @@ fn a_fan_next_to_the_array_is_background_with_dereverberation_too() {
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
     let params = ssl::Params {
         wpe: true,
-        ..ssl::Params::default().for_tracker()
+        ..support::tracked_params()
     };
     let track = ssl::track::TrackParams::default();
     let (rows, truth) =

@@ -4,7 +4,7 @@
 //! removed), each measured with and without it on simulated scenes of real speech
 //! (docs/tracking.md).
 
-mod support;
+use crate::support;
 
 use support::*;
 
@@ -222,7 +222,7 @@ fn a_frames_own_correlations_find_the_other_talker() {
         for frame_sources in [false, true] {
             let params = ssl::Params {
                 frame_sources,
-                ..ssl::Params::default().for_tracker()
+                ..support::tracked_params()
             };
             let track = ssl::track::TrackParams {
                 confirm_tight: 1000,
@@ -264,7 +264,7 @@ fn a_steady_run_of_candidates_is_a_talker() {
     for (tolerance_us, seed) in [(40.0, 5003), (40.0, 5004), (50.0, 5003), (50.0, 5004)] {
         let params = ssl::Params {
             tolerance_us: Some(tolerance_us),
-            ..ssl::Params::default().for_tracker()
+            ..support::tracked_params()
         };
         let head = format!(
             "sample_rate = 48000\nduration = 4.8\nseed = {seed}\nformat = \"float32\"\n\
@@ -319,7 +319,7 @@ fn waiting_longer_keeps_a_talkers_first_detections() {
     let (dir, geometry, room) = PapersRoom::prism(48000, true);
     let params = ssl::Params {
         patterns_s: None,
-        ..ssl::Params::default().for_tracker()
+        ..support::tracked_params()
     };
     let mut windows = Vec::new();
     for seed in [0, 2, 3] {
@@ -350,7 +350,7 @@ fn waiting_longer_keeps_a_talkers_first_detections() {
 #[test]
 fn a_small_arrays_candidates_join_its_talkers() {
     let (dir, geometry, room) = PapersRoom::tetrahedron();
-    let params = ssl::Params::default().for_tracker();
+    let params = support::tracked_params();
     let mut windows = Vec::new();
     for seed in [7, 8, 9] {
         for samples in [0.0, 0.6] {
@@ -384,7 +384,7 @@ fn removing_a_talkers_pattern_finds_the_other() {
         for patterns_s in [None, Some(ssl::method::DEFAULT_PATTERNS_S)] {
             let params = ssl::Params {
                 patterns_s,
-                ..ssl::Params::default().for_tracker()
+                ..support::tracked_params()
             };
             eprint!("seed {seed}, patterns {patterns_s:?}: ");
             let (report, t) = room.run(
@@ -448,10 +448,10 @@ fn riders_add_a_talkers_weakest_frames() {
             )
         };
         let mut every = Vec::new();
-        for riders in [1.0, ssl::track::DEFAULT_RIDERS] {
+        for riders in [1.0, ssl::method::DEFAULT_RIDERS] {
             let params = ssl::Params {
                 riders,
-                ..ssl::Params::default().for_tracker()
+                ..support::tracked_params()
             };
             // Each frame's own direction: a rider's row would move its track's
             // neighbours' smoothed directions.
@@ -497,7 +497,7 @@ fn single_bins_find_the_talker_another_hides_on_a_small_circle() {
         for bin_votes in [false, true] {
             let params = ssl::Params {
                 bin_votes,
-                ..ssl::Params::default().for_tracker()
+                ..support::tracked_params()
             };
             eprint!("seed {seed}, bin votes {bin_votes}: ");
             // Each frame's own direction (see the measured figures below).
@@ -539,7 +539,7 @@ fn single_bins_find_the_talker_another_hides_on_a_small_circle() {
 #[test]
 fn a_tracks_neighbouring_rows_bring_each_row_nearer_its_talker() {
     let (dir, geometry, room) = PapersRoom::tetrahedron();
-    let params = ssl::Params::default().for_tracker();
+    let params = support::tracked_params();
     let mut errors = Vec::new();
     for seed in [7, 8, 9] {
         let mut draw = Vec::new();

@@ -1,7 +1,7 @@
 //! The command line's handling of inputs good and bad: every bad input gets one clear
 //! line on stderr naming the file and a non-zero exit, never a panic or NaN.
 
-mod support;
+use crate::support;
 
 use ssl::sim::freefield as synth;
 use ssl::sim::signals::Signal;

@@ -3,7 +3,7 @@
 //! devices with placeholder lengths, odd headers handled or refused, other audio
 //! formats named with the command that converts them.
 
-mod support;
+use crate::support;
 
 use ssl::stream::{SampleSource, WavStream};
 use std::io::Cursor;

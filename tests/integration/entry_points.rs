@@ -2,7 +2,7 @@
 //! WAV file, WAV bytes from a reader, channels in memory, and the binary reading a file
 //! and standard input) on one thread and several gives identical detections.
 
-mod support;
+use crate::support;
 
 use ssl::method::direction::unit_from_angles;
 use ssl::method::FrameStats;
@@ -177,4 +177,26 @@ fn every_entry_point_gives_the_same_detections() {
     let one = tracked("1");
     assert!(parse_csv(&String::from_utf8(one.clone()).unwrap()).len() > 10);
     assert_eq!(one, tracked("2"));
+}
+
+#[path = "../../examples/rows.rs"]
+mod example;
+
+#[test]
+fn the_library_example_gives_the_rows_of_the_binary() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let (wav, toml) = (
+        format!("{root}/testdata/example.wav"),
+        format!("{root}/testdata/prism.toml"),
+    );
+    let out = ssl()
+        .args(["analyze", &wav, "-g", &toml, "-f", "json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let binary = ssl::record::parse_detections(&String::from_utf8(out.stdout).unwrap()).unwrap();
+    let library = example::rows(&wav, &toml).unwrap();
+    assert!(binary.len() > 50, "{} rows", binary.len());
+    assert!(binary.iter().all(|r| r.source.is_some()));
+    assert_eq!(library, binary);
 }

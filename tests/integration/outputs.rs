@@ -2,7 +2,7 @@
 //! nothing, files keep the user's umask and their mode, interrupted runs leave no
 //! temporary files, write errors name the destination, `-` is standard output.
 
-mod support;
+use crate::support;
 
 use ssl::sim::signals::Signal;
 use ssl::sim::Encoding;

@@ -2,7 +2,7 @@
 //! cross-faded blocks, scored by `ssl evaluate` against its trajectory, and tracked as
 //! one source by `ssl analyze`.
 
-mod support;
+use crate::support;
 
 use ssl::sim::scene::SceneFile;
 use support::*;

@@ -1,7 +1,7 @@
 //! Sources, not frames: tracks and events from the command line, on real speech in a
 //! reverberant room with a fan (docs/interface.md, "Tracked sources" and "Events").
 
-mod support;
+use crate::support;
 
 use nalgebra::Vector3;
 use ssl::method::direction::{angle_between_deg, unit_from_angles};

@@ -2,7 +2,7 @@
 //! are known (fractional delays, independent sensor noise), for 3-D, planar and linear
 //! arrays, several sample rates and every sample encoding.
 
-mod support;
+use crate::support;
 
 use nalgebra::Vector3;
 use ssl::sim::signals::Signal;

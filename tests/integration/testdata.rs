@@ -1,12 +1,12 @@
 //! The shipped example recording and its truth are what the simulator makes of the
 //! example scene; this test fails when they are stale. Regenerate with:
-//! `SSL_UPDATE_TESTDATA=1 cargo test --test testdata`.
+//! `SSL_UPDATE_TESTDATA=1 cargo test --test integration testdata::`.
 //!
 //! The scene: three sources (noise burst, clicks, noise burst) from known directions
 //! around the paper's prism array, free field, independent sensor noise 20 dB below each
 //! source (-46 dBFS), 48 kHz 16-bit.
 
-mod support;
+use crate::support;
 
 use ssl::method::direction::{angles_deg, unit_from_angles};
 use ssl::record::{TruthArray, TruthSource};
@@ -116,7 +116,7 @@ fn example_recording_and_truth_are_what_the_simulator_makes() {
         } else {
             assert!(
                 std::fs::read(&path).unwrap_or_default() == bytes,
-                "testdata/{name} is stale: regenerate with `SSL_UPDATE_TESTDATA=1 cargo test --test testdata`"
+                "testdata/{name} is stale: regenerate with `SSL_UPDATE_TESTDATA=1 cargo test --test integration testdata::`"
             );
         }
     }

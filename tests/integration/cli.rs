@@ -2,7 +2,7 @@
 //! pair, a progress bar in audio time with a summary per file, and a reason when a file
 //! gives (almost) no detections.
 
-mod support;
+use crate::support;
 
 use ssl::method::direction::{angle_between_deg, unit_from_angles};
 use ssl::sim::freefield::{Place, Scene, Source};
@@ -199,7 +199,7 @@ fn tracked_rows_are_smoothed_over_their_track() {
     let (smoothed, own) = (mean(a), mean(b));
     eprintln!("mean error {smoothed:.3} deg smoothed, {own:.3} deg each frame's own");
     // The example's rows are exact to a few hundredths of a degree: the mean of
-    // neighbours keeps them so (tests/talkers_at_once.rs shows what it gains where
+    // neighbours keeps them so (tests/integration/talkers_at_once.rs shows what it gains where
     // frames scatter).
     assert!(smoothed < own + 0.02, "{smoothed} vs {own}");
     assert!(a.iter().all(|r| off_nearest(&sources, r) < 0.5));

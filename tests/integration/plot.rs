@@ -1,7 +1,7 @@
 //! `ssl plot`: the picture's structure (not its pixels), its size on large results, and
 //! the README's example picture kept current.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 use support::*;
@@ -200,7 +200,7 @@ fn what_is_not_a_result_is_refused_in_one_line() {
 }
 
 /// The README shows `docs/example.svg`, made by the commands it quotes; this keeps it
-/// current (`SSL_UPDATE_PLOTS=1 cargo test --test plot` rewrites it).
+/// current (`SSL_UPDATE_PLOTS=1 cargo test --test integration plot::` rewrites it).
 #[test]
 fn the_readme_picture_is_current() {
     let dir = tempdir();
@@ -214,6 +214,6 @@ fn the_readme_picture_is_current() {
     let committed = std::fs::read(&path).unwrap_or_default();
     assert!(
         committed == o.stdout,
-        "docs/example.svg is stale: SSL_UPDATE_PLOTS=1 cargo test --release --test plot"
+        "docs/example.svg is stale: SSL_UPDATE_PLOTS=1 cargo test --release --test integration plot::"
     );
 }

@@ -1,7 +1,7 @@
 //! `ssl simulate` and `ssl evaluate` end to end: reproducible scenes, truth in the array
 //! frame, a reverberant scene localized and scored, background alone, bad scenes.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 use support::*;

@@ -3,7 +3,7 @@
 //! first 0.25 s, which primes the noise estimate) with `--smooth-s 0`, and within 200 ms
 //! more with the default smoothing, which waits 0.2 s for the track's rows after it.
 
-mod support;
+use crate::support;
 
 use ssl::method::direction::unit_from_angles;
 use ssl::sim::freefield::{render, Place, Scene, Source};

@@ -1,10 +1,10 @@
 //! The man pages in man/ are generated from the clap definition; this test fails when
-//! they are stale. Regenerate with: `SSL_UPDATE_MAN=1 cargo test --test man`.
+//! they are stale. Regenerate with: `SSL_UPDATE_MAN=1 cargo test --test integration man::`.
 
-#[path = "../src/cli/args.rs"]
+#[path = "../../src/cli/args.rs"]
 #[allow(dead_code)]
 mod args;
-#[path = "../src/cli/values.rs"]
+#[path = "../../src/cli/values.rs"]
 mod values;
 
 use clap::CommandFactory;
@@ -56,7 +56,7 @@ fn man_pages_match_the_command_line() {
         let current = std::fs::read_to_string(&path).unwrap_or_default();
         assert!(
             current == text,
-            "man/{file} is stale: regenerate with `SSL_UPDATE_MAN=1 cargo test --test man`"
+            "man/{file} is stale: regenerate with `SSL_UPDATE_MAN=1 cargo test --test integration man::`"
         );
     }
 }

@@ -3,7 +3,7 @@
 //! stable and tight enough to catch a real regression; the full run is
 //! `cargo bench --bench accuracy` (results in docs/accuracy.md).
 
-mod support;
+use crate::support;
 
 use ssl::sim::scene::SignalKind;
 use ssl::Params;

@@ -1,0 +1,270 @@
+//! The whole path `ssl analyze` runs, as one type: [`Localizer`].
+//!
+//! A localizer holds an array and its [`Settings`]; each recording it opens (a WAV file,
+//! WAV bytes from any reader, channels in memory, or any [`SampleSource`]) streams
+//! through the method ([`Analysis`]), then the tracker and its smoother, and comes out
+//! as the rows and events `ssl analyze` writes, in order, with the frames' times
+//! (docs/interface.md, "Frames and time"). The command line, the benchmarks and the
+//! tests all go through it.
+//!
+//! ```
+//! use ssl::localize::{Localizer, Options, Output};
+//! use ssl::Geometry;
+//!
+//! let geometry = Geometry::from_file("testdata/prism.toml".as_ref())?;
+//! let localizer = Localizer::new(geometry, &Options::default())?;
+//! let mut rows = Vec::new();
+//! let (report, result) = localizer.open("testdata/example.wav")?.run(|out| {
+//!     if let Output::Row(row) = out {
+//!         rows.push(row);
+//!     }
+//!     Ok(())
+//! });
+//! result?;
+//! // The example's first source is at azimuth 30, elevation 10, tracked as source 1.
+//! assert!((rows[0].azimuth_deg - 30.0).abs() < 1.0 && rows[0].source == Some(1));
+//! assert_eq!(report.tracking.map(|t| t.rows as usize), Some(rows.len()));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod options;
+
+pub use options::{Options, Settings, SettingsError};
+
+use crate::geometry::Geometry;
+use crate::method::{Detection, Params};
+use crate::record::{DetectionRecord, EventRecord, OutputError, RunMetadata};
+use crate::stream::{Analysis, AnalysisError, Channels, SampleSource, Summary, WavStream};
+use crate::track::{TrackParams, TrackStats, Tracker};
+use std::io::Read;
+use std::ops::ControlFlow;
+
+/// An array and what to run on it: opens recordings and runs each through the method,
+/// the tracker and the smoother, as `ssl analyze` does.
+#[derive(Debug, Clone)]
+pub struct Localizer {
+    geometry: Geometry,
+    settings: Settings,
+}
+
+impl Localizer {
+    /// A localizer of `geometry` with `options` (resolved and checked once, here).
+    pub fn new(geometry: Geometry, options: &Options) -> Result<Self, SettingsError> {
+        Ok(Self::with_settings(geometry, options.settings()?))
+    }
+
+    /// A localizer of `geometry` with settings already resolved (for tuning what
+    /// [`Options`] does not reach; [`Settings::new`] checked them).
+    pub fn with_settings(geometry: Geometry, settings: Settings) -> Self {
+        Localizer { geometry, settings }
+    }
+
+    /// The array.
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
+    /// The method's parameters.
+    pub fn params(&self) -> &Params {
+        &self.settings.method
+    }
+
+    /// The tracker's parameters, or `None` for every frame's detection.
+    pub fn tracking(&self) -> Option<&TrackParams> {
+        self.settings.track.as_ref()
+    }
+
+    /// The JSON document's metadata of a run, the geometry read from `geometry_file`:
+    /// derived from the settings.
+    pub fn metadata(&self, geometry_file: &str) -> RunMetadata {
+        RunMetadata::new(&self.geometry, geometry_file, &self.settings.method)
+            .with_tracking(self.settings.track.clone())
+    }
+
+    /// Opens the WAV file at `path` (`-` for standard input).
+    pub fn open(&self, path: &str) -> Result<Recording<'_, WavStream>, AnalysisError> {
+        self.recording(Analysis::open(path, &self.geometry, &self.settings.method)?)
+    }
+
+    /// Reads WAV bytes from `reader`, named `name` in messages and rows.
+    pub fn from_reader(
+        &self,
+        name: &str,
+        reader: impl Read + 'static,
+    ) -> Result<Recording<'_, WavStream>, AnalysisError> {
+        let analysis = Analysis::from_reader(name, reader, &self.geometry, &self.settings.method);
+        self.recording(analysis?)
+    }
+
+    /// Channels already in memory (`channels[c]` is channel `c`, all of one length).
+    pub fn from_channels<'a>(
+        &'a self,
+        name: &str,
+        channels: Vec<&'a [f32]>,
+        sample_rate: u32,
+    ) -> Result<Recording<'a, Channels<'a>>, AnalysisError> {
+        let params = &self.settings.method;
+        let analysis = Analysis::from_channels(name, channels, sample_rate, &self.geometry, params);
+        self.recording(analysis?)
+    }
+
+    /// Any source of samples.
+    pub fn from_source<S: SampleSource>(
+        &self,
+        source: S,
+    ) -> Result<Recording<'_, S>, AnalysisError> {
+        self.recording(Analysis::new(
+            source,
+            &self.geometry,
+            &self.settings.method,
+        )?)
+    }
+
+    fn recording<S: SampleSource>(
+        &self,
+        analysis: Analysis<S>,
+    ) -> Result<Recording<'_, S>, AnalysisError> {
+        Ok(Recording {
+            localizer: self,
+            analysis,
+        })
+    }
+}
+
+/// What a recording gives, in order: rows (a detection, with its source when tracked)
+/// and, when tracked, events (a source's stretch of activity, given once it has ended).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Output {
+    /// A row of `ssl analyze`.
+    Row(DetectionRecord),
+    /// An event of `ssl analyze --events`.
+    Event(EventRecord),
+}
+
+/// What a finished (or failed) recording reports.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub struct Report {
+    /// The method's summary: format, frames, counters, warnings.
+    pub summary: Summary,
+    /// What the tracker made of the detections (`None` untracked).
+    pub tracking: Option<TrackStats>,
+}
+
+/// Why a recording's run stopped early.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RunError {
+    /// The recording could not be read to its end (the frames before were analysed).
+    #[error(transparent)]
+    Input(#[from] AnalysisError),
+    /// The output refused a record, or a record had a non-finite value.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// One recording, opened and checked against the array, ready to run.
+pub struct Recording<'a, S: SampleSource> {
+    localizer: &'a Localizer,
+    analysis: Analysis<S>,
+}
+
+impl<S: SampleSource> Recording<'_, S> {
+    /// The underlying analysis: its name, frame size, rate, length.
+    pub fn analysis(&self) -> &Analysis<S> {
+        &self.analysis
+    }
+
+    /// Measures the time spent in each stage (reported in the summary).
+    pub fn enable_stage_timing(&mut self) {
+        self.analysis.enable_stage_timing();
+    }
+
+    /// Runs the recording: `sink` gets every row and event in order; an error it
+    /// returns stops the run.
+    pub fn run(
+        self,
+        sink: impl FnMut(Output) -> Result<(), OutputError>,
+    ) -> (Report, Result<(), RunError>) {
+        self.run_observed(|_| Ok(()), sink)
+    }
+
+    /// [`Recording::run`], with `frame` told each frame's index once it is analysed,
+    /// before its rows (a progress bar; an output opened on the first frame); an error
+    /// it returns stops the run as the sink's do.
+    pub fn run_observed(
+        self,
+        mut frame: impl FnMut(u64) -> Result<(), OutputError>,
+        mut sink: impl FnMut(Output) -> Result<(), OutputError>,
+    ) -> (Report, Result<(), RunError>) {
+        let settings = &self.localizer.settings;
+        let geometry = &self.localizer.geometry;
+        let name = self.analysis.name().to_string();
+        let rate = self.analysis.sample_rate() as f64;
+        let speed = settings
+            .method
+            .speed_of_sound
+            .unwrap_or(geometry.speed_of_sound);
+        let mut tracker =
+            (settings.track.clone()).map(|p| Tracker::for_array(p, geometry, rate, speed));
+        // Frame i's centre is at (i + 1) hops (docs/interface.md, "Frames and time").
+        let hop = self.analysis.frame_size() as f64 / 2.0 / rate;
+        let mut failure = None;
+        let (summary, result) = self.analysis.run(|index, detections| {
+            if let Some(t) = tracker.as_mut() {
+                t.push((index as f64 + 1.0) * hop, detections);
+            }
+            let emitted =
+                frame(index).and_then(|()| emit(&name, tracker.as_mut(), detections, &mut sink));
+            match emitted {
+                Ok(()) => ControlFlow::Continue(()),
+                Err(e) => {
+                    failure = Some(e);
+                    ControlFlow::Break(())
+                }
+            }
+        });
+        if let Some(t) = tracker.as_mut() {
+            t.finish();
+            if failure.is_none() && summary.stats.frames > 0 {
+                failure = emit(&name, Some(t), &[], &mut sink).err();
+            }
+        }
+        let report = Report {
+            summary,
+            tracking: tracker.as_ref().map(Tracker::stats),
+        };
+        let result = match failure {
+            Some(e) => Err(RunError::Output(e)),
+            None => result.map_err(RunError::Input),
+        };
+        (report, result)
+    }
+}
+
+/// Gives `sink` what the tracker has given out (or, without one, `detections`).
+fn emit(
+    name: &str,
+    tracker: Option<&mut Tracker>,
+    detections: &[Detection],
+    sink: &mut impl FnMut(Output) -> Result<(), OutputError>,
+) -> Result<(), OutputError> {
+    let Some(tracker) = tracker else {
+        for d in detections {
+            sink(Output::Row(DetectionRecord::new(name, d)?))?;
+        }
+        return Ok(());
+    };
+    for row in tracker.take_rows() {
+        sink(Output::Row(DetectionRecord::tracked(
+            name,
+            &row.detection,
+            row.source,
+        )?))?;
+    }
+    for event in tracker.take_events() {
+        sink(Output::Event(EventRecord::new(name, &event)?))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,25 @@
+//! The integration tests, in one binary (one link instead of one per file): each module
+//! is one concern, named by what it proves. `cargo test --test integration NAME` runs
+//! one. The no-allocation test is its own binary (tests/no_alloc.rs): it replaces the
+//! global allocator.
+
+#[path = "../support/mod.rs"]
+mod support;
+
+mod accuracy;
+mod benchmark;
+mod bounds;
+mod cli;
+mod entry_points;
+mod formats;
+mod inputs;
+mod live;
+mod man;
+mod moving;
+mod outputs;
+mod plot;
+mod rooms;
+mod simulate;
+mod talkers_at_once;
+mod testdata;
+mod tracking;
