@@ -13,7 +13,7 @@ mod shape;
 pub use shape::Shape;
 use shape::{classify, orient};
 
-use crate::stream::{io_reason, read_text};
+use crate::text::{io_reason, read_text};
 use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! (docs/interface.md, "Geometry file").
 
 use super::{GeometryError, FLATNESS};
-use crate::record::fixed;
+use crate::text::fixed;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 type Result<T> = std::result::Result<T, GeometryError>;

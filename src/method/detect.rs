@@ -3,11 +3,11 @@
 //! time, angles and margin over the threshold. The consistency search and the steered
 //! response both end here.
 
-use super::direction::{angles_deg, DirectionSolver};
+use super::layout::Layout;
 use super::outcome::Detection;
-use super::pairs::pair_count;
-use super::search::Solution;
-use super::setup::Setup;
+use super::paper::direction::{angles_deg, DirectionSolver};
+use super::paper::pairs::pair_count;
+use super::paper::search::Solution;
 use super::state::FrameState;
 use std::collections::HashMap;
 
@@ -23,7 +23,7 @@ pub(crate) enum Direction {
 /// The direction solver for the frame's set of live microphones (made once per set).
 pub(crate) fn solver<'a>(
     solvers: &'a mut HashMap<u64, Option<DirectionSolver>>,
-    setup: &Setup,
+    setup: &Layout,
     state: &FrameState,
 ) -> Option<&'a DirectionSolver> {
     let mask = state.live.iter().fold(0u64, |acc, &m| acc | (1u64 << m));
@@ -35,7 +35,7 @@ pub(crate) fn solver<'a>(
 
 pub(crate) fn direction(
     solvers: &mut HashMap<u64, Option<DirectionSolver>>,
-    setup: &Setup,
+    setup: &Layout,
     state: &FrameState,
     index: u64,
     solution: &Solution,
@@ -56,7 +56,7 @@ pub(crate) fn direction(
 
 /// The detection of direction `u` with `score` in frame `index`.
 pub(crate) fn detection(
-    setup: &Setup,
+    setup: &Layout,
     state: &FrameState,
     index: u64,
     u: nalgebra::Vector3<f64>,

@@ -1,61 +1,55 @@
-//! The method of Valin, Michaud, Rouat and Létourneau (IROS 2003), one file per stage in
-//! the paper's order:
+//! The method of Valin, Michaud, Rouat and Létourneau (IROS 2003) and the stages beyond
+//! it, in three rooms:
+//!
+//! - [`paper`]: the paper's stages, one file each, in its order;
+//! - `beyond`: the stages beyond the paper (crate-private: what they add is reached
+//!   through [`Params`]);
+//! - `engine`: what schedules them: the run's plan, one frame through every stage, a
+//!   recording's frames in blocks on several threads with priming.
 //!
 //! | stage | module | paper |
 //! |---|---|---|
-//! | frames of N samples, 50% overlap | [`frames`] | Sec. II |
-//! | windowed spectra `X_i(k)`, mean power `X(k)` | [`spectrum`] | eq. (2) |
-//! | noise estimate `X_n(k)` and weights `w_e(k)` | [`weighting`] | eq. (4), (5) |
-//! | weighted PHAT cross-correlation of every pair | [`correlation`] | eq. (6) |
-//! | the M highest peaks of each pair | [`peaks`] | eq. (7) |
-//! | microphone pairs, numbered once | [`pairs`] | |
-//! | the consistent set of delays with the greatest correlation | [`search`] | eq. (8) |
-//! | far-field least-squares direction | [`direction`] | eq. (9)-(13) |
-//! | the coherent background, subtracted from the correlations | [`background`] | beyond the paper |
-//! | the detection threshold, calibrated against the background | [`threshold`] | beyond the paper |
-//! | steered response: partial agreement and several sources | [`steered`] | beyond the paper |
-//! | further sources from a frame's own correlations | [`frame_sources`] | beyond the paper |
-//! | each talker's pattern removed before a second look for others | [`patterns`] | beyond the paper |
+//! | frames of N samples, 50% overlap | [`paper::frames`] | Sec. II |
+//! | windowed spectra `X_i(k)`, mean power `X(k)` | [`paper::spectrum`] | eq. (2) |
+//! | noise estimate `X_n(k)` and weights `w_e(k)` | [`paper::weighting`] | eq. (4), (5) |
+//! | weighted PHAT cross-correlation of every pair | [`paper::correlation`] | eq. (6) |
+//! | the M highest peaks of each pair | [`paper::peaks`] | eq. (7) |
+//! | microphone pairs, numbered once | [`paper::pairs`] | |
+//! | the consistent set of delays with the greatest correlation | [`paper::search`] | eq. (8) |
+//! | far-field least-squares direction | [`paper::direction`] | eq. (9)-(13) |
+//! | the detection threshold, calibrated against the background | `beyond/threshold.rs` | beyond |
+//! | the steady background, subtracted from the correlations | `beyond/background.rs` | beyond |
+//! | the reverberation's diffuse part removed from the cross-spectra | `beyond/dereverb.rs` | beyond |
+//! | steered response: partial agreement and several sources | `beyond/steered.rs` | beyond |
+//! | further sources from a frame's own correlations | `beyond/frame_sources.rs` | beyond |
+//! | each talker's pattern removed before a second look for others | `beyond/patterns.rs` | beyond |
+//! | the directions of single frequency bins (riders) | `beyond/votes.rs` | beyond |
 //!
-//! [`Params`] holds the parameters; one frame goes through the stages in `worker.rs`, and
-//! the analyzer (`analyzer.rs`) runs a recording's frames through them in blocks on
-//! several threads, with the noise estimate in frame order. Every entry point of the
-//! library, and the command line, goes through that one analyzer (see
-//! [`Analysis`](crate::stream::Analysis)).
+//! Below the three rooms: [`Params`] and its defaults (`params.rs`, which imports no
+//! stage), the frame layout every stage reads (`layout.rs`), one frame's state between
+//! the stages (`state.rs`), from a set of delays to a detection (`detect.rs`), and what
+//! the method gives out (`outcome.rs`). Every entry point of the library, and the
+//! command line, goes through the one analyzer (see [`Localizer`](crate::Localizer)).
 
-pub(crate) mod analyzer;
-pub mod background;
-pub mod correlation;
-pub mod dereverb;
+pub(crate) mod beyond;
 mod detect;
-pub mod direction;
-pub mod frame_sources;
-pub mod frames;
+pub(crate) mod engine;
+mod layout;
 mod outcome;
-pub mod pairs;
+pub mod paper;
 mod params;
-pub mod patterns;
-pub mod peaks;
-pub mod search;
-mod sequential;
-mod setup;
-pub mod spectrum;
 mod state;
-pub mod steered;
-pub mod threshold;
-pub mod votes;
-pub mod weighting;
-mod worker;
 
-pub(crate) use analyzer::Analyzer;
+pub use paper::{correlation, direction, frames, pairs, peaks, search, spectrum, weighting};
+
+pub(crate) use engine::analyzer::Analyzer;
 pub use outcome::{Detection, Detections, FrameStats, StageTimes};
+pub use paper::peaks::{Interpolation, MAX_PEAKS};
+pub use paper::spectrum::Window;
 pub use params::{
     default_frame_size, frame_size_for_ms, Dereverb, Params, ParamsError, DEFAULT_AVERAGE_FRAMES,
     DEFAULT_BACKGROUND_S, DEFAULT_CANDIDATES, DEFAULT_MAX_SOURCES, DEFAULT_MIN_SCORE_PER_PAIR,
     DEFAULT_PATTERNS_S, DEFAULT_PEAKS, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL,
     DEFAULT_RIDERS, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
-    MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, MAX_PEAKS, MAX_SOURCES, PRIMING_S, REVERB_TAU_S,
+    MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, MAX_SOURCES, PRIMING_S, REVERB_TAU_S,
 };
-pub use peaks::Interpolation;
-pub use spectrum::Window;
-pub use threshold::DIFFUSE_MARGIN;

@@ -96,7 +96,7 @@ pub(crate) enum Outcome {
     /// No consistent set of delays (`true`: the search hit its node budget).
     Inconsistent(bool),
     /// The best set scored under the threshold, or no set could reach it (the frame was
-    /// decided by the weights' ceiling, see [`peak_ceiling`](super::correlation::peak_ceiling)).
+    /// decided by the weights' ceiling, see [`peak_ceiling`](super::paper::correlation::peak_ceiling)).
     /// `true`: the search hit its node budget; then the best set's score per pair when the
     /// frame was searched (`true`), else the most it could have scored per pair.
     BelowThreshold(bool, f64, bool),
@@ -159,7 +159,7 @@ impl FrameStats {
                 self.detections += 1;
                 self.extra_detections += found.len() as u64 - 1;
                 for d in found.as_slice() {
-                    let p = d.score / crate::method::pairs::pair_count(d.mics) as f64;
+                    let p = d.score / crate::method::paper::pairs::pair_count(d.mics) as f64;
                     self.best_score_per_pair =
                         Some(self.best_score_per_pair.map_or(p, |b| b.max(p)));
                 }
@@ -196,7 +196,7 @@ pub struct StageTimes {
     pub correlated_pairs: u64,
     /// Pair correlations left out because the weights' ceiling proved that the frame
     /// could not reach the detection threshold (see
-    /// [`peak_ceiling`](super::correlation::peak_ceiling)).
+    /// [`peak_ceiling`](super::paper::correlation::peak_ceiling)).
     pub skipped_pairs: u64,
 }
 

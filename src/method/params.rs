@@ -1,9 +1,9 @@
 //! The method's parameters, their defaults, and their validation against an array and a
 //! sample rate.
 
-use super::peaks::Interpolation;
-use super::spectrum::Window;
-use super::weighting::NoiseSettings;
+use super::paper::peaks::{Interpolation, MAX_PEAKS};
+use super::paper::spectrum::Window;
+use super::paper::weighting::NoiseSettings;
 use crate::geometry::Shape;
 use crate::Named;
 
@@ -36,7 +36,7 @@ pub struct Params {
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
     /// Fixed detection threshold per microphone pair, used when `threshold_sigmas` is
-    /// `None` ([`Params::fixed_threshold`], `--paper`): a frame whose best set scores
+    /// `None` ([`Options::fixed_threshold`](crate::Options::fixed_threshold), `--paper`): a frame whose best set scores
     /// below this times its number of pairs gives no detection.
     pub min_score_per_pair: f64,
     /// The threshold calibrated against the background (the default): chance plus a
@@ -64,25 +64,25 @@ pub struct Params {
     /// correlation (beyond the paper, see the `background` module; `None`: none, as in
     /// the paper; default [`DEFAULT_BACKGROUND_S`]).
     pub background_s: Option<f64>,
-    /// The steered response ([`super::steered`], beyond the paper): a direction for
+    /// The steered response (`method/beyond/steered.rs`, beyond the paper): a direction for
     /// frames whose pairs do not all agree, and further sources (default off; on with a
-    /// tracker, [`Params::for_tracker`]).
+    /// tracker, [`Options`](crate::Options)).
     pub steered: bool,
     /// The most sources one frame gives, `1..=`[`MAX_SOURCES`] (with
     /// `steered`; default 1, [`DEFAULT_MAX_SOURCES`] with a
     /// tracker).
     pub max_sources: usize,
     /// When the averaged correlations give a source, the frame's own are searched too
-    /// and what they give beside it is a further source ([`super::frame_sources`],
+    /// and what they give beside it is a further source (`method/beyond/frame_sources.rs`,
     /// beyond the paper; up to [`Params::max_sources`]; default off; on with a tracker,
-    /// [`Params::for_tracker`]).
+    /// [`Options`](crate::Options)).
     pub frame_sources: bool,
     /// Time constant (seconds) of the longer average in which each talker's learned
     /// pattern is removed before a second look for further sources
-    /// ([`super::patterns`], beyond the paper; with `steered`, on arrays whose longest
-    /// delay is [`MIN_LAGS`](super::patterns::MIN_LAGS) samples or more; `None`: none,
+    /// (`method/beyond/patterns.rs`, beyond the paper; with `steered`, on arrays whose longest
+    /// delay is 8 samples or more; `None`: none,
     /// the default; [`DEFAULT_PATTERNS_S`] with a
-    /// tracker, [`Params::for_tracker`]).
+    /// tracker, [`Options`](crate::Options)).
     pub patterns_s: Option<f64>,
     /// Candidates scoring down to this share of the detection threshold are reported
     /// too, with [`Detection::margin`](super::Detection::margin) under 1, for a tracker to
@@ -99,7 +99,7 @@ pub struct Params {
     /// along): none.
     pub riders: f64,
     /// When the diffuse part of every pair's cross-spectrum is removed before eq. (6)
-    /// ([`super::dereverb`], beyond the paper), its coherence measured over the frames
+    /// (`method/beyond/dereverb.rs`, beyond the paper), its coherence measured over the frames
     /// [`Params::average_frames`] averages (default [`Dereverb::Auto`]: for planar and
     /// linear arrays; `--paper`: never).
     pub dereverb: Dereverb,
@@ -107,7 +107,7 @@ pub struct Params {
     /// frames are cut ([`crate::stream::wpe`], beyond the paper; `--wpe`). Default off:
     /// it costs about 15 times the rest of the analysis.
     pub wpe: bool,
-    /// Riders from the directions of single frequency bins ([`super::votes`], beyond the
+    /// Riders from the directions of single frequency bins (`method/beyond/votes.rs`, beyond the
     /// paper), on arrays small enough that their pairs are shorter than half a
     /// wavelength over part of the band, with a tracker only (`candidates` under 1).
     /// Default on; `--paper` and `--min-score`: off.
@@ -178,7 +178,7 @@ impl Params {
 
     /// Whether riders come from the bins' directions: [`Params::bin_votes`], and a
     /// tracker to ride along (`candidates` under 1). On arrays too large for them there
-    /// are none either way (see [`super::votes`]).
+    /// are none either way (see `method/beyond/votes.rs`).
     pub fn bin_votes_on(&self) -> bool {
         self.bin_votes && self.candidates < 1.0
     }
@@ -259,9 +259,6 @@ impl Dereverb {
 
 /// Peaks M kept per pair (the paper's M = 8).
 pub const DEFAULT_PEAKS: usize = 8;
-
-/// The largest M that [`find_peaks`](super::peaks::find_peaks) accepts.
-pub const MAX_PEAKS: usize = 64;
 
 /// The most sources one frame can give ([`Params::max_sources`]).
 pub const MAX_SOURCES: usize = 4;

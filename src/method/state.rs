@@ -1,7 +1,8 @@
-//! One frame's state between the stages of [`super::worker`], and what a span of them
+//! One frame's state between the stages of [`super::engine::worker`], and what a span of them
 //! bounds.
 
-use super::setup::Setup;
+use super::layout::Layout;
+use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
 
 /// One frame between the stages: its live microphones, spectra, `X(k)`, the noise
@@ -17,7 +18,7 @@ pub(crate) struct FrameState {
     pub ceiling: f64,
     /// The most any of its correlation values (or refined peaks) can be: `ceiling`, or
     /// with the diffuse part removed, that of the weights averaged over the frames its
-    /// cross-spectra sum ([`super::dereverb`]).
+    /// cross-spectra sum ([`super::beyond::dereverb`]).
     pub reach: f64,
     /// The frame's detection threshold per pair.
     pub threshold: f64,
@@ -30,20 +31,29 @@ pub(crate) struct FrameState {
     /// frame that gives nothing down to the floor is searched down to this.
     pub rider_floor: f64,
     /// With the calibrated threshold: nothing in the frame stands above the noise
-    /// estimate (see [`super::threshold`]); such a frame gives no detection.
+    /// estimate (see [`super::beyond::threshold`]); such a frame gives no detection.
     pub steady: bool,
     /// Bit `m` set when microphone `m` is live.
     pub(super) mask: u64,
     /// Every pair's correlation at the lags searched and their two neighbours, one pair
     /// after another in the order of [`pair_index`] over all microphones (see
-    /// [`Setup::window_starts`]); read only when `correlated` is `Correlated::Yes`.
+    /// [`Layout::window_starts`]); read only when `correlated` is `Correlated::Yes`.
     pub(super) windows: Vec<f32>,
     pub correlated: Correlated,
-    /// The coherent background learns from this frame ([`super::background`]): it is
+    /// The coherent background learns from this frame ([`super::beyond::background`]): it is
     /// correlated in full even when no detection needs it.
     pub teaches: bool,
-    /// The directions of its bins ([`super::votes`]), when they vote.
-    pub(super) votes: Vec<super::votes::Vote>,
+    /// The directions of its bins ([`super::beyond::votes`]), when they vote.
+    pub(crate) votes: Vec<Vote>,
+}
+
+/// One bin's vote ([`super::beyond::votes`]): its direction and weight.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Vote {
+    pub direction: Vector3<f64>,
+    /// Azimuth in the array's plane (planar arrays), radians.
+    pub azimuth: f64,
+    pub weight: f64,
 }
 
 /// Whether a frame's correlations were computed.
@@ -60,7 +70,7 @@ pub(crate) enum Correlated {
 }
 
 impl FrameState {
-    pub fn new(setup: &Setup) -> Self {
+    pub fn new(setup: &Layout) -> Self {
         let mics = setup.mics();
         FrameState {
             live: Vec::with_capacity(mics),

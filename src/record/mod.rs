@@ -25,6 +25,7 @@ pub use metadata::{
 pub use read::{parse_detections, read_detections, ReadError, MAX_RESULT_BYTES, MAX_TRUTH_BYTES};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 
+pub(crate) use crate::text::fixed;
 use crate::Named;
 use std::io::{self, Write};
 
@@ -158,10 +159,4 @@ impl OutputError {
 /// The first of `values` (a record's numbers, by field) that is NaN or infinite.
 pub(crate) fn first_non_finite(values: &[(&'static str, f64)]) -> Option<&'static str> {
     values.iter().find(|(_, v)| !v.is_finite()).map(|&(f, _)| f)
-}
-
-/// `v` rounded to `decimals` places, with -0 written as 0.
-pub(crate) fn fixed(v: f64, decimals: i32) -> f64 {
-    let f = 10f64.powi(decimals);
-    (v * f).round() / f + 0.0
 }

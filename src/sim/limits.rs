@@ -2,6 +2,7 @@
 //! rendering's cost estimated up front, so that no scene can make `ssl simulate` panic,
 //! hang for hours or run out of memory. Each refusal names the limit.
 
+use super::room::image_count;
 use super::scene::{SceneFile, SignalKind};
 use super::SceneError;
 
@@ -196,10 +197,4 @@ pub(crate) fn check_cost(
         );
     }
     Ok(())
-}
-
-/// Image sources within `reach` metres of a point in a shoebox of `volume` cubic metres
-/// (one per `volume` of space, in a sphere).
-pub(crate) fn image_count(reach: f64, volume: f64) -> f64 {
-    4.0 / 3.0 * std::f64::consts::PI * reach.powi(3) / volume
 }

@@ -13,6 +13,7 @@
 pub mod freefield;
 pub mod limits;
 mod noise;
+mod placed;
 pub mod recorded;
 pub mod render;
 pub mod room;

@@ -55,7 +55,7 @@ impl Room {
             return Ok(Room { dims, beta: 0.0 });
         }
         // Calibrating renders responses of 1.5 rt60: refuse what would take hours.
-        let images = super::limits::image_count(343.0 * 1.5 * rt60, dims.x * dims.y * dims.z);
+        let images = image_count(343.0 * 1.5 * rt60, dims.x * dims.y * dims.z);
         if images > MAX_CALIBRATION_IMAGES {
             fail!(
                 SceneError::Invalid,
@@ -321,6 +321,12 @@ pub fn measured_rt60(h: &[f64], fs: f64) -> Option<f64> {
     }
     let slope = (n * std - st * sd) / (n * stt - st * st);
     (slope < 0.0).then(|| -60.0 / slope)
+}
+
+/// Image sources within `reach` metres of a point in a shoebox of `volume` cubic metres
+/// (one per `volume` of space, in a sphere).
+pub(crate) fn image_count(reach: f64, volume: f64) -> f64 {
+    4.0 / 3.0 * std::f64::consts::PI * reach.powi(3) / volume
 }
 
 #[cfg(test)]

@@ -1,8 +1,8 @@
 //! One source of a scene: its signal in each active interval, where it is (and, when it
 //! turns, where it is at each moment), through the room's responses; and its truth.
 
+use super::placed::{convolve, Placed};
 use super::recorded::read_mono;
-use super::render::{convolve, Placed};
 use super::scene::{SceneFile, SignalKind, SourceSpec};
 use super::signals::{generate, Signal};
 use super::SceneError;

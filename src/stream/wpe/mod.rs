@@ -75,7 +75,7 @@ pub const WARM_UP_S: f64 = 2.0;
 
 /// Seconds over which the share of the prediction taken out rises from none to all at
 /// the start of the input: the coherent background subtracted from the correlations
-/// ([`crate::method::background`], learned over about 2 s) follows a steady source as it
+/// (the background stage, learned over about 2 s) follows a steady source as it
 /// turns from reverberant to direct. At once, a fan on the table 0.9 m from the prism at
 /// 16 kHz was reported in the first second of the field benchmark's near-fan minute (9
 /// rows; 0 with this, and 0 without `--wpe`).

@@ -2,8 +2,8 @@
 
 use super::*;
 use crate::geometry::Geometry;
-use crate::method::direction::{angle_between_deg, unit_from_angles};
-use crate::method::pairs::pair_count;
+use crate::method::paper::direction::{angle_between_deg, unit_from_angles};
+use crate::method::paper::pairs::pair_count;
 
 #[test]
 fn running_max_is_the_naive_one() {
@@ -85,7 +85,7 @@ fn finds_a_source_most_pairs_agree_on_then_the_next() {
     assert!(
         angle_between_deg(&second.direction, &b) < 0.5,
         "{:?}",
-        crate::method::direction::angles_deg(&second.direction)
+        crate::method::paper::direction::angles_deg(&second.direction)
     );
     assert!(second.agreeing >= pair_count(mics) - 3);
 }

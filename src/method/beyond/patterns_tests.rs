@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::geometry::Geometry;
+use crate::method::engine::setup::Setup;
 use crate::method::Params;
 
 /// Microphones at the corners of a cube `side` metres across.
@@ -20,6 +21,10 @@ fn cube(side: f64) -> Geometry {
     Geometry::from_toml_str(&toml).unwrap()
 }
 
+fn patterns_of(setup: &Setup) -> Option<Patterns> {
+    Patterns::new(setup, &setup.threshold)
+}
+
 fn setup(geometry: &Geometry, rate: u32, params: &Params) -> Setup {
     Setup::new(geometry, rate, params).unwrap()
 }
@@ -29,19 +34,19 @@ fn patterns_are_learned_with_a_tracker_on_arrays_with_room_for_reflections() {
     let tracked = crate::Options::default().settings().unwrap().method;
     // A 40 cm cube: its longest delay is 32 samples at 16 kHz, 16 at 8 kHz.
     let large = cube(0.4);
-    assert!(Patterns::new(&setup(&large, 16000, &tracked)).is_some());
-    assert!(Patterns::new(&setup(&large, 8000, &tracked)).is_some());
+    assert!(patterns_of(&setup(&large, 16000, &tracked)).is_some());
+    assert!(patterns_of(&setup(&large, 8000, &tracked)).is_some());
     // A 4 cm cube: 3 samples at 16 kHz, 9 at 48 kHz.
     let small = cube(0.04);
-    assert!(Patterns::new(&setup(&small, 16000, &tracked)).is_none());
-    assert!(Patterns::new(&setup(&small, 48000, &tracked)).is_some());
+    assert!(patterns_of(&setup(&small, 16000, &tracked)).is_none());
+    assert!(patterns_of(&setup(&small, 48000, &tracked)).is_some());
     // Without a tracker (no steered response), or turned off: none.
-    assert!(Patterns::new(&setup(&large, 16000, &Params::default())).is_none());
+    assert!(patterns_of(&setup(&large, 16000, &Params::default())).is_none());
     let off = Params {
         patterns_s: None,
         ..tracked.clone()
     };
-    assert!(Patterns::new(&setup(&large, 16000, &off)).is_none());
+    assert!(patterns_of(&setup(&large, 16000, &off)).is_none());
 }
 
 #[test]

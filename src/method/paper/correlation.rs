@@ -174,8 +174,8 @@ fn cross_spectra(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::peaks::find_peaks;
-    use crate::method::spectrum::{ForwardFft, Window};
+    use crate::method::paper::peaks::find_peaks;
+    use crate::method::paper::spectrum::{ForwardFft, Window};
     use rand::{Rng, SeedableRng};
 
     /// Uniform noise in [-0.5, 0.5).

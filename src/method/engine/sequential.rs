@@ -2,12 +2,12 @@
 //! `X_n(k)` of eq. (4)-(5), which depends on every earlier frame (with the optional
 //! late-reverberation term), and the run's counters.
 
-use super::frames::BLOCK;
-use super::outcome::FrameStats;
-use super::params::{PRIMING_S, REVERB_TAU_S};
 use super::setup::Setup;
-use super::state::FrameState;
-use super::weighting::NoiseEstimator;
+use crate::method::outcome::FrameStats;
+use crate::method::paper::frames::BLOCK;
+use crate::method::paper::weighting::NoiseEstimator;
+use crate::method::params::{PRIMING_S, REVERB_TAU_S};
+use crate::method::state::FrameState;
 
 /// What depends on every earlier frame: the noise estimate and the counters.
 pub(crate) struct Sequential {
@@ -15,7 +15,7 @@ pub(crate) struct Sequential {
     pub stats: FrameStats,
     /// Frames of the next block to fold into the noise estimate before it is weighed.
     pub priming: usize,
-    /// The late-reverberation estimate added to `X_n(k)` (see [`Params::reverb_level`](super::Params::reverb_level)).
+    /// The late-reverberation estimate added to `X_n(k)` (see [`Params::reverb_level`](crate::method::Params::reverb_level)).
     reverb: Vec<f32>,
     /// Its smoothing coefficient per frame and its share of `X(k)`.
     reverb_settings: Option<(f32, f32)>,

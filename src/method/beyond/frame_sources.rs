@@ -1,6 +1,6 @@
 //! Further sources from a frame's own correlations (beyond the paper).
 //!
-//! Averaging each pair's correlation over [`Params::average_frames`](super::Params::average_frames)
+//! Averaging each pair's correlation over [`Params::average_frames`](crate::method::Params::average_frames)
 //! frames steadies a talker's delays in a reverberant room, but when two talk at once
 //! the average belongs to whichever dominated the span: the other, louder in the last
 //! frame alone, is not found there (the steered response's further sources read the
@@ -23,7 +23,7 @@
 //! in 4-18 more windows in a hundred on the three arrays; the meetings, the background
 //! and the moving talker keep their figures.
 
-use super::outcome::{Detection, Detections};
+use crate::method::outcome::{Detection, Detections};
 use nalgebra::Vector3;
 
 /// A direction of the frame's own further than this from every direction found is
@@ -81,7 +81,7 @@ pub fn add_further(found: &mut Detections, own: &Detections, max_sources: usize)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::direction::unit_from_angles;
+    use crate::method::paper::direction::unit_from_angles;
 
     fn at(azimuth: f64, elevation: f64, score: f64) -> Detection {
         Detection {

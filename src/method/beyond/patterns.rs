@@ -16,7 +16,7 @@
 //!   exponential average over [`PATTERN_S`]); up to [`SLOTS`] talkers are remembered,
 //!   the one learned from longest ago replaced first.
 //! - **The longer average:** every pair's correlation averaged exponentially over
-//!   [`Params::patterns_s`](super::Params::patterns_s) (0.17 s; 0.25 s found 0-4
+//!   [`Params::patterns_s`](crate::method::Params::patterns_s) (0.17 s; 0.25 s found 0-4
 //!   points more on the tracking benchmark's prism, its meetings' rows 0.1 deg worse;
 //!   0.34 s left a meeting's rows 1.2 deg off, docs/tracking.md).
 //! - **Removal:** the first source's pattern times the least-squares gain that fits it
@@ -42,14 +42,15 @@
 //! It runs in frame order after the frames' own stages, so its output does not depend on
 //! the thread count, and its memory is fixed (a few patterns of every pair's lags).
 
-use super::detect::{detection, solver};
-use super::direction::DirectionSolver;
 use super::frame_sources::apart;
-use super::outcome::{Detections, Outcome};
-use super::pairs::{pair_count, pair_index};
-use super::setup::Setup;
-use super::state::{Correlated, FrameState};
 use super::steered::{Query, Steered, CLEAR_SAMPLES};
+use super::threshold::Threshold;
+use crate::method::detect::{detection, solver};
+use crate::method::layout::Layout;
+use crate::method::outcome::{Detections, Outcome};
+use crate::method::paper::direction::DirectionSolver;
+use crate::method::paper::pairs::{pair_count, pair_index};
+use crate::method::state::{Correlated, FrameState};
 use nalgebra::Vector3;
 use std::collections::HashMap;
 
@@ -150,11 +151,13 @@ pub(crate) struct Patterns {
     steered: Steered,
     solvers: HashMap<u64, Option<DirectionSolver>>,
     directions: Vec<Vector3<f64>>,
+    /// The run's detection threshold.
+    threshold: Threshold,
 }
 
 impl Patterns {
     /// Nothing learned, or `None` when the parameters leave it out.
-    pub fn new(setup: &Setup) -> Option<Self> {
+    pub fn new(setup: &Layout, threshold: &Threshold) -> Option<Self> {
         let tau = setup.params.patterns_s?;
         let longest = setup.max_lag.iter().copied().max().unwrap_or(0);
         if !setup.params.steered || longest < MIN_LAGS {
@@ -173,18 +176,19 @@ impl Patterns {
             slots: Vec::with_capacity(SLOTS),
             steered: Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag),
             solvers: HashMap::new(),
-            directions: Vec::with_capacity(super::params::MAX_SOURCES),
+            directions: Vec::with_capacity(crate::method::params::MAX_SOURCES),
+            threshold: threshold.clone(),
         })
     }
 
     /// In frame order: folds each frame into the longer average, learns from the frames
     /// one source dominates, and adds to each frame that gives a source what the second
     /// look finds. `states` holds the block's frames after the `carried` before them
-    /// (each frame's span, [`Params::average_frames`](super::Params::average_frames) in
+    /// (each frame's span, [`Params::average_frames`](crate::method::Params::average_frames) in
     /// all); `first` is the index of the block's first frame.
     pub fn apply(
         &mut self,
-        setup: &Setup,
+        setup: &Layout,
         states: &[FrameState],
         carried: usize,
         outcomes: &mut [Outcome],
@@ -217,7 +221,7 @@ impl Patterns {
     /// frame's own stages average them): per live pair, the highest value within
     /// [`NOW_SAMPLES`] (or the tolerance, when smaller) of `u`'s delay, summed over the
     /// pairs.
-    fn score_now(&self, setup: &Setup, span: &[FrameState], u: &Vector3<f64>) -> f64 {
+    fn score_now(&self, setup: &Layout, span: &[FrameState], u: &Vector3<f64>) -> f64 {
         let reach = 2.0 * setup.params.tolerance as f64 + CLEAR_SAMPLES as f64;
         let state = span.last().expect("a frame");
         let (live, mics) = (&state.live, setup.mics());
@@ -258,7 +262,7 @@ impl Patterns {
 
     /// The live pairs of `state`: each one's range in the windows.
     fn ranges<'a>(
-        setup: &'a Setup,
+        setup: &'a Layout,
         state: &'a FrameState,
     ) -> impl Iterator<Item = std::ops::Range<usize>> + 'a {
         let (live, mics) = (&state.live, setup.mics());
@@ -273,7 +277,7 @@ impl Patterns {
 
     /// Folds a frame into the longer average, kept as `scale` times `long` so that the
     /// frames' decay costs one multiplication (`long` is rescaled when `scale` gets small).
-    fn fold(&mut self, setup: &Setup, state: &FrameState) {
+    fn fold(&mut self, setup: &Layout, state: &FrameState) {
         self.scale *= self.keep;
         if self.scale < RESCALE {
             let scale = self.scale;
@@ -295,7 +299,7 @@ impl Patterns {
     /// or `None` when none is remembered near it.
     fn learn(
         &mut self,
-        setup: &Setup,
+        setup: &Layout,
         state: &FrameState,
         found: &Detections,
         index: u64,
@@ -377,7 +381,7 @@ impl Patterns {
     /// pattern of `slot` is removed.
     fn look(
         &mut self,
-        setup: &Setup,
+        setup: &Layout,
         span: &[FrameState],
         found: &mut Detections,
         slot: usize,
@@ -421,7 +425,7 @@ impl Patterns {
         let k = state.live.len();
         // The threshold of the longer average: the frame's with its chance part scaled
         // by the exponential average's spread over independent frames.
-        let threshold = setup.threshold_per_pair_spread(&state.weights, self.spread);
+        let threshold = self.threshold.per_pair_spread(&state.weights, self.spread);
         let floor = threshold * setup.params.candidates * pair_count(k) as f64;
         let Some(steer) = self.steered.search(
             &mut self.residual,

@@ -1,8 +1,8 @@
 //! Tests of the analyzer (`analyzer.rs`).
 
 use super::*;
-use crate::method::direction::unit_from_angles;
 use crate::method::outcome::Detection;
+use crate::method::paper::direction::unit_from_angles;
 use crate::method::Interpolation;
 use crate::sim::freefield::{render, Place, Scene, Source};
 use crate::sim::signals::Signal;
@@ -95,7 +95,7 @@ fn a_steady_fan_in_free_field_is_background() {
         .collect();
     let on_talker = found
         .iter()
-        .filter(|d| crate::method::direction::angle_between_deg(&d.direction, &talker) < 5.0)
+        .filter(|d| crate::method::paper::direction::angle_between_deg(&d.direction, &talker) < 5.0)
         .count();
     eprintln!("{} detections, {on_talker} on the talker", found.len());
     assert!(on_talker > 30, "{on_talker} of {}", found.len());

@@ -18,7 +18,7 @@
 //! ("Coherent-to-diffuse power ratio estimation for dereverberation", IEEE/ACM TASLP
 //! 2015; their DOA-independent estimator): the coherence `g` of each pair, from the
 //! cross- and auto-spectra summed over the frame and the ones before it (the frames
-//! [`Params::average_frames`](super::Params::average_frames) averages), is modelled as
+//! [`Params::average_frames`](crate::method::Params::average_frames) averages), is modelled as
 //! `g = (c e^{-i w dT} + G) / (c + 1)` with `c` the ratio of direct to diffuse power.
 //! `|g (c + 1) - G| = c` is a quadratic in `c`; with its larger root, `g (c + 1) - G`
 //! is the direct sound's cross-spectrum up to a positive factor, and its phase replaces
@@ -27,16 +27,16 @@
 //! directions move by under 0.02 deg, tests/integration/accuracy.rs); a bin with no direct sound
 //! gives a phase at random, as PHAT does.
 
-use super::correlation::{peak_ceiling, Correlator};
-use super::pairs::pair_index;
-use super::setup::Setup;
-use super::state::FrameState;
 use crate::geometry::Geometry;
+use crate::method::layout::Layout;
+use crate::method::paper::correlation::{peak_ceiling, Correlator};
+use crate::method::paper::pairs::pair_index;
+use crate::method::state::FrameState;
 use multiversion::multiversion;
 use realfft::num_complex::Complex32;
 
 /// The stage's buffers, one set per thread (the diffuse coherences are the run's,
-/// [`Setup::dereverb`]).
+/// [`Layout::dereverb`]).
 pub(crate) struct Dereverberator {
     /// Per microphone, its power summed over the frames.
     power: Vec<Vec<f32>>,
@@ -49,7 +49,7 @@ pub(crate) struct Dereverberator {
 }
 
 impl Dereverberator {
-    pub fn new(setup: &Setup) -> Self {
+    pub fn new(setup: &Layout) -> Self {
         let bins = setup.bins();
         Dereverberator {
             power: vec![vec![0.0; bins]; setup.mics()],
@@ -66,19 +66,19 @@ impl Dereverberator {
     /// as [`Correlator`] computes it), each bin's phase that of the direct sound
     /// ([`direct_phase`]) from the spectra of the frames of `span` that are `live` and
     /// hear both microphones, weighted by `w_e(k)^2` averaged over the live frames.
-    /// Written to `out` laid out as a frame's windows ([`Setup::window_starts`]). Returns the
+    /// Written to `out` laid out as a frame's windows ([`Layout::window_starts`]). Returns the
     /// most any value (or refined peak) can be, as [`peak_ceiling`] bounds it for the
     /// averaged weights.
     pub fn correlate(
         &mut self,
-        setup: &Setup,
+        setup: &Layout,
+        coherence: &DiffuseCoherence,
         span: &[FrameState],
         live: &[bool],
         correlator: &mut Correlator,
         out: &mut [f32],
     ) -> f64 {
         let state = span.last().expect("a frame");
-        let coherence = setup.dereverb.as_ref().expect("dereverberation planned");
         let mics = setup.mics();
         for &m in &state.live {
             let power = &mut self.power[m];
@@ -244,6 +244,7 @@ const MAX_COHERENCE2: f32 = 1.0 - 1e-6;
 /// `|g (c + 1) - G| = c` gives `(|g|^2 - 1) c^2 + 2 (|g|^2 - Re(g) G) c + |g - G|^2 = 0`,
 /// whose larger root (or, with none real, its vertex) is the ratio `c`, and
 /// `g (c + 1) - G` is the direct sound's cross-spectrum up to a positive factor.
+#[cfg_attr(not(test), allow(dead_code))] // the scalar reference of `dereverberate`, for its tests
 pub fn direct_phase(cross: Complex32, power_a: f32, power_b: f32, diffuse: f32) -> Complex32 {
     let norm = (power_a as f64 * power_b as f64).sqrt();
     if !(norm > 0.0 && norm.is_finite()) {

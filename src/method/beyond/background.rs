@@ -12,7 +12,7 @@
 //!   fan's frames measure 1.3-1.8 times), one
 //!   frame in [`STRIDE`] (so that the frames it needs are few enough to correlate even
 //!   when no detection needs them): a running mean at first, then an exponential
-//!   average over [`Params::background_s`](super::Params::background_s);
+//!   average over [`Params::background_s`](crate::method::Params::background_s);
 //! - only the positive part is subtracted, so no value grows: the ceilings and bounds
 //!   that leave out correlations stay exact, and a source where the background has
 //!   nothing is scored as before.
@@ -20,10 +20,11 @@
 //! A source in the direction of a steady background loses the background's share there.
 //! Measured in docs/field.md.
 
-use super::pairs::{pair_count, pair_index};
-use super::setup::Setup;
-use super::state::{Correlated, FrameState};
-use super::threshold::STEADY_FRAME;
+use super::threshold::{steady_weight, STEADY_FRAME};
+use crate::method::layout::Layout;
+use crate::method::paper::pairs::{pair_count, pair_index};
+use crate::method::params::Params;
+use crate::method::state::{Correlated, FrameState};
 
 /// A frame teaches the background when its weights' ceiling is within this many times
 /// that of a frame at the noise level: the frames that give no detection because they
@@ -37,8 +38,15 @@ pub const GATE: f64 = STEADY_FRAME;
 /// time on the 10-minute recording of docs/speed.md than 8, for no gain measured).
 pub const STRIDE: u64 = 8;
 
+/// The ceiling under which a frame's weights let it teach the background ([`GATE`] times
+/// a frame at the noise level), in the units of `peak_ceiling`.
+pub fn gate(params: &Params) -> f64 {
+    let w = steady_weight(params.alpha, params.reverb_level);
+    GATE * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
+}
+
 /// Every pair's background correlation at the lags searched, laid out as the frames'
-/// windows ([`Setup::window_starts`]).
+/// windows ([`Layout::window_starts`]).
 pub(crate) struct Background {
     windows: Vec<f32>,
     /// Frames learned from, per pair.
@@ -49,7 +57,7 @@ pub(crate) struct Background {
 
 impl Background {
     /// An empty estimate, or `None` when the parameters leave it out.
-    pub fn new(setup: &Setup) -> Option<Self> {
+    pub fn new(setup: &Layout) -> Option<Self> {
         let tau = setup.params.background_s?;
         let hop_s = setup.hop as f64 / setup.rate;
         Some(Background {
@@ -60,15 +68,13 @@ impl Background {
     }
 
     /// Whether frame `index` teaches the background (it must then be correlated).
-    pub fn teaches(setup: &Setup, state: &FrameState, index: u64) -> bool {
-        setup.params.background_s.is_some()
-            && index % STRIDE == 0
-            && state.ceiling <= setup.background_gate
+    pub fn teaches(params: &Params, gate: f64, state: &FrameState, index: u64) -> bool {
+        params.background_s.is_some() && index % STRIDE == 0 && state.ceiling <= gate
     }
 
     /// In frame order: subtracts the background from each correlated frame's windows,
     /// then learns from the frames that teach it (marked by [`Background::teaches`]).
-    pub fn apply(&mut self, setup: &Setup, states: &mut [FrameState]) {
+    pub fn apply(&mut self, setup: &Layout, states: &mut [FrameState]) {
         let mics = setup.mics();
         for state in states.iter_mut() {
             if state.correlated != Correlated::Yes {

@@ -2,26 +2,27 @@
 //! thread: spectra (eq. 2), weights (eq. 4-5), the weighted PHAT correlation of every
 //! pair (eq. 6), its M peaks (eq. 7), the consistency search (eq. 8), the direction
 //! (eq. 13). The noise estimate `X_n(k)` that the weights need depends on every earlier
-//! frame, so [`Analyzer`](super::Analyzer) computes it in frame order between
+//! frame, so [`Analyzer`](crate::method::Analyzer) computes it in frame order between
 //! [`Worker::spectra`] and [`Worker::weigh`]; a frame's correlations may be averaged
 //! with those of the frames before it, so [`Worker::correlate`] keeps them in the frame's
 //! state for [`Worker::decide`].
 
-use super::correlation::{peak_ceiling, whiten, window_max, Correlator};
-use super::dereverb::Dereverberator;
-use super::detect::{detection, direction, solver, Direction};
-use super::direction::DirectionSolver;
-use super::frame_sources::add_further;
-use super::outcome::{Clock, Detections, Outcome, StageTimes};
-use super::pairs::{pair_count, pair_index};
-use super::peaks::{find_peaks, Peak};
-use super::search::Searcher;
 use super::setup::Setup;
-use super::spectrum::{frame_spectra, ForwardFft};
-use super::state::{span_ceiling, Correlated, FrameState};
-use super::steered::{Query, Steered, FURTHER_SHARE};
-use super::votes::{add_riders, Vote, VotePeak};
-use super::weighting::enhanced_weights;
+use crate::method::beyond::dereverb::Dereverberator;
+use crate::method::beyond::frame_sources::add_further;
+use crate::method::beyond::steered::{Query, Steered, FURTHER_SHARE};
+use crate::method::beyond::votes::{add_riders, VotePeak};
+use crate::method::detect::{detection, direction, solver, Direction};
+use crate::method::outcome::{Clock, Detections, Outcome, StageTimes};
+use crate::method::paper::correlation::{peak_ceiling, whiten, window_max, Correlator};
+use crate::method::paper::direction::DirectionSolver;
+use crate::method::paper::pairs::{pair_count, pair_index};
+use crate::method::paper::peaks::{find_peaks, Peak};
+use crate::method::paper::search::Searcher;
+use crate::method::paper::spectrum::{frame_spectra, ForwardFft};
+use crate::method::paper::weighting::enhanced_weights;
+use crate::method::state::Vote;
+use crate::method::state::{span_ceiling, Correlated, FrameState};
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
 
@@ -43,9 +44,9 @@ pub(crate) struct Worker {
     steered: Option<Steered>,
     /// The directions found in a frame so far.
     directions: Vec<nalgebra::Vector3<f64>>,
-    /// The diffuse part removed from the cross-spectra ([`super::dereverb`]), when on.
+    /// The diffuse part removed from the cross-spectra ([`crate::method::beyond::dereverb`]), when on.
     dereverb: Option<Dereverberator>,
-    /// The votes of a span and their peaks ([`super::votes`]).
+    /// The votes of a span and their peaks ([`crate::method::beyond::votes`]).
     votes: Vec<Vote>,
     vote_peaks: Vec<VotePeak>,
     /// Leave out correlations that cannot lead to a detection (always, but in a test).
@@ -70,7 +71,7 @@ impl Worker {
             } else {
                 Vec::new()
             },
-            directions: Vec::with_capacity(super::params::MAX_SOURCES),
+            directions: Vec::with_capacity(crate::method::params::MAX_SOURCES),
             steered: setup.params.steered.then(|| {
                 let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
                 Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag)
@@ -83,7 +84,7 @@ impl Worker {
     }
 
     /// The correlations of the last frame of `span` with the diffuse part of every
-    /// pair's cross-spectrum removed ([`super::dereverb`]; `live` says which frames of
+    /// pair's cross-spectrum removed ([`crate::method::beyond::dereverb`]; `live` says which frames of
     /// `span` are), into `out`, laid out as a frame's windows; returns the most any of
     /// its values can be (see [`FrameState::reach`]).
     pub fn correlate_dereverbed(
@@ -98,7 +99,8 @@ impl Worker {
         let k = span.last().map_or(0, |s| s.live.len());
         clock.count((pair_count(k), 0));
         let dereverb = self.dereverb.as_mut().expect("dereverberation planned");
-        let reach = dereverb.correlate(setup, span, live, &mut self.correlator, out);
+        let coherence = setup.dereverb.as_ref().expect("dereverberation planned");
+        let reach = dereverb.correlate(setup, coherence, span, live, &mut self.correlator, out);
         clock.lap(|t| &mut t.correlation);
         reach
     }
@@ -137,7 +139,7 @@ impl Worker {
         }
         state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.interpolation);
         state.reach = state.ceiling;
-        state.threshold = setup.threshold_per_pair(&state.weights);
+        state.threshold = setup.threshold.per_pair(&state.weights);
         state.floor = state.threshold * setup.params.candidates;
         // Riders only beside candidates (with a tracker): without one, nothing to ride.
         let riders = if setup.params.candidates < 1.0 {
@@ -148,7 +150,7 @@ impl Worker {
         state.rider_floor = state.threshold * riders;
         state.steady = setup.params.threshold_sigmas.is_some()
             && setup.params.weighting
-            && state.ceiling <= setup.steady_ceiling;
+            && state.ceiling <= setup.threshold.steady_ceiling;
         if let Some(votes) = &setup.votes {
             let mut out = std::mem::take(&mut state.votes);
             votes.collect(state, setup.rate, setup.n, setup.speed, &mut out);
@@ -157,7 +159,7 @@ impl Worker {
     }
 
     /// Whitening and the correlation of every live pair (eq. 6 divided by N, see
-    /// [`correlation`](super::correlation) on the scale), two pairs per inverse FFT in
+    /// [`correlation`](crate::method::paper::correlation) on the scale), two pairs per inverse FFT in
     /// the order of [`pair_index`], kept in the frame's state. `skip` leaves them out.
     ///
     /// When frames are not averaged, a frame whose correlated pairs show it cannot reach
@@ -223,14 +225,14 @@ impl Worker {
     }
 
     /// The stages after the correlations for the last frame of `span` (the frame and the
-    /// ones before it, [`Params::average_frames`](super::Params::average_frames) in all):
+    /// ones before it, [`Params::average_frames`](crate::method::Params::average_frames) in all):
     /// each pair's correlation averaged over the live frames of `span`, its M peaks (eq.
     /// 7), the search (eq. 8), the direction (eq. 13). When the average gives no
     /// detection, the frame's own correlations are tried: averaging steadies the delays
     /// of a sustained source in a reverberant room, but dilutes a click to a fraction of
     /// its frame's score. When the average gives a source and
-    /// [`Params::frame_sources`](super::Params::frame_sources) is on, the frame's own
-    /// correlations are searched too, for further sources ([`super::frame_sources`]).
+    /// [`Params::frame_sources`](crate::method::Params::frame_sources) is on, the frame's own
+    /// correlations are searched too, for further sources ([`crate::method::beyond::frame_sources`]).
     ///
     /// A frame whose own weights cannot reach the threshold (its ceiling times its pairs)
     /// has no detection, averaged or not: otherwise the average carries a source past
@@ -239,7 +241,7 @@ impl Worker {
     /// reach the threshold, the average is not searched.
     ///
     /// Beside a frame's detection, on a small array, the peaks of its bins' directions
-    /// add riders ([`super::votes`]).
+    /// add riders ([`crate::method::beyond::votes`]).
     pub fn decide(
         &mut self,
         setup: &Setup,
@@ -248,7 +250,7 @@ impl Worker {
         times: Option<&mut StageTimes>,
     ) -> Outcome {
         let outcome = self.decide_frame(setup, span, index, times);
-        // Riders from the bins' votes beside what the frame gave (`super::votes`).
+        // Riders from the bins' votes beside what the frame gave (`crate::method::beyond::votes`).
         match (&setup.votes, outcome) {
             (Some(votes), Outcome::Detected(mut found, budget)) => {
                 let scratch = (&mut self.votes, &mut self.vote_peaks);
@@ -273,7 +275,7 @@ impl Worker {
         }
         let outcome = self.decide_down_to(setup, span, index, &mut clock, state.floor);
         // A frame that gives nothing down to the candidates' share is searched again down
-        // to the riders' ([`Params::riders`](super::Params::riders)): what the frames
+        // to the riders' ([`Params::riders`](crate::method::Params::riders)): what the frames
         // that gave something give is left as it was.
         if matches!(outcome, Outcome::Detected(..)) || state.rider_floor >= state.floor {
             return outcome;
@@ -321,7 +323,7 @@ impl Worker {
             return averaged;
         }
         if let Outcome::Detected(mut found, budget) = averaged {
-            // Further sources from the frame's own correlations ([`super::frame_sources`]).
+            // Further sources from the frame's own correlations ([`crate::method::beyond::frame_sources`]).
             let wanted = setup.params.max_sources;
             if setup.params.frame_sources && found.len() < wanted {
                 let own = &span[span.len() - 1..];
@@ -430,9 +432,9 @@ impl Worker {
         outcome
     }
 
-    /// The steered response ([`super::steered`]): a direction when the consistency
+    /// The steered response ([`crate::method::beyond::steered`]): a direction when the consistency
     /// search found none, and further sources after the first, up to
-    /// [`Params::max_sources`](super::Params::max_sources).
+    /// [`Params::max_sources`](crate::method::Params::max_sources).
     fn steer(
         &mut self,
         setup: &Setup,

@@ -25,9 +25,9 @@
 //!   [`CLEAR_SAMPLES`] plus the tolerance of each found direction's delay, and the grid
 //!   is searched again.
 
-use super::correlation::window_max;
-use super::direction::DirectionSolver;
-use super::pairs::pair_index;
+use crate::method::paper::correlation::window_max;
+use crate::method::paper::direction::DirectionSolver;
+use crate::method::paper::pairs::pair_index;
 use nalgebra::Vector3;
 
 /// Directions in the grid.
@@ -189,7 +189,7 @@ impl Steered {
         steer: &Steer,
         floor: f64,
         pairs: usize,
-        setup: &super::setup::Setup,
+        setup: &crate::method::layout::Layout,
         solver: &DirectionSolver,
     ) -> bool {
         steer.score >= floor

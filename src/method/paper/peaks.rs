@@ -1,7 +1,6 @@
 //! The M highest peaks of each pair's correlation (the paper's eq. 7 generalised to M
 //! candidates, Section II-C), with optional sub-sample refinement.
 
-use super::params::MAX_PEAKS;
 use crate::Named;
 use multiversion::multiversion;
 
@@ -62,6 +61,9 @@ pub struct Peak {
     /// The correlation's value there.
     pub value: f32,
 }
+
+/// The largest M that [`find_peaks`] accepts.
+pub const MAX_PEAKS: usize = 64;
 
 /// The `m` highest local maxima of a correlation (eq. 7), ranked by their sample value,
 /// each refined per `interp`, then ordered by refined value, highest first (ties: smaller

@@ -249,7 +249,7 @@ pub fn brute_force(k: usize, peaks: &[Vec<Peak>], tolerance: f32) -> Option<(f64
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::pairs::pair_count;
+    use crate::method::paper::pairs::pair_count;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

@@ -9,21 +9,21 @@
 //! search and direction in parallel; then the outcomes in frame order. The output is the same for
 //! any number of threads.
 //!
-//! Priming: the first [`PRIMING_S`](super::PRIMING_S) of a recording are folded into the noise estimate
+//! Priming: the first [`PRIMING_S`](crate::method::PRIMING_S) of a recording are folded into the noise estimate
 //! before any frame is weighed. Otherwise the first frames are weighed against an
 //! estimate that has not formed yet, and a fan that is on from the start is reported
 //! there (README, "Choices and evidence").
 
-use super::background::Background;
-use super::frames::{FrameBlock, BLOCK};
-use super::outcome::{Detections, FrameStats, Outcome, StageTimes};
-use super::params::{Params, ParamsError};
-use super::patterns::Patterns;
 use super::sequential::Sequential;
 use super::setup::Setup;
-use super::state::{Correlated, FrameState};
 use super::worker::Worker;
 use crate::geometry::Geometry;
+use crate::method::beyond::background::Background;
+use crate::method::beyond::patterns::Patterns;
+use crate::method::outcome::{Detections, FrameStats, Outcome, StageTimes};
+use crate::method::paper::frames::{FrameBlock, BLOCK};
+use crate::method::params::{Params, ParamsError};
+use crate::method::state::{Correlated, FrameState};
 use rayon::prelude::*;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -68,7 +68,7 @@ impl Analyzer {
                 .collect(),
             sequential: Sequential::new(&setup),
             background: Background::new(&setup),
-            patterns: Patterns::new(&setup),
+            patterns: Patterns::new(&setup, &setup.threshold),
             states: (0..BLOCK + setup.params.average_frames - 1)
                 .map(|_| FrameState::new(&setup))
                 .collect(),
@@ -212,8 +212,13 @@ impl Analyzer {
         }
         for (i, skip) in self.skip[..count].iter_mut().enumerate() {
             let c = carried + i;
-            states[c].teaches =
-                live[c] && Background::teaches(setup, &states[c], block.first + i as u64);
+            states[c].teaches = live[c]
+                && Background::teaches(
+                    &setup.params,
+                    setup.background_gate,
+                    &states[c],
+                    block.first + i as u64,
+                );
             *skip = prune
                 && !states[c].teaches
                 && c + carried < carried + count

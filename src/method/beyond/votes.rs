@@ -1,4 +1,4 @@
-//! Directions of single frequency bins (beyond the paper; [`Params::bin_votes`](super::Params::bin_votes)): riders
+//! Directions of single frequency bins (beyond the paper; [`Params::bin_votes`](crate::method::Params::bin_votes)): riders
 //! for a talker that another one drowns in the correlations, on arrays a few
 //! centimetres across.
 //!
@@ -33,16 +33,16 @@
 //!
 //! Only frames with every microphone live vote.
 
-use super::detect::detection;
-use super::direction::plane_basis;
 use super::frame_sources::{apart, IMAGE_ELEVATION_DEG};
-use super::outcome::Detections;
-use super::pairs::pair_index;
-use super::params::MAX_SOURCES;
-use super::setup::Setup;
-use super::state::{Correlated, FrameState};
-use super::weighting::MAX_SNR_RATIO;
 use crate::geometry::{Geometry, Shape};
+use crate::method::detect::detection;
+use crate::method::layout::Layout;
+use crate::method::outcome::Detections;
+use crate::method::paper::direction::plane_basis;
+use crate::method::paper::pairs::pair_index;
+use crate::method::paper::weighting::MAX_SNR_RATIO;
+use crate::method::params::MAX_SOURCES;
+use crate::method::state::{Correlated, FrameState, Vote};
 use nalgebra::{DMatrix, Vector3};
 
 /// Lowest bin frequency that votes (Hz): below it a delay is a small share of a cycle
@@ -87,15 +87,6 @@ struct Band {
     /// Per pair, `p_b - p_a`.
     diffs: Vec<Vector3<f64>>,
     mean_length: f64,
-}
-
-/// One vote: a bin's direction and weight.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct Vote {
-    pub direction: Vector3<f64>,
-    /// Azimuth in the array's plane (planar arrays), radians.
-    pub azimuth: f64,
-    pub weight: f64,
 }
 
 /// A peak of the votes.
@@ -361,14 +352,14 @@ impl Band {
 /// of the bins' votes over `span` (the frame and those it averages): each peak apart
 /// from every detection (and from their floor and ceiling images), at the elevation
 /// where the frame's own correlations sum highest at its azimuth, scored by that sum,
-/// up to [`Params::max_sources`](super::Params::max_sources) in all. Only beside a
+/// up to [`Params::max_sources`](crate::method::Params::max_sources) in all. Only beside a
 /// detection that is not a rider: in a frame that gave nothing, a peak is mostly the
 /// same talker, whose rows the correlations place better (the field benchmark's planar
 /// arrays gave 10-35% more confidently wrong rows with riders there). A frame the
 /// `threshold` module calls steady gives none. `scratch`: buffers for the votes and
 /// their peaks.
 pub(crate) fn add_riders(
-    setup: &Setup,
+    setup: &Layout,
     bins: &BinVotes,
     span: &[FrameState],
     index: u64,
@@ -418,7 +409,7 @@ pub(crate) fn add_riders(
 /// window read at the delay, linearly between lags): the steered response of eq. (6)'s
 /// correlations, on the scale of a set's score. 0 when the frame's correlations were
 /// not computed.
-fn own_response(setup: &Setup, state: &FrameState, u: &Vector3<f64>) -> f64 {
+fn own_response(setup: &Layout, state: &FrameState, u: &Vector3<f64>) -> f64 {
     if state.correlated != Correlated::Yes {
         return 0.0;
     }

@@ -11,7 +11,7 @@
 //! - **chance:** in bins whose phases are random, a pair's correlation at one lag,
 //!   `(1/N) sum_k w_k^2 cos(phi_k)` over the N bins of eq. (6), has a standard deviation
 //!   `sigma = sqrt(2 sum_{k=1}^{N/2-1} w_k^4) / N`; the threshold allows
-//!   [`Params::threshold_sigmas`](super::Params::threshold_sigmas) of them (default 6:
+//!   [`Params::threshold_sigmas`](crate::method::Params::threshold_sigmas) of them (default 6:
 //!   the best of thousands of candidate sets still stays under it);
 //! - **a coherent background:** a spherically diffuse noise field has a coherence of
 //!   `sin(2 pi f d / c) / (2 pi f d / c)` between microphones `d` apart; its mean
@@ -21,10 +21,10 @@
 //!
 //! A frame with nothing above the noise estimate ([`STEADY_FRAME`]) gives no detection.
 //! Late reverberation is added to the noise estimate at the same time
-//! ([`Params::reverb_level`](super::Params::reverb_level)): without the calibration it
+//! ([`Params::reverb_level`](crate::method::Params::reverb_level)): without the calibration it
 //! lowers speech scores under the fixed threshold, and without it the calibration
 //! sharpens nothing. Both are the defaults; `--min-score` (
-//! [`Params::fixed_threshold`](super::Params::fixed_threshold)) restores the fixed
+//! [`Params::fixed_threshold`](crate::method::Params::fixed_threshold)) restores the fixed
 //! threshold without reverberation. A steady source next to the array, heard without
 //! reflections, passes this threshold: the steady background subtracted from the
 //! correlations ([`super::background`]) is what keeps it out.
@@ -35,6 +35,54 @@
 //! at 8 kHz (docs/field.md).
 
 use crate::geometry::Geometry;
+use crate::method::layout::Layout;
+
+/// The threshold's plan for a run: its floors for this array and rate.
+#[derive(Debug, Clone)]
+pub(crate) struct Threshold {
+    /// The threshold per pair a diffuse background calls for.
+    diffuse_floor: f64,
+    /// A frame whose weights' ceiling is under this has nothing above the noise
+    /// estimate ([`STEADY_FRAME`]), in the units of `peak_ceiling`.
+    pub steady_ceiling: f64,
+    /// The calibrated threshold's allowance for chance, or `None` for the fixed one.
+    sigmas: Option<f64>,
+    /// The fixed threshold per pair.
+    fixed: f64,
+    /// Frame size N.
+    n: usize,
+}
+
+impl Threshold {
+    pub fn new(layout: &Layout) -> Self {
+        let params = &layout.params;
+        let w = steady_weight(params.alpha, params.reverb_level);
+        Threshold {
+            diffuse_floor: DIFFUSE_MARGIN
+                * diffuse_coherence(&layout.geometry, layout.n, layout.rate, layout.speed),
+            // E times the interpolation's overshoot.
+            steady_ceiling: STEADY_FRAME * w * w * params.interpolation.overshoot() * (1.0 + 1e-3),
+            sigmas: params.threshold_sigmas,
+            fixed: params.min_score_per_pair,
+            n: layout.n,
+        }
+    }
+
+    /// A frame's detection threshold per pair, from its weights `w_e(k)`.
+    pub fn per_pair(&self, weights: &[f32]) -> f64 {
+        self.per_pair_spread(weights, 1.0)
+    }
+
+    /// [`Threshold::per_pair`] of an average whose chance fluctuation is `spread` times a
+    /// frame's (the calibrated threshold's chance part scales with it; a fixed threshold
+    /// does not).
+    pub fn per_pair_spread(&self, weights: &[f32], spread: f64) -> f64 {
+        match self.sigmas {
+            Some(z) => self.diffuse_floor + z * chance_sigma(weights, self.n) * spread,
+            None => self.fixed,
+        }
+    }
+}
 
 /// The share of the diffuse coherence a frame's threshold allows for, per pair
 /// (measured: 0.25 let a 4.6 cm square at 48 kHz report its background 144 times a

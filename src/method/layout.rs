@@ -1,22 +1,18 @@
-//! What a run of the method needs that does not change during it: the parameters
-//! checked against the array and the sample rate ([`Params`]), and what follows from
-//! them (frame size, lag ranges, thresholds, the correlation windows' layout).
+//! What every stage of a run reads and none changes: the parameters checked against the
+//! array and the sample rate, the frame size, the lags searched per pair, and where each
+//! pair's correlation window lies in a frame's windows. The stages' own plans (the
+//! threshold's floors, the diffuse coherences, the bins' solvers) are built by their
+//! stages; the engine's [`Setup`](super::engine::setup::Setup) holds them beside this.
 
-use super::background::GATE;
-use super::dereverb::DiffuseCoherence;
-use super::pairs::{pair_count, pair_index};
+use super::paper::pairs::{pair_count, pair_index};
 use super::params::{default_frame_size, frame_size_for_ms, Params, ParamsError};
-use super::threshold::{
-    chance_sigma, diffuse_coherence, steady_weight, DIFFUSE_MARGIN, STEADY_FRAME,
-};
-use super::votes::BinVotes;
 use crate::geometry::Geometry;
 
-/// What the method needs that does not change during a run: the parameters checked
-/// against the array and the sample rate, and what follows from them.
+/// The frame layout of a run (see the module).
 #[derive(Debug, Clone)]
-pub(crate) struct Setup {
+pub(crate) struct Layout {
     pub geometry: Geometry,
+    /// The parameters, with the tolerance in samples at this rate.
     pub params: Params,
     /// Frame size N.
     pub n: usize,
@@ -28,43 +24,15 @@ pub(crate) struct Setup {
     pub speed: f64,
     /// Lag search range per pair of the array (samples).
     pub max_lag: Vec<usize>,
-    /// The threshold per pair a diffuse background calls for (the `threshold` module).
-    pub diffuse_floor: f64,
-    /// A frame whose weights' ceiling is under this has nothing above the noise
-    /// estimate (the `threshold` module's steady frames).
-    pub steady_ceiling: f64,
-    /// A frame whose weights' ceiling is under this may teach the coherent background
-    /// ([`super::background`]).
-    pub background_gate: f64,
-    /// When the diffuse part is removed from the cross-spectra ([`Params::dereverb`]
-    /// for this array): every pair's diffuse coherence at every bin.
-    pub dereverb: Option<DiffuseCoherence>,
     /// Where each pair's correlation window starts in a frame's windows (pairs in the
     /// order of [`pair_index`] over all microphones; each holds the lags searched and
     /// their two neighbours, `2 max_lag + 3` values), and their total length.
     pub window_starts: Vec<usize>,
     pub windows_len: usize,
-    /// The bins' solvers when they vote ([`Params::bin_votes`] with a tracker, on an
-    /// array small enough).
-    pub votes: Option<BinVotes>,
 }
 
-impl Setup {
-    /// A frame's detection threshold per pair, from its weights `w_e(k)`.
-    pub fn threshold_per_pair(&self, weights: &[f32]) -> f64 {
-        self.threshold_per_pair_spread(weights, 1.0)
-    }
-
-    /// [`Setup::threshold_per_pair`] of an average whose chance fluctuation is `spread`
-    /// times a frame's (the calibrated threshold's chance part scales with it; a fixed
-    /// threshold does not).
-    pub fn threshold_per_pair_spread(&self, weights: &[f32], spread: f64) -> f64 {
-        match self.params.threshold_sigmas {
-            Some(z) => self.diffuse_floor + z * chance_sigma(weights, self.n) * spread,
-            None => self.params.min_score_per_pair,
-        }
-    }
-
+impl Layout {
+    /// `params` checked against `geometry` at `sample_rate`, and the layout they give.
     pub fn new(
         geometry: &Geometry,
         sample_rate: u32,
@@ -100,24 +68,6 @@ impl Setup {
                 needed: ((widest + 2) * 2).next_power_of_two(),
             });
         }
-        let diffuse_floor = DIFFUSE_MARGIN * diffuse_coherence(geometry, n, rate, speed);
-        // In the units of `peak_ceiling`: E times the interpolation's overshoot.
-        let steady_ceiling = {
-            let w = steady_weight(params.alpha, params.reverb_level);
-            STEADY_FRAME * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
-        };
-        let background_gate = {
-            let w = steady_weight(params.alpha, params.reverb_level);
-            GATE * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
-        };
-        let dereverb = params
-            .dereverb
-            .applies(&geometry.shape)
-            .then(|| DiffuseCoherence::new(geometry, n, rate, speed));
-        let votes = params
-            .bin_votes_on()
-            .then(|| BinVotes::new(geometry, n, rate, speed))
-            .flatten();
         let mut windows_len = 0;
         let window_starts = max_lag
             .iter()
@@ -127,7 +77,7 @@ impl Setup {
                 here
             })
             .collect();
-        Ok(Setup {
+        Ok(Layout {
             geometry: geometry.clone(),
             params,
             n,
@@ -135,13 +85,8 @@ impl Setup {
             rate,
             speed,
             max_lag,
-            diffuse_floor,
-            steady_ceiling,
-            background_gate,
-            dereverb,
             window_starts,
             windows_len,
-            votes,
         })
     }
 

@@ -1,0 +1,63 @@
+//! What a run of the method needs that does not change during it: the frame layout
+//! ([`Layout`], which every stage reads) and each stage's own plan, built by that stage
+//! for this array and rate.
+
+use crate::geometry::Geometry;
+use crate::method::beyond::background;
+use crate::method::beyond::dereverb::DiffuseCoherence;
+use crate::method::beyond::threshold::Threshold;
+use crate::method::beyond::votes::BinVotes;
+use crate::method::layout::Layout;
+use crate::method::params::{Params, ParamsError};
+use std::ops::Deref;
+
+/// The layout and the stages' plans (see the module).
+#[derive(Debug, Clone)]
+pub(crate) struct Setup {
+    pub layout: Layout,
+    /// The detection threshold's plan.
+    pub threshold: Threshold,
+    /// A frame whose weights' ceiling is under this may teach the coherent background.
+    pub background_gate: f64,
+    /// When the diffuse part is removed from the cross-spectra ([`Params::dereverb`]
+    /// for this array): every pair's diffuse coherence at every bin.
+    pub dereverb: Option<DiffuseCoherence>,
+    /// The bins' solvers when they vote ([`Params::bin_votes`] with a tracker, on an
+    /// array small enough).
+    pub votes: Option<BinVotes>,
+}
+
+impl Deref for Setup {
+    type Target = Layout;
+
+    fn deref(&self) -> &Layout {
+        &self.layout
+    }
+}
+
+impl Setup {
+    pub fn new(
+        geometry: &Geometry,
+        sample_rate: u32,
+        params: &Params,
+    ) -> Result<Self, ParamsError> {
+        let layout = Layout::new(geometry, sample_rate, params)?;
+        let (n, rate, speed) = (layout.n, layout.rate, layout.speed);
+        let params = &layout.params;
+        let dereverb = params
+            .dereverb
+            .applies(&geometry.shape)
+            .then(|| DiffuseCoherence::new(geometry, n, rate, speed));
+        let votes = params
+            .bin_votes_on()
+            .then(|| BinVotes::new(geometry, n, rate, speed))
+            .flatten();
+        Ok(Setup {
+            threshold: Threshold::new(&layout),
+            background_gate: background::gate(params),
+            dereverb,
+            votes,
+            layout,
+        })
+    }
+}

@@ -1,0 +1,46 @@
+//! Text in and out, below every other module: reading a text input (a geometry, a scene,
+//! a result) with a size limit, an I/O error's reason in a few words, and a number
+//! rounded as it is written.
+
+use std::io;
+
+/// Reads a text file of at most `limit` bytes. A longer file (or an endless one, such
+/// as `/dev/zero`) is an error of kind `FileTooLarge` after `limit` bytes, not an
+/// attempt to read it whole.
+pub fn read_text(path: &std::path::Path, limit: u64) -> io::Result<String> {
+    read_text_from(std::fs::File::open(path)?, limit)
+}
+
+/// Reads text of at most `limit` bytes from `reader` (see [`read_text`]).
+pub fn read_text_from(reader: impl io::Read, limit: u64) -> io::Result<String> {
+    let mut text = String::new();
+    io::Read::read_to_string(&mut io::Read::take(reader, limit + 1), &mut text)?;
+    if text.len() as u64 > limit {
+        return Err(io::Error::new(
+            io::ErrorKind::FileTooLarge,
+            format!("longer than {limit} bytes"),
+        ));
+    }
+    Ok(text)
+}
+
+/// An I/O error as a short lower-case reason without the "(os error N)" suffix.
+pub fn io_reason(e: &io::Error) -> String {
+    match e.kind() {
+        io::ErrorKind::NotFound => "no such file".into(),
+        io::ErrorKind::PermissionDenied => "permission denied".into(),
+        _ => {
+            let s = e.to_string();
+            match s.find(" (os error") {
+                Some(i) => s[..i].to_string(),
+                None => s,
+            }
+        }
+    }
+}
+
+/// `v` rounded to `decimals` places, with -0 written as 0.
+pub(crate) fn fixed(v: f64, decimals: i32) -> f64 {
+    let f = 10f64.powi(decimals);
+    (v * f).round() / f + 0.0
+}
