@@ -184,77 +184,60 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|---|---|---|");
     let variants: Vec<(&str, Params)> = vec![
         ("full method (defaults)", params.clone()),
-        (
-            "plain PHAT (no spectral weighting)",
-            Params {
-                weighting: false,
-                ..params.clone()
-            },
-        ),
-        (
-            "single peak per pair (M = 1)",
-            Params {
-                peaks: 1,
-                ..params.clone()
-            },
-        ),
-        (
-            "integer lags (no interpolation)",
-            Params {
-                interpolation: Interpolation::None,
-                ..params.clone()
-            },
-        ),
-        (
-            "tolerance 20 us",
-            Params {
-                tolerance_us: Some(20.0),
-                ..params.clone()
-            },
-        ),
-        (
-            "tolerance 80 us",
-            Params {
-                tolerance_us: Some(80.0),
-                ..params.clone()
-            },
-        ),
-        (
-            "no residual gate",
-            Params {
-                residual_gate_us: None,
-                ..params.clone()
-            },
-        ),
-        (
-            "no background subtraction (--background-s 0)",
-            Params {
-                background_s: None,
-                ..params.clone()
-            },
-        ),
+        ("plain PHAT (no spectral weighting)", {
+            let mut p = params.clone();
+            p.weighting = false;
+            p
+        }),
+        ("single peak per pair (M = 1)", {
+            let mut p = params.clone();
+            p.peaks = 1;
+            p
+        }),
+        ("integer lags (no interpolation)", {
+            let mut p = params.clone();
+            p.interpolation = Interpolation::None;
+            p
+        }),
+        ("tolerance 20 us", {
+            let mut p = params.clone();
+            p.tolerance_us = Some(20.0);
+            p
+        }),
+        ("tolerance 80 us", {
+            let mut p = params.clone();
+            p.tolerance_us = Some(80.0);
+            p
+        }),
+        ("no residual gate", {
+            let mut p = params.clone();
+            p.residual_gate_us = None;
+            p
+        }),
+        ("no background subtraction (--background-s 0)", {
+            let mut p = params.clone();
+            p.background_s = None;
+            p
+        }),
         (
             "calibrated threshold, no reverberation (--reverb-level 0)",
-            Params {
-                reverb_level: 0.0,
-                ..params.clone()
+            {
+                let mut p = params.clone();
+                p.reverb_level = 0.0;
+                p
             },
         ),
-        (
-            "fixed threshold, no reverberation (--min-score 0.5)",
-            Params {
-                threshold_sigmas: None,
-                reverb_level: 0.0,
-                ..params.clone()
-            },
-        ),
-        (
-            "no averaging over frames",
-            Params {
-                average_frames: 1,
-                ..params.clone()
-            },
-        ),
+        ("fixed threshold, no reverberation (--min-score 0.5)", {
+            let mut p = params.clone();
+            p.threshold_sigmas = None;
+            p.reverb_level = 0.0;
+            p
+        }),
+        ("no averaging over frames", {
+            let mut p = params.clone();
+            p.average_frames = 1;
+            p
+        }),
         (
             "the paper's method (2 samples, no gate, no averaging)",
             ssl::Options::paper().settings().expect("valid").method,
@@ -270,18 +253,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ));
     variants.push((
         "tracked, without candidates (--candidates 1)",
-        Params {
-            candidates: 1.0,
-            ..support::for_tracker(params.clone())
+        {
+            let mut p = support::for_tracker(params.clone());
+            p.candidates = 1.0;
+            p
         },
         Some(TrackParams::default()),
     ));
     variants.push((
         "tracked, without the steered response (consistent sets only)",
-        Params {
-            steered: false,
-            max_sources: 1,
-            ..support::for_tracker(params.clone())
+        {
+            let mut p = support::for_tracker(params.clone());
+            p.steered = false;
+            p.max_sources = 1;
+            p
         },
         Some(TrackParams::default()),
     ));

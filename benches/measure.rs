@@ -1,6 +1,6 @@
 //! Measures the method's open choices (window, tolerance, sub-sample interpolation,
 //! spectral weighting, peaks per pair) on free-field scenes with known truth, and prints
-//! a markdown table. The README's "Choices and evidence" section quotes its output.
+//! a markdown table. docs/method.md, "Choices and evidence", quotes its output.
 //!
 //! `cargo bench --bench measure` (the parameter table),
 //! `cargo bench --bench measure -- --scores` (score distributions behind the default
@@ -192,107 +192,121 @@ fn main() {
         ),
         (
             "parabolic peaks",
-            Params {
-                interpolation: Interpolation::Parabolic,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.interpolation = Interpolation::Parabolic;
+                p
             },
         ),
         (
             "window: Hamming",
-            Params {
-                window: Window::Hamming,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.window = Window::Hamming;
+                p
             },
         ),
         (
             "window: rectangular",
-            Params {
-                window: Window::Rectangular,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.window = Window::Rectangular;
+                p
             },
         ),
         (
             "integer lags (no interpolation)",
-            Params {
-                interpolation: Interpolation::None,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.interpolation = Interpolation::None;
+                p
             },
         ),
         (
             "tolerance 0.5",
-            Params {
-                tolerance: 0.5,
-                tolerance_us: None,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.tolerance = 0.5;
+                p.tolerance_us = None;
+                p
             },
         ),
         (
             "tolerance 1",
-            Params {
-                tolerance: 1.0,
-                tolerance_us: None,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.tolerance = 1.0;
+                p.tolerance_us = None;
+                p
             },
         ),
         (
             "tolerance 3",
-            Params {
-                tolerance: 3.0,
-                tolerance_us: None,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.tolerance = 3.0;
+                p.tolerance_us = None;
+                p
             },
         ),
         (
             "tolerance 4",
-            Params {
-                tolerance: 4.0,
-                tolerance_us: None,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.tolerance = 4.0;
+                p.tolerance_us = None;
+                p
             },
         ),
         (
             "plain PHAT (no weighting)",
-            Params {
-                weighting: false,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.weighting = false;
+                p
             },
         ),
         (
             "M = 1 peak per pair",
-            Params {
-                peaks: 1,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.peaks = 1;
+                p
             },
         ),
         (
             "M = 4 peaks per pair",
-            Params {
-                peaks: 4,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.peaks = 4;
+                p
             },
         ),
         (
             "threshold 0.4 per pair",
-            Params {
-                min_score_per_pair: 0.4,
-                threshold_sigmas: None,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.min_score_per_pair = 0.4;
+                p.threshold_sigmas = None;
+                p
             },
         ),
         (
             "threshold 0.6 per pair",
-            Params {
-                min_score_per_pair: 0.6,
-                threshold_sigmas: None,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.min_score_per_pair = 0.6;
+                p.threshold_sigmas = None;
+                p
             },
         ),
         (
             "no threshold",
-            Params {
-                min_score_per_pair: f64::NEG_INFINITY,
-                threshold_sigmas: None,
-                ..base.clone()
+            {
+                let mut p = base.clone();
+                p.min_score_per_pair = f64::NEG_INFINITY;
+                p.threshold_sigmas = None;
+                p
             },
         ),
     ];
@@ -307,10 +321,11 @@ fn main() {
         .collect();
     if std::env::args().any(|a| a == "--scores") {
         // Score distributions without a threshold, to choose the default threshold.
-        let open = Params {
-            min_score_per_pair: f64::NEG_INFINITY,
-            threshold_sigmas: None,
-            ..Params::default()
+        let open = {
+            let mut p = Params::default();
+            p.min_score_per_pair = f64::NEG_INFINITY;
+            p.threshold_sigmas = None;
+            p
         };
         let pct = |v: &mut Vec<f64>, p: f64| {
             v.sort_by(f64::total_cmp);
@@ -457,9 +472,10 @@ fn estimator_table(geometry: &Geometry) {
             if default { " (default)" } else { "" }
         );
         for (_, ch) in &scenes {
-            let params = Params {
-                noise,
-                ..Params::default()
+            let params = {
+                let mut p = Params::default();
+                p.noise = noise;
+                p
             };
             let (n, detections) = frame_detections(ch, 48000, geometry, &params);
             let mut per_s = [0usize; 5];

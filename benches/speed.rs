@@ -106,10 +106,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         ))
     };
     let (in_process, st, output) = timed_run(&Params::default())?;
-    let (all_pairs, _, _) = timed_run(&Params {
-        min_score_per_pair: 0.0,
-        threshold_sigmas: None,
-        ..Params::default()
+    let (all_pairs, _, _) = timed_run(&{
+        let mut p = Params::default();
+        p.min_score_per_pair = 0.0;
+        p.threshold_sigmas = None;
+        p
     })?;
 
     // The FFT floor: 8 forward + 28 inverse real FFTs of 1024 per frame, and the transforms as ssl does them when it skips none: 4 forward and

@@ -187,10 +187,11 @@ fn stages(c: &mut Criterion) {
         }
     }
     // --min-score 0: no correlation can be skipped.
-    let every_pair = Params {
-        min_score_per_pair: 0.0,
-        threshold_sigmas: None,
-        ..Params::default()
+    let every_pair = {
+        let mut p = Params::default();
+        p.min_score_per_pair = 0.0;
+        p.threshold_sigmas = None;
+        p
     };
     let g = geometry(&pos);
     let second = render(&Scene {

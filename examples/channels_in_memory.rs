@@ -1,5 +1,5 @@
 //! Localize sources in channels already in memory (from a sound card, another program,
-//! or, here, the simulator), writing the detections as NDJSON with the library's own
+//! or, here, the simulator), writing the rows `ssl analyze` would write as NDJSON with the library's own
 //! exporter.
 //!
 //! `cargo run --example channels_in_memory`
@@ -7,9 +7,9 @@
 use ssl::method::direction::unit_from_angles;
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;
-use ssl::{Analysis, DetectionRecord, Format, Geometry, Params, RunMetadata};
+use ssl::localize::{Localizer, Options, Output};
+use ssl::{Format, Geometry};
 use std::io::Write;
-use std::ops::ControlFlow;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // A 4-microphone tetrahedron, 10 cm across (positions in metres, x forward, y left,
@@ -38,24 +38,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // Any slices of one length will do: one per channel, in geometry order.
     let slices = channels.iter().map(|c| &c[..]).collect();
-    let params = Params::default();
-    let analysis = Analysis::from_channels("memory", slices, 48000, &geometry, &params)?;
+    let localizer = Localizer::new(geometry, &Options::default())?;
     let mut out = Format::Ndjson.exporter(std::io::stdout().lock(), false);
-    out.begin(&RunMetadata::new(&geometry, "tetrahedron", &params))?;
-    let mut failed = None;
-    let (_, result) = analysis.run(|_, detections| {
-        for d in detections {
-            if let Err(e) = DetectionRecord::new("memory", d).and_then(|r| out.detection(&r)) {
-                failed = Some(e);
-                return ControlFlow::Break(());
-            }
-        }
-        ControlFlow::Continue(())
+    out.begin(&localizer.metadata("tetrahedron"))?;
+    let recording = localizer.from_channels("memory", slices, 48000)?;
+    let (_, result) = recording.run(|found| match found {
+        Output::Row(row) => out.detection(&row),
+        _ => Ok(()),
     });
     result?;
-    if let Some(e) = failed {
-        return Err(e.into());
-    }
     out.finish(&[])?.flush()?;
     Ok(())
 }

@@ -60,9 +60,10 @@ fn analysing_frames_does_not_allocate() {
     // As `ssl analyze` runs with its tracker: the steered response, a second source a
     // frame and candidates too; and with the diffuse part removed (on for planar arrays).
     for dereverb in [Dereverb::Auto, Dereverb::On] {
-        let params = Params {
-            dereverb,
-            ..support::tracked_params()
+        let params = {
+            let mut p = support::tracked_params();
+            p.dereverb = dereverb;
+            p
         };
         count_allocations(&pool, &ch, &g, &params);
     }

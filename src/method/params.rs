@@ -9,6 +9,7 @@ use crate::Named;
 
 /// The method's parameters (defaults are the paper's where it gives them).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[non_exhaustive]
 pub struct Params {
     /// Frame size N in samples (`None`: from `frame_ms`, else [`default_frame_size`] of
     /// the sample rate).

@@ -71,6 +71,7 @@ pub use tracker::{Tracker, ELEVATION_WEIGHT};
 
 /// The tracker's parameters (see the module's documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[non_exhaustive]
 pub struct TrackParams {
     /// Detections at or above the detection threshold a candidate needs to become a
     /// track.

@@ -653,9 +653,10 @@ fn a_tracker_delay_past_its_limit_is_refused() {
         assert!(out.status.success(), "{option} 10: {}", stderr(&out));
     }
     // The library's own check says the same.
-    let track = ssl::track::TrackParams {
-        delay_s: 11.0,
-        ..ssl::track::TrackParams::default()
+    let track = {
+        let mut p = ssl::track::TrackParams::default();
+        p.delay_s = 11.0;
+        p
     };
     let err = track.check().unwrap_err().to_string();
     assert!(err.contains("at most 10 s"), "{err}");

@@ -1,5 +1,5 @@
 //! Real speech in small reverberant rooms: what the method's defaults must still hear
-//! (docs/field.md, README "Tolerance"), and what dereverberating the input adds.
+//! (docs/field.md, docs/method.md), and what dereverberating the input adds.
 
 use crate::support;
 
@@ -39,11 +39,8 @@ fn office(
     );
     let path = write(dir, "office.toml", &scene);
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
-    let defaults = support::tracked_params();
-    let params = ssl::Params {
-        tolerance_us: tolerance_us.or(defaults.tolerance_us),
-        ..defaults
-    };
+    let mut params = support::tracked_params();
+    params.tolerance_us = tolerance_us.or(params.tolerance_us);
     let track = ssl::track::TrackParams::default();
     harness::analyse_scene(dir, &scene, geometry, &params, Some(track)).unwrap()
 }
@@ -112,9 +109,10 @@ fn two_talkers(
     );
     let path = write(dir, "two.toml", &scene);
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
-    let params = ssl::Params {
-        wpe,
-        ..support::tracked_params()
+    let params = {
+        let mut p = support::tracked_params();
+        p.wpe = wpe;
+        p
     };
     let track = ssl::track::TrackParams::default();
     let (rows, truth) =
@@ -175,9 +173,10 @@ fn a_fan_next_to_the_array_is_background_with_dereverberation_too() {
          signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n";
     let path = write(dir.path(), "fan.toml", scene);
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
-    let params = ssl::Params {
-        wpe: true,
-        ..support::tracked_params()
+    let params = {
+        let mut p = support::tracked_params();
+        p.wpe = true;
+        p
     };
     let track = ssl::track::TrackParams::default();
     let (rows, truth) =

@@ -220,14 +220,16 @@ fn a_frames_own_correlations_find_the_other_talker() {
     let mut shares = Vec::new();
     for seed in [3, 4, 5, 6] {
         for frame_sources in [false, true] {
-            let params = ssl::Params {
-                frame_sources,
-                ..support::tracked_params()
+            let params = {
+                let mut p = support::tracked_params();
+                p.frame_sources = frame_sources;
+                p
             };
-            let track = ssl::track::TrackParams {
-                confirm_tight: 1000,
-                delay_s: 0.5,
-                ..ssl::track::TrackParams::default()
+            let track = {
+                let mut p = ssl::track::TrackParams::default();
+                p.confirm_tight = 1000;
+                p.delay_s = 0.5;
+                p
             };
             eprint!("seed {seed}, frame sources {frame_sources}: ");
             let (report, t) = room.run(dir.path(), &geometry, seed, [20.0, -40.0], &params, track);
@@ -262,9 +264,10 @@ fn a_steady_run_of_candidates_is_a_talker() {
     let geometry = ssl::Geometry::from_file(&dir.path().join("prism.toml")).unwrap();
     let mut windows = Vec::new();
     for (tolerance_us, seed) in [(40.0, 5003), (40.0, 5004), (50.0, 5003), (50.0, 5004)] {
-        let params = ssl::Params {
-            tolerance_us: Some(tolerance_us),
-            ..support::tracked_params()
+        let params = {
+            let mut p = support::tracked_params();
+            p.tolerance_us = Some(tolerance_us);
+            p
         };
         let head = format!(
             "sample_rate = 48000\nduration = 4.8\nseed = {seed}\nformat = \"float32\"\n\
@@ -272,9 +275,10 @@ fn a_steady_run_of_candidates_is_a_talker() {
              geometry = \"prism.toml\"\nposition = [2.5, 2.2, 1.0]\nyaw_deg = 20.0\n"
         );
         for tight in [1000, 8] {
-            let track = ssl::track::TrackParams {
-                confirm_tight: tight,
-                ..ssl::track::TrackParams::default()
+            let track = {
+                let mut p = ssl::track::TrackParams::default();
+                p.confirm_tight = tight;
+                p
             };
             eprint!("{tolerance_us} us, seed {seed}, confirm_tight {tight}: ");
             let (rows, truth) = two_talkers_rows(
@@ -317,17 +321,19 @@ fn a_steady_run_of_candidates_is_a_talker() {
 #[test]
 fn waiting_longer_keeps_a_talkers_first_detections() {
     let (dir, geometry, room) = PapersRoom::prism(48000, true);
-    let params = ssl::Params {
-        patterns_s: None,
-        ..support::tracked_params()
+    let params = {
+        let mut p = support::tracked_params();
+        p.patterns_s = None;
+        p
     };
     let mut windows = Vec::new();
     for seed in [0, 2, 3] {
         let mut onsets = Vec::new();
         for delay_s in [0.5, 1.0] {
-            let track = ssl::track::TrackParams {
-                delay_s,
-                ..ssl::track::TrackParams::default()
+            let track = {
+                let mut p = ssl::track::TrackParams::default();
+                p.delay_s = delay_s;
+                p
             };
             eprint!("seed {seed}, delay {delay_s} s: ");
             let (report, t) = room.run(dir.path(), &geometry, seed, [20.0, -40.0], &params, track);
@@ -354,9 +360,10 @@ fn a_small_arrays_candidates_join_its_talkers() {
     let mut windows = Vec::new();
     for seed in [7, 8, 9] {
         for samples in [0.0, 0.6] {
-            let track = ssl::track::TrackParams {
-                candidate_gate_samples: samples,
-                ..ssl::track::TrackParams::default()
+            let track = {
+                let mut p = ssl::track::TrackParams::default();
+                p.candidate_gate_samples = samples;
+                p
             };
             eprint!("seed {seed}, candidate gate {samples} samples: ");
             let (report, t) = room.run(dir.path(), &geometry, seed, [20.0, -70.0], &params, track);
@@ -382,9 +389,10 @@ fn removing_a_talkers_pattern_finds_the_other() {
     let mut windows = Vec::new();
     for seed in [11, 12, 13] {
         for patterns_s in [None, Some(ssl::method::DEFAULT_PATTERNS_S)] {
-            let params = ssl::Params {
-                patterns_s,
-                ..support::tracked_params()
+            let params = {
+                let mut p = support::tracked_params();
+                p.patterns_s = patterns_s;
+                p
             };
             eprint!("seed {seed}, patterns {patterns_s:?}: ");
             let (report, t) = room.run(
@@ -449,16 +457,18 @@ fn riders_add_a_talkers_weakest_frames() {
         };
         let mut every = Vec::new();
         for riders in [1.0, ssl::method::DEFAULT_RIDERS] {
-            let params = ssl::Params {
-                riders,
-                ..support::tracked_params()
+            let params = {
+                let mut p = support::tracked_params();
+                p.riders = riders;
+                p
             };
             // Each frame's own direction: a rider's row would move its track's
             // neighbours' smoothed directions.
-            let all = ssl::track::TrackParams {
-                keep_unconfirmed: true,
-                smooth_s: 0.0,
-                ..ssl::track::TrackParams::default()
+            let all = {
+                let mut p = ssl::track::TrackParams::default();
+                p.keep_unconfirmed = true;
+                p.smooth_s = 0.0;
+                p
             };
             every.push(rows(&params, all).0);
             eprint!("seed {seed}, riders {riders}: ");
@@ -495,20 +505,22 @@ fn single_bins_find_the_talker_another_hides_on_a_small_circle() {
     let mut windows = Vec::new();
     for seed in [31, 32, 33] {
         for bin_votes in [false, true] {
-            let params = ssl::Params {
-                bin_votes,
-                ..support::tracked_params()
+            let params = {
+                let mut p = support::tracked_params();
+                p.bin_votes = bin_votes;
+                p
             };
             eprint!("seed {seed}, bin votes {bin_votes}: ");
             // Each frame's own direction (see the measured figures below).
-            let track = ssl::track::TrackParams {
-                smooth_s: 0.0,
-                ..ssl::track::TrackParams::default()
+            let track = {
+                let mut p = ssl::track::TrackParams::default();
+                p.smooth_s = 0.0;
+                p
             };
             let (rows, truth) = room.rows(dir.path(), &geometry, seed, azimuths, &params, track);
             let (report, t) = score(&rows, &truth, 0.175);
-            // The circle reads the talkers' elevation several degrees high (README,
-            // "Planar arrays"): its 3-D error is mostly that.
+            // The circle reads the talkers' elevation several degrees high (docs/guide.md,
+            // "Geometry file"): its 3-D error is mostly that.
             assert_both_tracked(&report, &t, 8.0);
             let off = rows
                 .iter()
@@ -544,9 +556,10 @@ fn a_tracks_neighbouring_rows_bring_each_row_nearer_its_talker() {
     for seed in [7, 8, 9] {
         let mut draw = Vec::new();
         for smooth_s in [0.0, ssl::track::TrackParams::default().smooth_s] {
-            let track = ssl::track::TrackParams {
-                smooth_s,
-                ..ssl::track::TrackParams::default()
+            let track = {
+                let mut p = ssl::track::TrackParams::default();
+                p.smooth_s = smooth_s;
+                p
             };
             eprint!("seed {seed}, smoothing {smooth_s} s: ");
             let (rows, truth) =
