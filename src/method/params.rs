@@ -327,7 +327,7 @@ pub const DEFAULT_RESIDUAL_GATE_US: f64 = 100.0;
 
 /// Default detection threshold per microphone pair. Stationary background alone gives
 /// weights near 0.6 and so correlation peaks near 0.36 or below per pair; a source that
-/// stands out of the background scores higher (see the README for the measurement).
+/// stands out of the background scores higher (docs/method.md gives the measurement).
 pub const DEFAULT_MIN_SCORE_PER_PAIR: f64 = 0.5;
 
 /// The default frame size: the power of two nearest (in ratio) to 1024 samples at

@@ -12,7 +12,7 @@
 //! Priming: the first [`PRIMING_S`](crate::method::PRIMING_S) of a recording are folded into the noise estimate
 //! before any frame is weighed. Otherwise the first frames are weighed against an
 //! estimate that has not formed yet, and a fan that is on from the start is reported
-//! there (README, "Choices and evidence").
+//! there (docs/method.md, "Choices and evidence").
 
 use super::sequential::Sequential;
 use super::setup::Setup;

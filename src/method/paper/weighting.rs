@@ -20,7 +20,7 @@ pub const SUBWINDOWS: usize = 8;
 /// Time constant of the signal-presence probability (seconds).
 pub const PRESENCE_TAU_S: f64 = 0.01;
 
-/// The noise estimator's settings. The defaults were chosen by measurement (README,
+/// The noise estimator's settings. The defaults were chosen by measurement (docs/method.md,
 /// "Choices and evidence"): Cohen's speech settings (ratio 5, 0.5 s) let a steady source
 /// 3 dB above the floor be absorbed within a second; these keep it for the whole window
 /// without letting stationary background through.

@@ -32,7 +32,7 @@
 //! RT60 0.45 s, fan and diffuse noise): 589 of 792 windows with both talkers' rows
 //! instead of 535, no false event, the rows' errors unchanged or lower; the bins above
 //! 4 kHz left alone because the whole band made a fan near the ceiling a source (296
-//! rows). It costs about 15 times the rest of the analysis (README, "Performance"), so it
+//! rows). It costs about 15 times the rest of the analysis (docs/method.md, "Performance"), so it
 //! is an option.
 //!
 //! The filter runs on the samples in order, before the framer; each bin is a filter of
