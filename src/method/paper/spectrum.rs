@@ -14,7 +14,7 @@ use std::sync::Arc;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Window {
-    /// Periodic Hann window (the default; see the README for the measurement).
+    /// Periodic Hann window (the default; docs/method.md gives the measurement).
     Hann,
     /// Periodic Hamming window.
     Hamming,
@@ -27,7 +27,7 @@ impl Named for Window {
         (
             Window::Hann,
             "hann",
-            "Periodic Hann window (the default; see the README for the measurement)",
+            "Periodic Hann window (the default; docs/method.md gives the measurement)",
         ),
         (Window::Hamming, "hamming", "Periodic Hamming window"),
         (
