@@ -50,13 +50,15 @@ pub struct Localizer {
 impl Localizer {
     /// A localizer of `geometry` with `options` (resolved and checked once, here).
     pub fn new(geometry: Geometry, options: &Options) -> Result<Self, SettingsError> {
-        Ok(Self::with_settings(geometry, options.settings()?))
+        Self::with_settings(geometry, options.settings()?)
     }
 
     /// A localizer of `geometry` with settings already resolved (for tuning what
-    /// [`Options`] does not reach; [`Settings::new`] checked them).
-    pub fn with_settings(geometry: Geometry, settings: Settings) -> Self {
-        Localizer { geometry, settings }
+    /// [`Options`] does not reach), checked again: their fields may have changed since
+    /// [`Settings::new`].
+    pub fn with_settings(geometry: Geometry, settings: Settings) -> Result<Self, SettingsError> {
+        let settings = Settings::new(settings.method, settings.track)?;
+        Ok(Localizer { geometry, settings })
     }
 
     /// The array.

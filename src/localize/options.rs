@@ -274,3 +274,92 @@ pub enum SettingsError {
     #[error(transparent)]
     Track(#[from] TrackParamsError),
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::method::ParamsError;
+
+    fn settings(o: &Options) -> Settings {
+        o.settings().expect("valid options")
+    }
+
+    #[test]
+    fn the_defaults_track_with_everything_a_tracker_confirms() {
+        let s = settings(&Options::default());
+        let m = &s.method;
+        assert!(s.track.is_some());
+        assert!(m.steered && m.frame_sources && m.bin_votes_on());
+        assert_eq!((m.max_sources, m.candidates, m.riders), (2, 0.4, 0.3));
+        assert_eq!(m.patterns_s, Some(DEFAULT_PATTERNS_S));
+        assert_eq!(m.threshold_sigmas, Some(DEFAULT_THRESHOLD_SIGMAS));
+        assert_eq!(m.tolerance_us, Some(DEFAULT_TOLERANCE_US));
+    }
+
+    #[test]
+    fn untracked_is_the_method_alone_which_params_default_is() {
+        let s = settings(&Options::untracked());
+        assert!(s.track.is_none());
+        assert_eq!(s.method, Params::default());
+        let m = &s.method;
+        assert!(!m.steered && !m.frame_sources && !m.bin_votes_on());
+        assert_eq!((m.max_sources, m.candidates, m.riders), (1, 1.0, 1.0));
+    }
+
+    #[test]
+    fn the_paper_preset_is_the_published_method() {
+        let m = settings(&Options::paper()).method;
+        assert_eq!((m.tolerance, m.tolerance_us), (2.0, None));
+        assert_eq!(m.residual_gate_us, None);
+        assert_eq!((m.average_frames, m.background_s), (1, None));
+        assert_eq!((m.threshold_sigmas, m.min_score_per_pair), (None, 0.5));
+        assert_eq!((m.reverb_level, m.dereverb), (0.0, Dereverb::Off));
+        assert_eq!(m.interpolation, Interpolation::Parabolic);
+        assert!(!m.steered && m.max_sources == 1 && m.candidates == 1.0);
+        // A given interpolation is kept.
+        let mut o = Options::paper();
+        o.interpolation = Some(Interpolation::Cosine);
+        assert_eq!(settings(&o).method.interpolation, Interpolation::Cosine);
+    }
+
+    #[test]
+    fn a_fixed_threshold_turns_off_what_only_the_calibrated_one_allows() {
+        let m = settings(&Options::fixed_threshold(0.3)).method;
+        assert_eq!((m.min_score_per_pair, m.threshold_sigmas), (0.3, None));
+        assert_eq!(m.reverb_level, 0.0);
+        assert!(!m.steered && !m.bin_votes && m.max_sources == 1);
+        assert_eq!((m.candidates, m.riders), (1.0, 1.0));
+        // Candidates asked for are kept for the tracker.
+        let mut o = Options::fixed_threshold(0.3);
+        o.candidates = Some(0.5);
+        assert_eq!(settings(&o).method.candidates, 0.5);
+    }
+
+    #[test]
+    fn bad_options_are_refused_once_with_what_is_wrong() {
+        let o = Options {
+            peaks: 0,
+            ..Options::default()
+        };
+        assert_eq!(
+            o.settings(),
+            Err(SettingsError::Method(ParamsError::Peaks(0)))
+        );
+        let o = Options {
+            tolerance_us: f64::NAN,
+            ..Options::default()
+        };
+        assert!(matches!(
+            o.settings(),
+            Err(SettingsError::Method(ParamsError::ToleranceUs(_)))
+        ));
+        let mut o = Options {
+            smooth_s: 5.0,
+            ..Options::default()
+        };
+        assert!(matches!(o.settings(), Err(SettingsError::Track(_))));
+        // Without a tracker its options are not checked: they are not used.
+        o.track = false;
+        assert!(o.settings().is_ok());
+    }
+}

@@ -8,6 +8,10 @@ use crate::geometry::Shape;
 use crate::Named;
 
 /// The method's parameters (defaults are the paper's where it gives them).
+/// `Params::default()` is the method alone, as `ssl analyze --no-track` runs it; what
+/// `ssl analyze` runs is the settings of [`Options::default`](crate::Options), which a
+/// [`Localizer`](crate::Localizer) resolves. Change fields of a preset: the struct is
+/// `#[non_exhaustive]`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[non_exhaustive]
 pub struct Params {

@@ -233,7 +233,7 @@ pub fn localizer(
         params.frame_sources = untracked.frame_sources;
     }
     let settings = ssl::localize::Settings::new(params, track)?;
-    Ok(ssl::Localizer::with_settings(geometry.clone(), settings))
+    ssl::Localizer::with_settings(geometry.clone(), settings)
 }
 
 /// The rows of `recording`, as `ssl analyze` writes them.
