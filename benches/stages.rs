@@ -7,7 +7,6 @@
 #[path = "../tests/support/mod.rs"]
 mod support;
 
-use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
 use ssl::method::correlation::{whiten, Correlator};
@@ -21,6 +20,7 @@ use ssl::sim::signals::Signal;
 use ssl::{Analysis, Geometry, Params};
 use std::hint::black_box;
 use std::ops::ControlFlow;
+use std::time::Instant;
 
 const N: usize = 1024;
 
@@ -103,7 +103,7 @@ fn peaks(positions: &[Vector3<f64>], frame: &[f32]) -> Vec<Vec<Peak>> {
     table
 }
 
-fn stages(c: &mut Criterion) {
+fn stages(c: &mut Timer) {
     for mics in [8usize, 16, 32] {
         let pos = array(mics);
         for (label, with_source) in [("source", true), ("noise only", false)] {
@@ -234,5 +234,67 @@ fn stages(c: &mut Criterion) {
     );
 }
 
-criterion_group!(benches, stages);
-criterion_main!(benches);
+fn main() {
+    stages(&mut Timer);
+}
+
+/// Times a closure as a benchmark harness does, without one: a warm-up of about 0.2 s,
+/// then 15 samples of about 0.1 s each; prints the median time per call and the spread
+/// (the lowest and highest sample).
+struct Timer;
+
+impl Timer {
+    fn bench_function(&mut self, name: &str, mut run: impl FnMut(&mut Bencher)) {
+        let mut b = Bencher {
+            iters: 1,
+            took: 0.0,
+        };
+        // Warm up, and find how many calls fill a sample.
+        let start = Instant::now();
+        while start.elapsed().as_secs_f64() < 0.2 {
+            run(&mut b);
+            if b.took < 0.01 {
+                b.iters *= 2;
+            }
+        }
+        b.iters = ((0.1 / (b.took / b.iters as f64).max(1e-9)) as u64).max(1);
+        let mut per_call: Vec<f64> = (0..15)
+            .map(|_| {
+                run(&mut b);
+                b.took / b.iters as f64
+            })
+            .collect();
+        per_call.sort_by(f64::total_cmp);
+        println!(
+            "{name:<70} {} (range {} to {})",
+            shown(per_call[7]),
+            shown(per_call[0]),
+            shown(per_call[14])
+        );
+    }
+}
+
+/// What a benchmarked closure gets: [`Bencher::iter`] calls the work `iters` times.
+struct Bencher {
+    iters: u64,
+    took: f64,
+}
+
+impl Bencher {
+    fn iter<R>(&mut self, mut work: impl FnMut() -> R) {
+        let start = Instant::now();
+        for _ in 0..self.iters {
+            black_box(work());
+        }
+        self.took = start.elapsed().as_secs_f64();
+    }
+}
+
+/// Seconds as ns, us or ms.
+fn shown(s: f64) -> String {
+    match s {
+        s if s < 1e-6 => format!("{:.1} ns", s * 1e9),
+        s if s < 1e-3 => format!("{:.2} us", s * 1e6),
+        s => format!("{:.3} ms", s * 1e3),
+    }
+}
