@@ -4,10 +4,10 @@
 //!
 //! `cargo run --example channels_in_memory`
 
+use ssl::localize::{Localizer, Options, Output};
 use ssl::method::direction::unit_from_angles;
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;
-use ssl::localize::{Localizer, Options, Output};
 use ssl::{Format, Geometry};
 use std::io::Write;
 
