@@ -223,15 +223,10 @@ pub fn localizer(
     params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
 ) -> Result<ssl::Localizer, ssl::localize::SettingsError> {
-    let mut params = params.clone();
-    if track.is_none() {
-        let untracked = ssl::Options::untracked().settings()?.method;
-        params.candidates = untracked.candidates;
-        params.riders = untracked.riders;
-        params.steered = untracked.steered;
-        params.max_sources = untracked.max_sources;
-        params.frame_sources = untracked.frame_sources;
-    }
+    let params = match track {
+        Some(_) => params.clone(),
+        None => super::untracked(params.clone()),
+    };
     let settings = ssl::localize::Settings::new(params, track)?;
     ssl::Localizer::with_settings(geometry.clone(), settings)
 }

@@ -62,15 +62,26 @@ pub fn tracked_params() -> ssl::Params {
 /// `params` with what only a tracker confirms turned on as `ssl analyze` does (the
 /// steered response, further sources, patterns, candidates, riders).
 pub fn for_tracker(params: ssl::Params) -> ssl::Params {
-    let t = tracked_params();
-    let mut p = params;
-    p.steered = t.steered;
-    p.max_sources = t.max_sources;
-    p.frame_sources = t.frame_sources;
-    p.patterns_s = t.patterns_s;
-    p.candidates = t.candidates;
-    p.riders = t.riders;
-    p
+    tracker_fields(params, &tracked_params())
+}
+
+/// `params` with what only a tracker confirms turned off as `ssl analyze --no-track`
+/// does.
+pub fn untracked(params: ssl::Params) -> ssl::Params {
+    let alone = ssl::Options::untracked().settings().expect("valid").method;
+    tracker_fields(params, &alone)
+}
+
+/// `params` with the fields that depend on a tracker (the steered response, further
+/// sources, patterns, candidates, riders) taken from `from`.
+fn tracker_fields(mut params: ssl::Params, from: &ssl::Params) -> ssl::Params {
+    params.steered = from.steered;
+    params.max_sources = from.max_sources;
+    params.frame_sources = from.frame_sources;
+    params.patterns_s = from.patterns_s;
+    params.candidates = from.candidates;
+    params.riders = from.riders;
+    params
 }
 
 pub fn testdata(name: &str) -> PathBuf {
