@@ -2,7 +2,7 @@
 
 use super::values::{
     candidate_share, choice, non_negative, non_negative_f64, parse_f64, positive,
-    smoothing_seconds, tracker_seconds, unit_interval,
+    smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
 };
 use clap::{Args, Parser, Subcommand};
 use ssl::method::{
@@ -179,7 +179,7 @@ pub struct AnalyzeArgs {
     pub paper: bool,
 
     /// Speed of sound in m/s [default: the geometry's, else 343]
-    #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
+    #[arg(short = 'c', long, value_name = "M/S", value_parser = speed_of_sound)]
     pub speed_of_sound: Option<f64>,
 
     /// A fixed threshold instead of the calibrated one: drop detections scoring below this per microphone pair (a frame with P pairs needs P times it; 0 keeps every consistent set). The default threshold is calibrated per frame against its background (a diffuse field's coherence between the microphones plus --threshold-sigmas of chance correlation)
@@ -274,7 +274,7 @@ pub struct GeometryArgs {
     pub rate: u32,
 
     /// Speed of sound in m/s [default: the geometry's, else 343]
-    #[arg(short = 'c', long, value_name = "M/S", value_parser = positive)]
+    #[arg(short = 'c', long, value_name = "M/S", value_parser = speed_of_sound)]
     pub speed_of_sound: Option<f64>,
 }
 

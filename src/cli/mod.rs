@@ -39,11 +39,7 @@ pub fn main() -> i32 {
         Command::Simulate(args) => simulate::run(&args).map(|()| true),
         Command::Evaluate(args) => evaluate::run(&args).map(|()| true),
         Command::Plot(args) => plot::run(&args).map(|()| true),
-        Command::Completions(args) => {
-            let mut cmd = <Cli as clap::CommandFactory>::command();
-            clap_complete::generate(args.shell, &mut cmd, "ssl", &mut std::io::stdout());
-            Ok(true)
-        }
+        Command::Completions(args) => completions(args.shell).map(|()| true),
     };
     match result {
         Ok(true) => 0,
@@ -54,6 +50,26 @@ pub fn main() -> i32 {
             1
         }
     }
+}
+
+/// Prints the completion script for `shell`. clap_complete panics when its writer
+/// fails, so the script is made in memory and written here, where a failure (a full
+/// disk, a closed output) is an error line like any other.
+fn completions(shell: clap_complete::Shell) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut cmd = <Cli as clap::CommandFactory>::command();
+    let mut script = Vec::new();
+    clap_complete::generate(shell, &mut cmd, "ssl", &mut script);
+    let mut out = std::io::stdout().lock();
+    out.write_all(&script)
+        .and_then(|()| out.flush())
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::BrokenPipe => BrokenPipe.into(),
+            _ => anyhow::anyhow!(
+                "cannot write standard output: {}",
+                ssl::stream::io_reason(&e)
+            ),
+        })
 }
 
 /// An error chain as one line.

@@ -45,6 +45,18 @@ pub(super) fn positive(s: &str) -> std::result::Result<f64, String> {
     Ok(v)
 }
 
+/// A speed of sound in m/s, within the range every input accepts.
+pub(super) fn speed_of_sound(s: &str) -> std::result::Result<f64, String> {
+    let v = parse_f64(s)?;
+    if !ssl::geometry::speed_of_sound_ok(v) {
+        let (low, high) = ssl::geometry::SPEED_OF_SOUND_RANGE;
+        return Err(format!(
+            "{v:e} m/s is not a speed of sound from {low} to {high} m/s"
+        ));
+    }
+    Ok(v)
+}
+
 /// A tracker's window or delay: positive, at most [`MAX_DELAY_S`] (rows wait that long
 /// in memory).
 pub(super) fn tracker_seconds(s: &str) -> std::result::Result<f64, String> {

@@ -60,6 +60,15 @@ type Result<T> = std::result::Result<T, GeometryError>;
 
 /// Default speed of sound in m/s (dry air at about 20 degrees C; docs/interface.md).
 pub const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
+/// The speeds of sound accepted anywhere (m/s): from below any gas's at room temperature
+/// to above water's and most solids'. Outside it, the delays between microphones are
+/// not what a recording holds (and their arithmetic overflows near 0).
+pub const SPEED_OF_SOUND_RANGE: (f64, f64) = (50.0, 5000.0);
+
+/// Whether `c` m/s is within [`SPEED_OF_SOUND_RANGE`].
+pub fn speed_of_sound_ok(c: f64) -> bool {
+    c.is_finite() && (SPEED_OF_SOUND_RANGE.0..=SPEED_OF_SOUND_RANGE.1).contains(&c)
+}
 /// The most microphones an array may have (subsets of live microphones are bit masks).
 pub const MAX_MICS: usize = 64;
 /// A spread along an axis below this fraction of the largest spread counts as flat.
@@ -229,10 +238,11 @@ impl Geometry {
             }
         }
         let speed = speed_of_sound.unwrap_or(DEFAULT_SPEED_OF_SOUND);
-        if !(speed.is_finite() && speed > 0.0) {
+        if !speed_of_sound_ok(speed) {
+            let (low, high) = SPEED_OF_SOUND_RANGE;
             fail!(
                 GeometryError::Invalid,
-                "speed_of_sound must be a positive number of m/s, got {speed}"
+                "speed_of_sound must be {low} to {high} m/s, got {speed:e}"
             );
         }
         let mut aperture: f64 = 0.0;

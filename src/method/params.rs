@@ -4,7 +4,7 @@
 use super::paper::peaks::{Interpolation, MAX_PEAKS};
 use super::paper::spectrum::Window;
 use super::paper::weighting::NoiseSettings;
-use crate::geometry::Shape;
+use crate::geometry::{speed_of_sound_ok, Shape, SPEED_OF_SOUND_RANGE};
 use crate::Named;
 
 /// The method's parameters (defaults are the paper's where it gives them).
@@ -175,7 +175,7 @@ impl Params {
         if self.min_score_per_pair.is_nan() {
             return Err(ParamsError::MinScore(self.min_score_per_pair));
         }
-        if let Some(c) = self.speed_of_sound.filter(|c| !(c.is_finite() && *c > 0.0)) {
+        if let Some(c) = self.speed_of_sound.filter(|&c| !speed_of_sound_ok(c)) {
             return Err(ParamsError::SpeedOfSound(c));
         }
         Ok(())
@@ -418,8 +418,8 @@ pub enum ParamsError {
     /// The threshold is not a number.
     #[error("the detection threshold must be a number, got {0}")]
     MinScore(f64),
-    /// The speed of sound is not a positive number.
-    #[error("the speed of sound must be positive, got {0}")]
+    /// The speed of sound is outside [`SPEED_OF_SOUND_RANGE`].
+    #[error("the speed of sound must be {low} to {high} m/s, got {0:e}", low = SPEED_OF_SOUND_RANGE.0, high = SPEED_OF_SOUND_RANGE.1)]
     SpeedOfSound(f64),
 }
 

@@ -2,7 +2,7 @@
 //! file, in any of the three formats, with the array and the threshold when the result
 //! is a JSON document.
 
-use crate::record::{DetectionRecord, EventRecord, ReadError};
+use crate::record::{first_non_finite, DetectionRecord, EventRecord, ReadError};
 use serde_json::Value;
 
 /// One file's rows.
@@ -41,14 +41,45 @@ impl PlotData {
         }
     }
 
-    fn add_detection(&mut self, r: DetectionRecord) {
+    /// Adds a detection; one with a value that is not finite (`inf` in a CSV) is
+    /// refused: nothing can be drawn of it, and it would stretch the axes without end.
+    fn add_detection(&mut self, r: DetectionRecord) -> Result<(), String> {
+        let values = [
+            ("time_s", r.time_s),
+            ("azimuth_deg", r.azimuth_deg),
+            ("elevation_deg", r.elevation_deg),
+            ("x", r.x),
+            ("y", r.y),
+            ("z", r.z),
+            ("score", r.score),
+        ];
+        if let Some(field) = first_non_finite(&values) {
+            return Err(format!("a detection's {field} is not a finite number"));
+        }
         let name = r.file.clone();
         self.file(&name).detections.push(r);
+        Ok(())
     }
 
-    fn add_event(&mut self, e: EventRecord) {
+    /// Adds an event; one with a value that is not finite is refused.
+    fn add_event(&mut self, e: EventRecord) -> Result<(), String> {
+        let values = [
+            ("start_s", e.start_s),
+            ("end_s", e.end_s),
+            ("azimuth_deg", e.azimuth_deg),
+            ("elevation_deg", e.elevation_deg),
+            ("x", e.x),
+            ("y", e.y),
+            ("z", e.z),
+            ("spread_deg", e.spread_deg),
+            ("score", e.score),
+        ];
+        if let Some(field) = first_non_finite(&values) {
+            return Err(format!("an event's {field} is not a finite number"));
+        }
         let name = e.file.clone();
         self.file(&name).events.push(e);
+        Ok(())
     }
 }
 
@@ -85,12 +116,14 @@ pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
                 let e = row
                     .deserialize::<EventRecord>(Some(&headers))
                     .map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
-                data.add_event(e);
+                data.add_event(e)
+                    .map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
             } else {
                 let r = row
                     .deserialize::<DetectionRecord>(Some(&headers))
                     .map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
-                data.add_detection(r);
+                data.add_detection(r)
+                    .map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
             }
         }
         return Ok(data);
@@ -99,11 +132,17 @@ pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
         if doc.get("detections").is_some() {
             let rows: Vec<DetectionRecord> = serde_json::from_value(doc["detections"].clone())
                 .map_err(|e| bad(format!("`detections`: {e}")))?;
-            rows.into_iter().for_each(|r| data.add_detection(r));
+            for (k, r) in rows.into_iter().enumerate() {
+                data.add_detection(r)
+                    .map_err(|e| bad(format!("`detections`[{k}]: {e}")))?;
+            }
             if let Some(events) = doc.get("events") {
                 let events: Vec<EventRecord> = serde_json::from_value(events.clone())
                     .map_err(|e| bad(format!("`events`: {e}")))?;
-                events.into_iter().for_each(|e| data.add_event(e));
+                for (k, e) in events.into_iter().enumerate() {
+                    data.add_event(e)
+                        .map_err(|e| bad(format!("`events`[{k}]: {e}")))?;
+                }
             }
             let g = &doc["geometry"];
             if let Some(mics) = g["microphones"].as_u64() {
@@ -131,15 +170,16 @@ pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
     {
         let v: Value =
             serde_json::from_str(line).map_err(|e| bad(format!("line {}: {e}", i + 1)))?;
-        if v.get("start_s").is_some() {
+        let added = if v.get("start_s").is_some() {
             data.add_event(
                 serde_json::from_value(v).map_err(|e| bad(format!("line {}: {e}", i + 1)))?,
-            );
+            )
         } else {
             data.add_detection(
                 serde_json::from_value(v).map_err(|e| bad(format!("line {}: {e}", i + 1)))?,
-            );
-        }
+            )
+        };
+        added.map_err(|e| bad(format!("line {}: {e}", i + 1)))?;
     }
     Ok(data)
 }

@@ -26,8 +26,8 @@ pub const MAX_IMAGES: f64 = 2e9;
 /// The fastest a moving source turns (degrees per second, either way): one turn a
 /// second. Its responses are rendered every degree, so a second of it costs 360 of them.
 pub const MAX_TURN_DEG_S: f64 = 360.0;
-/// The speed of sound accepted (m/s).
-pub const SPEED_RANGE: (f64, f64) = (50.0, 5000.0);
+/// The speed of sound accepted (m/s): the geometry's range, one for every input.
+pub const SPEED_RANGE: (f64, f64) = crate::geometry::SPEED_OF_SOUND_RANGE;
 
 macro_rules! require {
     ($ok:expr, $($arg:tt)*) => {

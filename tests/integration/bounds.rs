@@ -287,3 +287,87 @@ fn evaluate_refuses_values_that_cannot_be_meant() {
         .unwrap();
     assert!(example.status.success(), "{}", stderr(&example));
 }
+
+#[test]
+fn a_speed_of_sound_outside_50_to_5000_m_s_is_refused_everywhere() {
+    let dir = tempdir();
+    let d = dir.path();
+    let wav = testdata("example.wav");
+    let prism = testdata("prism.toml");
+    let (wav, prism) = (s(&wav), s(&prism));
+    // On the command line: a usage error naming the range (1e-304 panicked the steered
+    // search, 1e-16 to 1e-303 analysed nonsense, 0.01 advised an impossible frame).
+    for c in ["1e-304", "1e-16", "0.01", "49", "5001", "1e300"] {
+        for args in [
+            vec!["analyze", wav, "-g", prism, "-c", c],
+            vec!["geometry", prism, "-c", c],
+        ] {
+            let out = ssl().args(&args).output().unwrap();
+            let err = stderr(&out);
+            assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+            assert!(err.contains("50 to 5000 m/s"), "{args:?}: {err}");
+            assert!(!err.contains("panicked"), "{args:?}: {err}");
+        }
+    }
+    // In a geometry file: a data error naming the file and the range.
+    let text = format!("speed_of_sound = 1e-308\n{ARRAY}");
+    write(d, "slow.toml", text);
+    refused(
+        d,
+        &["geometry", "slow.toml"],
+        "speed_of_sound must be 50 to 5000 m/s",
+    );
+    // The range's ends are accepted.
+    for c in ["50", "5000", "343"] {
+        let out = ssl().args(["geometry", prism, "-c", c]).output().unwrap();
+        assert!(out.status.success(), "-c {c}: {}", stderr(&out));
+    }
+}
+
+#[test]
+fn completions_to_a_full_disk_is_an_error_line_not_a_panic() {
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let out = ssl()
+        .args(["completions", "bash"])
+        .stdout(full)
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("cannot write standard output"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+}
+
+#[test]
+fn plot_refuses_a_result_with_a_number_that_is_not_finite() {
+    let dir = tempdir();
+    let d = dir.path();
+    let header = "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics,source";
+    write(
+        d,
+        "rows.csv",
+        format!("{header}\ninf,30,10,0.85,0.49,0.17,5,a.wav,9,8,1\n"),
+    );
+    refused(
+        d,
+        &["plot", "rows.csv", "-o", "r.svg"],
+        "row 1: a detection's time_s is not a finite number",
+    );
+    let header =
+        "file,source,start_s,end_s,azimuth_deg,elevation_deg,x,y,z,spread_deg,detections,score";
+    write(
+        d,
+        "events.csv",
+        format!("{header}\na.wav,1,0.1,Infinity,30,10,0.85,0.49,0.17,0.1,40,5\n"),
+    );
+    refused(
+        d,
+        &["plot", "events.csv", "-o", "e.svg"],
+        "row 1: an event's end_s is not a finite number",
+    );
+    assert!(!d.join("r.svg").exists() && !d.join("e.svg").exists());
+}
