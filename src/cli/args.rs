@@ -255,13 +255,17 @@ pub struct AnalyzeArgs {
     pub smooth_s: f64,
 
     /// Threads to analyse with (0: all cores); the output is the same for any number
-    #[arg(short = 'j', long, default_value_t = 0, value_name = "N")]
-    pub threads: usize,
+    #[arg(short = 'j', long, default_value_t = 0, value_name = "N", value_parser = clap::value_parser!(u16).range(0..=MAX_THREADS as i64))]
+    pub threads: u16,
 
     /// No progress bar and no warnings (errors are still reported)
     #[arg(short, long)]
     pub quiet: bool,
 }
+
+/// The most threads `--threads` takes: more than the cores of any machine this runs on;
+/// each thread costs memory and start-up time, and thousands only fail to start.
+pub const MAX_THREADS: u16 = 1024;
 
 #[derive(Debug, Args)]
 pub struct GeometryArgs {

@@ -31,7 +31,7 @@ pub fn main() -> i32 {
     sink::remove_temporaries_on_interrupt();
     let result = match cli.command {
         Command::Analyze(args) => rayon::ThreadPoolBuilder::new()
-            .num_threads(args.threads)
+            .num_threads(args.threads as usize)
             .build()
             .map_err(anyhow::Error::from)
             .and_then(|pool| pool.install(|| analyze::run(&args))),

@@ -371,3 +371,14 @@ fn plot_refuses_a_result_with_a_number_that_is_not_finite() {
     );
     assert!(!d.join("r.svg").exists() && !d.join("e.svg").exists());
 }
+
+#[test]
+fn threads_are_bounded() {
+    let wav = testdata("example.wav");
+    let prism = testdata("prism.toml");
+    let args = ["analyze", s(&wav), "-g", s(&prism), "-j", "10000"];
+    let out = ssl().args(args).output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--threads") && err.contains("1024"), "{err}");
+}
