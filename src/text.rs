@@ -44,3 +44,41 @@ pub(crate) fn fixed(v: f64, decimals: i32) -> f64 {
     let f = 10f64.powi(decimals);
     (v * f).round() / f + 0.0
 }
+
+/// Exactly `N` numbers from a TOML array, for `#[serde(deserialize_with)]`: serde's own
+/// arrays take the first `N` of a longer one and drop the rest without a word
+/// (`position = [0.1, 0, 0, 1000]` was read as `[0.1, 0, 0]`).
+pub(crate) fn numbers<'de, D, const N: usize>(d: D) -> Result<[f64; N], D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    exactly(serde::Deserialize::deserialize(d)?)
+}
+
+/// [`numbers`] of an optional key (with `#[serde(default)]`).
+pub(crate) fn numbers_opt<'de, D, const N: usize>(d: D) -> Result<Option<[f64; N]>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let v: Option<Vec<f64>> = serde::Deserialize::deserialize(d)?;
+    v.map(exactly).transpose()
+}
+
+/// An optional list of [`numbers`] (with `#[serde(default)]`): `[[0.1, 0.5], [1.0, 2.0]]`.
+#[cfg(feature = "simulate")]
+pub(crate) fn numbers_list_opt<'de, D, const N: usize>(
+    d: D,
+) -> Result<Option<Vec<[f64; N]>>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let v: Option<Vec<Vec<f64>>> = serde::Deserialize::deserialize(d)?;
+    v.map(|list| list.into_iter().map(exactly).collect())
+        .transpose()
+}
+
+fn exactly<E: serde::de::Error, const N: usize>(v: Vec<f64>) -> Result<[f64; N], E> {
+    let len = v.len();
+    v.try_into()
+        .map_err(|_| E::invalid_length(len, &format!("an array of {N} numbers").as_str()))
+}

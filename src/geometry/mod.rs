@@ -86,6 +86,7 @@ pub const MAX_APERTURE_M: f64 = 5.0;
 struct GeometryFile {
     name: Option<String>,
     speed_of_sound: Option<f64>,
+    #[serde(default, deserialize_with = "crate::text::numbers_opt")]
     side: Option<[f64; 3]>,
     #[serde(default)]
     mic: Vec<MicEntry>,
@@ -94,6 +95,7 @@ struct GeometryFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MicEntry {
+    #[serde(deserialize_with = "crate::text::numbers")]
     position: [f64; 3],
     channel: Option<usize>,
 }

@@ -61,6 +61,7 @@ pub enum SampleFormat {
 #[serde(deny_unknown_fields)]
 pub struct RoomSpec {
     /// Length (x), width (y), height (z) in metres.
+    #[serde(deserialize_with = "crate::text::numbers")]
     pub dimensions: [f64; 3],
     /// Reverberation time (seconds); give this or `absorption`.
     pub rt60: Option<f64>,
@@ -75,6 +76,7 @@ pub struct ArraySpec {
     /// Geometry file, relative to the scene file.
     pub geometry: PathBuf,
     /// The array centre in the room (metres).
+    #[serde(deserialize_with = "crate::text::numbers")]
     pub position: [f64; 3],
     /// Azimuth of the array's +x axis in the room (degrees).
     #[serde(default)]
@@ -104,6 +106,7 @@ pub enum SignalKind {
 #[serde(deny_unknown_fields)]
 pub struct SourceSpec {
     /// Room position (metres); or give `azimuth_deg`, `elevation_deg`, `distance`.
+    #[serde(default, deserialize_with = "crate::text::numbers_opt")]
     pub position: Option<[f64; 3]>,
     /// Azimuth from the array, array frame (degrees).
     pub azimuth_deg: Option<f64>,
@@ -117,6 +120,7 @@ pub struct SourceSpec {
     #[serde(default = "default_level")]
     pub level_db: f64,
     /// Active intervals `[start, end]` in seconds (default: the whole scene).
+    #[serde(default, deserialize_with = "crate::text::numbers_list_opt")]
     pub active: Option<Vec<[f64; 2]>>,
     /// Clicks per second.
     pub rate: Option<f64>,
@@ -171,6 +175,7 @@ fn default_snr() -> f64 {
 #[serde(deny_unknown_fields)]
 pub struct FanSpec {
     /// Room position (metres).
+    #[serde(deserialize_with = "crate::text::numbers")]
     pub position: [f64; 3],
     /// Its colour.
     #[serde(default)]

@@ -382,3 +382,60 @@ fn threads_are_bounded() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("--threads") && err.contains("1024"), "{err}");
 }
+
+#[test]
+fn toml_arrays_with_extra_numbers_are_errors() {
+    let dir = tempdir();
+    let d = dir.path();
+    // A geometry's position and side.
+    let mic4 = ARRAY.replacen(
+        "position = [0.1, 0.0, 0.0]",
+        "position = [0.1, 0.0, 0.0, 1000]",
+        1,
+    );
+    write(d, "mic4.toml", &mic4);
+    refused(
+        d,
+        &["geometry", "mic4.toml"],
+        "expected an array of 3 numbers",
+    );
+    write(
+        d,
+        "side4.toml",
+        format!("side = [0.0, 0.0, 1.0, 5.0]\n{ARRAY}"),
+    );
+    refused(
+        d,
+        &["geometry", "side4.toml"],
+        "expected an array of 3 numbers",
+    );
+    // A scene's room, its array's position, a source's position and intervals, a fan.
+    let room = "[room]\ndimensions = [5.0, 4.0, 3.0, 9.0]\nrt60 = 0.3";
+    let fan = "[noise]\nsnr_db = 10\n[[noise.fan]]\nposition = [1.0, 1.0, 1.0, 1.0]\n";
+    let source_at = "[[source]]\nposition = [1.0, 1.0, 1.0, 1.0]\nsignal = \"white\"\n";
+    let three = "[[source]]\nazimuth_deg = 30.0\ndistance = 1.0\nsignal = \"white\"\nactive = [[0.1, 0.5, 0.9]]\n";
+    for (head, body, needle) in [
+        (room, SOURCE.to_string(), "an array of 3 numbers"),
+        ("", format!("{SOURCE}{fan}"), "an array of 3 numbers"),
+        ("", source_at.to_string(), "an array of 3 numbers"),
+        ("", three.to_string(), "an array of 2 numbers"),
+    ] {
+        let scene = scene_file(d, head, &body);
+        refused(d, &["simulate", &scene, "-o", "x.wav"], needle);
+    }
+    // The array's position in the room.
+    let scene = scene_file(d, "", SOURCE);
+    let text = std::fs::read_to_string(d.join(&scene)).unwrap();
+    let array4 = "position = [2.0, 2.0, 1.0, 7.0]";
+    write(
+        d,
+        &scene,
+        text.replace("position = [2.0, 2.0, 1.0]", array4),
+    );
+    refused(
+        d,
+        &["simulate", "scene.toml", "-o", "x.wav"],
+        "an array of 3 numbers",
+    );
+    assert!(!d.join("x.wav").exists());
+}
