@@ -6,7 +6,6 @@ use ssl::evaluate::evaluate;
 use ssl::record::{parse_detections, read_detections, MAX_RESULT_BYTES};
 use ssl::stream::{io_reason, read_text_from};
 use ssl::Truth;
-use std::io::Write;
 use std::path::Path;
 
 /// Runs `ssl evaluate`. `-` reads the result (or the truth) from standard input.
@@ -35,8 +34,5 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
     } else {
         report.table()
     };
-    let mut out = std::io::stdout().lock();
-    out.write_all(text.as_bytes())?;
-    out.flush()?;
-    Ok(())
+    super::print(text.as_bytes())
 }

@@ -6,7 +6,6 @@ use ssl::method::default_frame_size;
 use ssl::record::ambiguity_note;
 use ssl::Geometry;
 use std::fmt::Write as _;
-use std::io::Write;
 
 /// Runs `ssl geometry`.
 pub fn run(args: &GeometryArgs) -> Result<()> {
@@ -21,10 +20,7 @@ pub fn run(args: &GeometryArgs) -> Result<()> {
         args.rate,
         args.speed_of_sound.unwrap_or(g.speed_of_sound),
     );
-    let mut out = std::io::stdout().lock();
-    out.write_all(text.as_bytes())?;
-    out.flush()?;
-    Ok(())
+    super::print(text.as_bytes())
 }
 
 /// The report: a summary, the microphones, and every pair's largest delay at `rate`.

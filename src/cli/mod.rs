@@ -56,12 +56,18 @@ pub fn main() -> i32 {
 /// fails, so the script is made in memory and written here, where a failure (a full
 /// disk, a closed output) is an error line like any other.
 fn completions(shell: clap_complete::Shell) -> anyhow::Result<()> {
-    use std::io::Write;
     let mut cmd = <Cli as clap::CommandFactory>::command();
     let mut script = Vec::new();
     clap_complete::generate(shell, &mut cmd, "ssl", &mut script);
+    print(&script)
+}
+
+/// Writes `text` to standard output; a failure names it (`cannot write standard output:
+/// No space left on device`), and a reader that went away ends the run quietly.
+fn print(text: &[u8]) -> anyhow::Result<()> {
+    use std::io::Write;
     let mut out = std::io::stdout().lock();
-    out.write_all(&script)
+    out.write_all(text)
         .and_then(|()| out.flush())
         .map_err(|e| match e.kind() {
             std::io::ErrorKind::BrokenPipe => BrokenPipe.into(),

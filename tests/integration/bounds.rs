@@ -325,21 +325,38 @@ fn a_speed_of_sound_outside_50_to_5000_m_s_is_refused_everywhere() {
 }
 
 #[test]
-fn completions_to_a_full_disk_is_an_error_line_not_a_panic() {
-    let full = std::fs::OpenOptions::new()
-        .write(true)
-        .open("/dev/full")
-        .unwrap();
+fn printing_to_a_full_disk_is_an_error_line_naming_standard_output() {
+    let prism = testdata("prism.toml");
+    let truth = testdata("example.truth.json");
+    let dir = tempdir();
+    let result = dir.path().join("r.csv");
+    let wav = testdata("example.wav");
     let out = ssl()
-        .args(["completions", "bash"])
-        .stdout(full)
+        .args(["analyze", s(&wav), "-g", s(&prism), "-o", s(&result)])
         .output()
         .unwrap();
-    let err = stderr(&out);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("cannot write standard output"), "{err}");
-    assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(out.status.success(), "{}", stderr(&out));
+    // completions panicked (clap_complete's writer); geometry and evaluate said only
+    // "No space left on device".
+    for args in [
+        vec!["completions", "bash"],
+        vec!["geometry", s(&prism)],
+        vec!["evaluate", "--truth", s(&truth), s(&result)],
+    ] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = ssl().args(&args).stdout(full).output().unwrap();
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains("cannot write standard output: No space left on device"),
+            "{args:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    }
 }
 
 #[test]
