@@ -2,7 +2,7 @@
 //! file, in any of the three formats, with the array and the threshold when the result
 //! is a JSON document.
 
-use crate::record::{first_non_finite, DetectionRecord, EventRecord, ReadError};
+use crate::record::{DetectionRecord, EventRecord, ReadError};
 use serde_json::Value;
 
 /// One file's rows.
@@ -44,16 +44,7 @@ impl PlotData {
     /// Adds a detection; one with a value that is not finite (`inf` in a CSV) is
     /// refused: nothing can be drawn of it, and it would stretch the axes without end.
     fn add_detection(&mut self, r: DetectionRecord) -> Result<(), String> {
-        let values = [
-            ("time_s", r.time_s),
-            ("azimuth_deg", r.azimuth_deg),
-            ("elevation_deg", r.elevation_deg),
-            ("x", r.x),
-            ("y", r.y),
-            ("z", r.z),
-            ("score", r.score),
-        ];
-        if let Some(field) = first_non_finite(&values) {
+        if let Some(field) = r.non_finite() {
             return Err(format!("a detection's {field} is not a finite number"));
         }
         let name = r.file.clone();
@@ -63,18 +54,7 @@ impl PlotData {
 
     /// Adds an event; one with a value that is not finite is refused.
     fn add_event(&mut self, e: EventRecord) -> Result<(), String> {
-        let values = [
-            ("start_s", e.start_s),
-            ("end_s", e.end_s),
-            ("azimuth_deg", e.azimuth_deg),
-            ("elevation_deg", e.elevation_deg),
-            ("x", e.x),
-            ("y", e.y),
-            ("z", e.z),
-            ("spread_deg", e.spread_deg),
-            ("score", e.score),
-        ];
-        if let Some(field) = first_non_finite(&values) {
+        if let Some(field) = e.non_finite() {
             return Err(format!("an event's {field} is not a finite number"));
         }
         let name = e.file.clone();

@@ -61,16 +61,7 @@ impl DetectionRecord {
             mics: Some(d.mics),
             source,
         };
-        let values = [
-            ("time_s", record.time_s),
-            ("azimuth_deg", record.azimuth_deg),
-            ("elevation_deg", record.elevation_deg),
-            ("x", record.x),
-            ("y", record.y),
-            ("z", record.z),
-            ("score", record.score),
-        ];
-        match first_non_finite(&values) {
+        match record.non_finite() {
             Some(field) => Err(OutputError::NonFinite {
                 field,
                 file: file.to_string(),
@@ -78,5 +69,19 @@ impl DetectionRecord {
             }),
             None => Ok(record),
         }
+    }
+
+    /// The first of its numbers that is NaN or infinite, by field name: such a record is
+    /// never written, nor read back.
+    pub(crate) fn non_finite(&self) -> Option<&'static str> {
+        first_non_finite(&[
+            ("time_s", self.time_s),
+            ("azimuth_deg", self.azimuth_deg),
+            ("elevation_deg", self.elevation_deg),
+            ("x", self.x),
+            ("y", self.y),
+            ("z", self.z),
+            ("score", self.score),
+        ])
     }
 }

@@ -53,18 +53,7 @@ impl EventRecord {
             detections: e.detections,
             score: fixed(e.score, 4),
         };
-        let values = [
-            ("start_s", record.start_s),
-            ("end_s", record.end_s),
-            ("azimuth_deg", record.azimuth_deg),
-            ("elevation_deg", record.elevation_deg),
-            ("x", record.x),
-            ("y", record.y),
-            ("z", record.z),
-            ("spread_deg", record.spread_deg),
-            ("score", record.score),
-        ];
-        match first_non_finite(&values) {
+        match record.non_finite() {
             Some(field) => Err(OutputError::NonFiniteEvent {
                 field,
                 file: file.to_string(),
@@ -72,5 +61,21 @@ impl EventRecord {
             }),
             None => Ok(record),
         }
+    }
+
+    /// The first of its numbers that is NaN or infinite, by field name: such a record is
+    /// never written, nor read back.
+    pub(crate) fn non_finite(&self) -> Option<&'static str> {
+        first_non_finite(&[
+            ("start_s", self.start_s),
+            ("end_s", self.end_s),
+            ("azimuth_deg", self.azimuth_deg),
+            ("elevation_deg", self.elevation_deg),
+            ("x", self.x),
+            ("y", self.y),
+            ("z", self.z),
+            ("spread_deg", self.spread_deg),
+            ("score", self.score),
+        ])
     }
 }
