@@ -2,7 +2,8 @@
 //!
 //! Nothing is written until a file gives its first frame: when every input fails, an
 //! existing `-o` file is left as it was and standard output gets nothing (the errors are
-//! on standard error, and the exit status is 1).
+//! on standard error, and the exit status is 1). When some file fails, `-o` is left as
+//! it was too, and the results go to `<stem>.partial.<ext>` beside it.
 
 use super::args::AnalyzeArgs;
 use super::sink::{same_file, Sink};
@@ -152,7 +153,12 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let sink = buffered
         .into_inner()
         .map_err(|e| out.failed(e.into_error().into()))?;
-    sink.commit()?;
+    if all_ok {
+        sink.commit()?;
+    } else if let Some(note) = sink.set_aside()? {
+        // A failed run leaves `-o` as it was; what was read is kept under another name.
+        error(&note);
+    }
     Ok(all_ok)
 }
 

@@ -28,7 +28,7 @@ pub fn main() -> i32 {
             return code;
         }
     };
-    sink::remove_temporaries_on_interrupt();
+    sink::remove_temporaries_on_signal();
     let result = match cli.command {
         Command::Analyze(args) => rayon::ThreadPoolBuilder::new()
             .num_threads(args.threads as usize)

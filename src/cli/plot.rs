@@ -37,6 +37,10 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     {
         bail!("standard input (-) can be read only once");
     }
+    // The output is checked against the inputs before anything is read.
+    let mut inputs: Vec<&Path> = args.results.iter().map(PathBuf::as_path).collect();
+    inputs.extend(args.truth.as_deref());
+    let mut sink = Sink::open(args.output.as_deref(), &inputs)?;
     let mut data = PlotData::default();
     for path in &args.results {
         let one = parse_result(&text(path, MAX_RESULT_BYTES)?).with_context(|| shown(path))?;
@@ -74,9 +78,6 @@ pub fn run(args: &PlotArgs) -> Result<()> {
         truth.as_ref().zip(report.as_ref()),
     )
     .map_err(|e| anyhow::anyhow!("{}: {e}", shown(&args.results[0])))?;
-    let mut inputs: Vec<&Path> = args.results.iter().map(PathBuf::as_path).collect();
-    inputs.extend(args.truth.as_deref());
-    let mut sink = Sink::open(args.output.as_deref(), &inputs)?;
     sink.write_all(svg.as_bytes())
         .map_err(|e| anyhow::anyhow!("cannot write {}: {}", sink.shown(), io_reason(&e)))?;
     sink.commit()

@@ -3,9 +3,9 @@
 use super::args::SimulateArgs;
 use super::sink::Sink;
 use anyhow::{bail, Result};
-use ssl::sim::{simulate_file, write_wav};
+use ssl::sim::{simulate_read, write_wav, SceneFile};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Runs `ssl simulate`.
 pub fn run(args: &SimulateArgs) -> Result<()> {
@@ -13,9 +13,14 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         .truth
         .clone()
         .unwrap_or_else(|| args.output.with_extension("truth.json"));
-    // Both outputs are checked against the inputs (and each other) before anything runs.
-    let wav = Sink::open(Some(&args.output), &[&args.scene, &truth_path])?;
-    let mut truth_sink = Sink::open(Some(&truth_path), &[&args.scene, &args.output])?;
+    // Both outputs are checked against every file the scene reads (and each other)
+    // before anything runs.
+    let scene = SceneFile::from_file(&args.scene)?;
+    let read = scene.files_read(args.scene.parent().unwrap_or(Path::new(".")));
+    let mut inputs: Vec<&Path> = read.iter().map(PathBuf::as_path).collect();
+    inputs.push(&args.scene);
+    let wav = Sink::open(Some(&args.output), &[&inputs[..], &[&truth_path]].concat())?;
+    let mut truth_sink = Sink::open(Some(&truth_path), &[&inputs[..], &[&args.output]].concat())?;
     if truth_path == args.output || truth_path == Path::new("-") && args.output == Path::new("-") {
         bail!(
             "{}: the WAV file and the truth need two outputs",
@@ -29,7 +34,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             args.output.display()
         );
     };
-    let sim = simulate_file(&args.scene)?;
+    let sim = simulate_read(&scene, &args.scene)?;
     write_wav(tmp, &sim.channels, sim.sample_rate, sim.format.into())
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", wav.shown()))?;
     let mut truth = sim.truth;

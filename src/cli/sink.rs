@@ -3,45 +3,100 @@
 //! - standard output (`-o -` or no `-o`), which must be open;
 //! - a regular file, written to a temporary file beside it and renamed onto it when the
 //!   run completes, so a failed or interrupted run leaves the old file, or nothing;
+//! - a descriptor named as a file (`/dev/stdout`, `/dev/stderr`, `/dev/fd/N`,
+//!   `/proc/self/fd/N`), written through that descriptor, so `>> log` appends and a pipe
+//!   works;
 //! - a device or pipe given as `-o` (`/dev/null`, a FIFO), written in place.
 //!
-//! An output that is one of the command's inputs is refused before anything is written.
-//! A new file gets the user's umask; a replaced file keeps its mode, and a read-only
-//! file is not replaced. Temporary files are removed when the process is interrupted
-//! (SIGINT, SIGTERM, SIGHUP).
+//! An output that is one of the files the command reads is refused before anything is
+//! written, compared as files (device and inode), with `-` resolved to the file behind
+//! standard input. A new file gets the user's umask; a replaced file keeps its mode, and
+//! a read-only file is not replaced. Temporary files are removed when a signal ends the
+//! process, and no signal lands between the renames of a commit.
 
 use anyhow::{bail, Context, Result};
 use ssl::stream::io_reason;
 use std::fs::{File, Permissions};
 use std::io::{self, Write};
 use std::os::fd::AsFd;
-use std::os::unix::fs::{MetadataExt, PermissionsExt};
+use std::os::unix::fs::{MetadataExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// Temporary files to remove if the process is interrupted.
+/// Temporary files to remove if a signal ends the process.
 static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
-/// Removes the temporary files on SIGINT, SIGTERM and SIGHUP, then exits with 130.
-pub fn remove_temporaries_on_interrupt() {
-    // Only fails when a handler is already set, which this binary never does twice.
-    let _ = ctrlc::set_handler(|| {
-        if let Ok(paths) = TEMPORARIES.lock() {
-            for p in paths.iter() {
-                let _ = std::fs::remove_file(p);
+/// Held while outputs are renamed into place: a signal waits for the commit to end, so
+/// `ssl simulate`'s two files are both replaced or neither at every instant.
+static COMMIT: Mutex<()> = Mutex::new(());
+
+/// The signals whose default action ends the process: each removes the temporary files
+/// and exits with 128 + its number, after any commit under way. SIGXFSZ (a file size
+/// limit, `ulimit -f`) is caught instead, so the write that passes the limit fails with
+/// "File too large" and the run ends with that error line.
+pub fn remove_temporaries_on_signal() {
+    use signal_hook::consts::signal::*;
+    let ending = [
+        SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPROF, SIGXCPU,
+    ];
+    let xfsz = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    // Registration fails only for a forbidden signal (SIGKILL, SIGSTOP), none of these.
+    let _ = signal_hook::flag::register(SIGXFSZ, xfsz);
+    let Ok(mut signals) = signal_hook::iterator::Signals::new(ending) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            let _commit = COMMIT.lock();
+            if let Ok(paths) = TEMPORARIES.lock() {
+                for p in paths.iter() {
+                    let _ = std::fs::remove_file(p);
+                }
             }
+            let name = signal_hook::low_level::signal_name(signal).unwrap_or("a signal");
+            if signal == SIGINT {
+                eprintln!("ssl: interrupted");
+            } else {
+                eprintln!("ssl: ended by {name}");
+            }
+            std::process::exit(128 + signal);
         }
-        eprintln!("ssl: interrupted");
-        std::process::exit(130);
     });
 }
 
-/// A temporary file beside its target, registered for removal on interrupt; removed
+/// A temporary file beside its target, registered for removal on a signal; removed
 /// when dropped unless renamed onto the target.
 struct Temporary(Option<tempfile::NamedTempFile>);
 
 impl Temporary {
     fn new(target: &Path, mode: Option<u32>) -> io::Result<Self> {
+        Self::make(target, |path| {
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                // A new file: read and write for all, less the umask (as any program's).
+                .mode(0o666)
+                .open(path)?;
+            if let Some(mode) = mode {
+                // A replaced file keeps its mode (which the umask must not narrow).
+                file.set_permissions(Permissions::from_mode(mode))?;
+            }
+            Ok(file)
+        })
+    }
+
+    /// A second name for `target`'s file (a hard link, or a copy where links are not
+    /// supported): its old contents, kept until a commit is complete.
+    fn backup(target: &Path) -> io::Result<Self> {
+        Self::make(target, |path| {
+            if std::fs::hard_link(target, path).is_err() {
+                std::fs::copy(target, path)?;
+            }
+            std::fs::OpenOptions::new().append(true).open(path)
+        })
+    }
+
+    fn make(target: &Path, create: impl Fn(&Path) -> io::Result<File>) -> io::Result<Self> {
         let dir = match target.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
@@ -50,13 +105,7 @@ impl Temporary {
         let tmp = tempfile::Builder::new()
             .prefix(".ssl-")
             .suffix(".tmp")
-            // A new file: read and write for all, less the umask (as any program's).
-            .permissions(Permissions::from_mode(0o666))
-            .tempfile_in(dir)?;
-        if let Some(mode) = mode {
-            // A replaced file keeps its mode (which the umask must not narrow).
-            std::fs::set_permissions(tmp.path(), Permissions::from_mode(mode))?;
-        }
+            .make_in(dir, |path| create(path))?;
         registry.push(tmp.path().to_path_buf());
         Ok(Temporary(Some(tmp)))
     }
@@ -109,29 +158,47 @@ enum Kind {
 }
 
 impl Sink {
-    /// Standard output (`None` or `-`), or `path`, which must not be one of `inputs`
-    /// (compared as files, not as spellings; symlinks are followed, so a link stays a
-    /// link).
+    /// Standard output (`None` or `-`), or `path`, which must not be one of the files
+    /// the command reads, `inputs` (compared as files, not as spellings; `-` is the file
+    /// behind standard input; symlinks are followed, so a link stays a link).
     pub fn open(path: Option<&Path>, inputs: &[&Path]) -> Result<Self> {
+        let refuse_input = |output: Option<FileId>, shown: &str| -> Result<()> {
+            let Some(output) = output else { return Ok(()) };
+            if let Some(input) = inputs.iter().find(|i| FileId::of(i) == Some(output)) {
+                if *input == Path::new("-") {
+                    bail!("{shown}: the output is the file standard input reads; choose another output file");
+                }
+                bail!(
+                    "{shown}: the output is the input {}; choose another output file",
+                    input.display()
+                );
+            }
+            Ok(())
+        };
         let Some(path) = path.filter(|p| *p != Path::new("-")) else {
             if stdout_was_closed() {
                 bail!("cannot write to standard output: it is closed (>&-); redirect it to a file or use -o");
             }
-            let file = io::stdout().as_fd().try_clone_to_owned().map_err(|e| {
+            let file = File::from(io::stdout().as_fd().try_clone_to_owned().map_err(|e| {
                 anyhow::anyhow!("cannot write to standard output: {}", io_reason(&e))
-            })?;
+            })?);
+            refuse_input(FileId::of_file(&file), "standard output")?;
             return Ok(Sink {
-                kind: Kind::Stdout(File::from(file)),
+                kind: Kind::Stdout(file),
                 shown: "standard output".into(),
             });
         };
         let shown = path.display().to_string();
-        if let Some(input) = inputs.iter().find(|i| same_file(path, i)) {
-            bail!(
-                "{shown}: the output is the input {}; choose another output file",
-                input.display()
-            );
+        if let Some(file) = descriptor(path) {
+            let file =
+                file.map_err(|e| anyhow::anyhow!("cannot write {shown}: {}", io_reason(&e)))?;
+            refuse_input(FileId::of_file(&file), &shown)?;
+            return Ok(Sink {
+                kind: Kind::Direct(file),
+                shown,
+            });
         }
+        refuse_input(FileId::of(path), &shown)?;
         let target = if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
             std::fs::canonicalize(path)
                 .with_context(|| format!("{shown}: cannot follow the link"))?
@@ -150,6 +217,7 @@ impl Sink {
                 bail!("{shown}: is read-only; it is not replaced (make it writable, or choose another output file)")
             }
             existing => {
+                check_directory(&target, &shown)?;
                 let mode = existing.ok().map(|m| m.permissions().mode() & 0o7777);
                 let tmp = Temporary::new(&target, mode)
                     .map_err(|e| anyhow::anyhow!("cannot write {shown}: {}", io_reason(&e)))?;
@@ -187,31 +255,56 @@ impl Sink {
     pub fn commit(mut self) -> Result<()> {
         self.flush().map_err(|e| self.write_error(&e))?;
         if let Kind::Atomic(tmp, target) = self.kind {
+            let _commit = COMMIT.lock();
             tmp.persist(&target)
                 .map_err(|e| anyhow::anyhow!("cannot write {}: {}", self.shown, io_reason(&e)))?;
         }
         Ok(())
     }
 
-    /// Completes two outputs together: both are replaced, or neither (when the second
-    /// cannot be renamed into place, the first target gets its old contents back).
+    /// Ends a run that failed: the target is left as it was (or not made), and what was
+    /// written goes beside it as `<stem>.partial.<ext>` (replacing an earlier one). The
+    /// line that says so is returned; `None` for standard output, devices and pipes,
+    /// which were written as the run went.
+    pub fn set_aside(mut self) -> Result<Option<String>> {
+        self.flush().map_err(|e| self.write_error(&e))?;
+        let Kind::Atomic(tmp, target) = self.kind else {
+            return Ok(None);
+        };
+        let partial = partial_name(&target);
+        let kept = if target.exists() {
+            "left as it was"
+        } else {
+            "not written"
+        };
+        let _commit = COMMIT.lock();
+        tmp.persist(&partial).map_err(|e| {
+            anyhow::anyhow!("cannot write {}: {}", partial.display(), io_reason(&e))
+        })?;
+        Ok(Some(format!(
+            "{}: {kept}, since a file failed; the results of what was read are in {}",
+            self.shown,
+            partial.display()
+        )))
+    }
+
+    /// Completes two outputs together: both are replaced, or neither, at every instant
+    /// a signal could see (the first target keeps a second name for its old contents
+    /// until the second is in place, and signals wait for the commit).
     pub fn commit_both(mut self, mut second: Sink) -> Result<()> {
         self.flush().map_err(|e| self.write_error(&e))?;
         second.flush().map_err(|e| second.write_error(&e))?;
         let Kind::Atomic(tmp, target) = self.kind else {
             return second.commit();
         };
-        // Keep the first target's old contents until the second is in place.
-        let backup = match std::fs::metadata(&target) {
-            Ok(_) => {
-                let backup = Temporary::new(&target, None)?;
-                std::fs::rename(&target, backup.path()).map_err(|e| {
+        let _commit = COMMIT.lock();
+        let backup =
+            match std::fs::metadata(&target) {
+                Ok(_) => Some(Temporary::backup(&target).map_err(|e| {
                     anyhow::anyhow!("cannot write {}: {}", self.shown, io_reason(&e))
-                })?;
-                Some(backup)
-            }
-            Err(_) => None,
-        };
+                })?),
+                Err(_) => None,
+            };
         let restore = |backup: Option<Temporary>| match backup {
             Some(b) => {
                 let _ = b.persist(&target);
@@ -221,10 +314,22 @@ impl Sink {
             }
         };
         if let Err(e) = tmp.persist(&target) {
-            restore(backup);
             bail!("cannot write {}: {}", self.shown, io_reason(&e));
         }
-        if let Err(e) = second.commit() {
+        // A seam for the test that signals the process between the two renames.
+        if let Some(ms) = std::env::var("SSL_TEST_COMMIT_PAUSE_MS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+        {
+            std::thread::sleep(std::time::Duration::from_millis(ms));
+        }
+        let second_result = match second.kind {
+            Kind::Atomic(tmp, ref second_target) => tmp
+                .persist(second_target)
+                .map_err(|e| anyhow::anyhow!("cannot write {}: {}", second.shown, io_reason(&e))),
+            _ => Ok(()),
+        };
+        if let Err(e) = second_result {
             restore(backup);
             return Err(e);
         }
@@ -265,10 +370,84 @@ fn stdout_was_closed() -> bool {
     is_null && read_write
 }
 
-/// Whether `a` and `b` name the same existing file (device and inode, links followed).
-pub fn same_file(a: &Path, b: &Path) -> bool {
-    match (std::fs::metadata(a), std::fs::metadata(b)) {
-        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
-        _ => false,
+/// A regular file's identity: its device and inode.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct FileId(u64, u64);
+
+impl FileId {
+    /// The regular file `path` names (links followed), or the one behind standard input
+    /// for `-`; `None` for anything else (a pipe, a terminal, a missing file), which no
+    /// output can overwrite.
+    pub fn of(path: &Path) -> Option<FileId> {
+        if path == Path::new("-") {
+            let file = File::from(io::stdin().as_fd().try_clone_to_owned().ok()?);
+            return Self::of_file(&file);
+        }
+        Self::of_metadata(&std::fs::metadata(path).ok()?)
     }
+
+    fn of_file(file: &File) -> Option<FileId> {
+        Self::of_metadata(&file.metadata().ok()?)
+    }
+
+    fn of_metadata(m: &std::fs::Metadata) -> Option<FileId> {
+        m.is_file().then(|| FileId(m.dev(), m.ino()))
+    }
+}
+
+/// Whether `a` and `b` name the same regular file (`-` is the one behind standard input).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    FileId::of(a).is_some_and(|x| FileId::of(b) == Some(x))
+}
+
+/// The descriptor a path names (`/dev/stdout`, `/dev/stderr`, `/dev/fd/N`,
+/// `/proc/self/fd/N`), opened for writing through it: standard output and error are
+/// duplicated, so they keep their offset and append mode; another descriptor is reopened
+/// to append. `None` for any other path.
+fn descriptor(path: &Path) -> Option<io::Result<File>> {
+    let text = path.to_str()?;
+    let n: u32 = match text {
+        "/dev/stdout" => 1,
+        "/dev/stderr" => 2,
+        "/dev/stdin" => 0,
+        _ => text
+            .strip_prefix("/dev/fd/")
+            .or_else(|| text.strip_prefix("/proc/self/fd/"))?
+            .parse()
+            .ok()?,
+    };
+    Some(match n {
+        1 => io::stdout().as_fd().try_clone_to_owned().map(File::from),
+        2 => io::stderr().as_fd().try_clone_to_owned().map(File::from),
+        _ => std::fs::OpenOptions::new()
+            .append(true)
+            .open(format!("/proc/self/fd/{n}")),
+    })
+}
+
+/// Refuses an output whose directory does not exist or is not a directory, naming the
+/// directory (the file itself would be blamed otherwise).
+fn check_directory(target: &Path, shown: &str) -> Result<()> {
+    let Some(dir) = target.parent().filter(|d| !d.as_os_str().is_empty()) else {
+        return Ok(());
+    };
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(_) => bail!("cannot write {shown}: {} is not a directory", dir.display()),
+        Err(e) => bail!(
+            "cannot write {shown}: directory {}: {}",
+            dir.display(),
+            io_reason(&e)
+        ),
+    }
+}
+
+/// `out.csv` -> `out.partial.csv`; `out` -> `out.partial`.
+fn partial_name(target: &Path) -> PathBuf {
+    let stem = target.file_stem().unwrap_or_default().to_string_lossy();
+    let name = match target.extension() {
+        Some(ext) => format!("{stem}.partial.{}", ext.to_string_lossy()),
+        None => format!("{stem}.partial"),
+    };
+    target.with_file_name(name)
 }

@@ -22,7 +22,7 @@ pub mod signals;
 mod source;
 pub mod wav;
 
-pub use render::{simulate, simulate_file, Simulation};
+pub use render::{simulate, simulate_file, simulate_read, Simulation};
 pub use scene::SceneFile;
 pub use wav::{write_wav, Encoding};
 

@@ -30,9 +30,14 @@ pub struct Simulation {
 
 /// Reads and renders a scene file; relative paths in it are relative to its folder.
 pub fn simulate_file(path: &Path) -> Result<Simulation, SceneError> {
-    let scene = SceneFile::from_file(path)?;
+    simulate_read(&SceneFile::from_file(path)?, path)
+}
+
+/// Renders `scene`, read from the file `path` (which resolves its relative paths and
+/// names it in errors).
+pub fn simulate_read(scene: &SceneFile, path: &Path) -> Result<Simulation, SceneError> {
     let dir = path.parent().unwrap_or(Path::new("."));
-    simulate(&scene, dir).map_err(|error| SceneError::File {
+    simulate(scene, dir).map_err(|error| SceneError::File {
         path: path.to_path_buf(),
         error: Box::new(error),
     })

@@ -198,6 +198,19 @@ pub struct DiffuseSpec {
 }
 
 impl SceneFile {
+    /// Every file rendering the scene reads, besides the scene itself: the array's
+    /// geometry and the sources' WAV files, resolved against `dir` (the scene's folder).
+    /// An output must not be one of them.
+    pub fn files_read(&self, dir: &Path) -> Vec<PathBuf> {
+        std::iter::once(dir.join(&self.array.geometry))
+            .chain(
+                self.source
+                    .iter()
+                    .filter_map(|s| s.file.as_ref().map(|f| dir.join(f))),
+            )
+            .collect()
+    }
+
     /// Reads a scene file.
     pub fn from_file(path: &Path) -> Result<Self, SceneError> {
         let text = read_text(path, MAX_SCENE_BYTES).map_err(|error| SceneError::Read {

@@ -55,6 +55,19 @@ pub enum InputError {
         /// Sample rate (Hz).
         sample_rate: u32,
     },
+    /// The data ends inside a sample frame: bytes of a frame whose other channels or
+    /// bytes never came.
+    #[error("truncated WAV: the data ends {bytes} bytes into a sample frame of {block_align} bytes, after {read} whole frames ({:.3} s)", *read as f64 / *sample_rate as f64)]
+    PartialFrame {
+        /// Bytes of the incomplete frame.
+        bytes: u64,
+        /// Bytes of one sample frame (all channels).
+        block_align: u64,
+        /// Whole sample frames read.
+        read: u64,
+        /// Sample rate (Hz).
+        sample_rate: u32,
+    },
     /// A sample is NaN or infinite.
     #[error("sample {frame} of channel {channel} is {} (at {:.6} s): the recording is corrupt", if *nan { "NaN" } else { "infinite" }, *frame as f64 / *sample_rate as f64)]
     NonFinite {

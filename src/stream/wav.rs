@@ -38,6 +38,9 @@ pub struct WavStream {
     live: bool,
     /// Bytes of an incomplete sample frame at the start of `raw` (live inputs).
     partial: usize,
+    /// Bytes after the last whole sample frame of the data, when its length is known up
+    /// front (the header's, or a file's remainder when the header has a placeholder).
+    tail: u64,
 }
 
 impl WavStream {
@@ -143,20 +146,22 @@ impl WavStream {
         let (mut format, block_align) = parse_fmt(&fmt)?;
         let available = size.map(|s| s.saturating_sub(consumed));
         let mut notes = Vec::new();
-        format.frames = match (declared, available) {
+        let data_bytes = match (declared, available) {
             // 0 and 0xFFFFFFFF are the placeholders streaming writers leave: read to the end.
-            (0 | 0xFFFF_FFFF, _) if !rf64 => available.map(|a| a / block_align),
+            (0 | 0xFFFF_FFFF, _) if !rf64 => available,
             // 32-bit sizes wrap at 4 GiB: a regular file holding more than 4 GiB of data
             // beyond what the header says is read to its end.
             (d, Some(a)) if !rf64 && a >= 1 << 32 && a > d => {
-                let frames = a / block_align;
                 notes.push(format!(
-                    "the header's 32-bit data size ({d} bytes) wrapped past 4 GiB: read to the end of the file ({frames} sample frames)"
+                    "the header's 32-bit data size ({d} bytes) wrapped past 4 GiB: read to the end of the file ({} sample frames)",
+                    a / block_align
                 ));
-                Some(frames)
+                Some(a)
             }
-            (d, _) => Some(d / block_align),
+            (d, _) => Some(d),
         };
+        format.frames = data_bytes.map(|d| d / block_align);
+        let tail = data_bytes.map_or(0, |d| d % block_align);
         Ok(WavStream {
             name: name.to_string(),
             format,
@@ -169,6 +174,7 @@ impl WavStream {
             notes,
             live: size.is_none(),
             partial: 0,
+            tail,
         })
     }
 
@@ -190,6 +196,15 @@ impl WavStream {
         let mut want = out.len() / ch;
         if let Some(total) = self.format.frames {
             want = want.min((total - self.frames_read.min(total)) as usize);
+        }
+        if !self.done && self.format.frames == Some(self.frames_read) {
+            // Every promised frame is read: what follows is checked once.
+            self.done = true;
+            self.pending = if self.tail > 0 {
+                Some(self.partial_frame(self.tail))
+            } else {
+                self.check_after_data()
+            };
         }
         if let Some(e) = self.pending.take() {
             return Err(e);
@@ -235,20 +250,35 @@ impl WavStream {
         }
         if ended {
             // The input ended before the request was met: the frames read are delivered,
-            // and the truncation is reported on the next read.
+            // and the truncation is reported on the next read (at once when there are
+            // none, so that no caller takes the end for a complete file).
             self.done = true;
+            let leftover = (got - frames * self.block_align) as u64;
             if let Some(promised) = self.format.frames.filter(|&p| self.frames_read < p) {
                 self.pending = Some(InputError::Truncated {
                     promised,
                     read: self.frames_read,
                     sample_rate: self.format.sample_rate,
                 });
+            } else if leftover > 0 {
+                self.pending = Some(self.partial_frame(leftover));
             }
-        } else if self.format.frames == Some(self.frames_read) {
-            self.done = true;
-            self.pending = self.check_after_data();
+        }
+        if frames == 0 {
+            if let Some(e) = self.pending.take() {
+                return Err(e);
+            }
         }
         Ok(frames)
+    }
+
+    fn partial_frame(&self, bytes: u64) -> InputError {
+        InputError::PartialFrame {
+            bytes,
+            block_align: self.block_align as u64,
+            read: self.frames_read,
+            sample_rate: self.format.sample_rate,
+        }
     }
 
     /// Reads what a live input has (at least one sample frame, unless it ends) into

@@ -275,6 +275,83 @@ fn stdin_with_placeholder_lengths_matches_the_file() {
     }
 }
 
+/// `ssl analyze` of `bytes` as a file and through a pipe: (exit status, stdout with the
+/// input's name replaced, stderr with the same).
+fn file_and_pipe(dir: &Path, geo: &Path, bytes: &[u8]) -> [(Option<i32>, String, String); 2] {
+    let path = dir.join("cut.wav");
+    std::fs::write(&path, bytes).unwrap();
+    let from_file = run(&["analyze", s(&path), "-g", s(geo)]);
+    let from_pipe = run_with_stdin(&["analyze", "-", "-g", s(geo)], bytes.to_vec());
+    [(from_file, s(&path)), (from_pipe, "<stdin>")].map(|(out, name)| {
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).replace(name, "IN"),
+            stderr(&out).replace(name, "IN"),
+        )
+    })
+}
+
+#[test]
+fn truncation_is_an_error_the_same_from_a_file_and_a_pipe() {
+    // Issue 31, item 6: through a pipe, and from a file cut at a read-block boundary,
+    // a truncated recording ended with exit 0 and no message; a trailing partial sample
+    // frame vanished.
+    let (dir, wav, geo) = setup();
+    let bytes = std::fs::read(&wav).unwrap();
+    let data_at = bytes.windows(4).position(|w| w == b"data").unwrap() + 8;
+    let block = 16; // 8 channels of 16 bits
+                    // A cut inside a frame, at whole frames, and at the reader's block boundaries
+                    // (4128 frames, and multiples).
+    for cut in [
+        data_at + 1000 * block + 7,
+        data_at + 1000 * block,
+        data_at + 4128 * block,
+        data_at + 2 * 4128 * block,
+        data_at + 3 * 4128 * block,
+    ] {
+        let [file, pipe] = file_and_pipe(dir.path(), &geo, &bytes[..cut]);
+        assert_eq!(
+            file, pipe,
+            "cut at {cut}: the same answer from a file and a pipe"
+        );
+        assert_eq!(file.0, Some(1), "cut at {cut}: {}", file.2);
+        assert!(
+            file.2.contains("IN: truncated WAV"),
+            "cut at {cut}: {}",
+            file.2
+        );
+    }
+    // A placeholder length (a streaming writer's) with a partial frame at the end.
+    let mut streamed = bytes.clone();
+    streamed[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
+    streamed[data_at - 4..data_at].copy_from_slice(&u32::MAX.to_le_bytes());
+    streamed.extend_from_slice(&[0; 5]);
+    let [file, pipe] = file_and_pipe(dir.path(), &geo, &streamed);
+    assert_eq!(file, pipe);
+    assert_eq!(file.0, Some(1));
+    assert!(
+        file.2
+            .contains("truncated WAV: the data ends 5 bytes into a sample frame of 16 bytes"),
+        "{}",
+        file.2
+    );
+    // A declared length that is not whole frames.
+    let mut odd = bytes.clone();
+    let declared = u32::from_le_bytes(odd[data_at - 4..data_at].try_into().unwrap()) - 3;
+    odd[data_at - 4..data_at].copy_from_slice(&declared.to_le_bytes());
+    let [file, pipe] = file_and_pipe(dir.path(), &geo, &odd);
+    assert_eq!(file, pipe);
+    assert!(
+        file.2.contains("13 bytes into a sample frame"),
+        "{}",
+        file.2
+    );
+    // The whole file: the same rows, exit 0, from both.
+    let [file, pipe] = file_and_pipe(dir.path(), &geo, &bytes);
+    assert_eq!(file, pipe);
+    assert_eq!(file.0, Some(0), "{}", file.2);
+}
+
 #[test]
 fn several_files_in_order_and_a_failure_does_not_stop_the_others() {
     let (dir, wav, geo) = setup();
