@@ -283,15 +283,20 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             let turn = (daz - saz).rem_euclid(360.0);
             (turn.min(360.0 - turn), del - sel)
         }));
-        let active: Vec<u64> = (0..frames)
-            .filter(|&f| s.intervals.iter().any(|&iv| inside(centre(f), iv)))
-            .collect();
+        // The frames wholly inside one of its intervals: a run of frames per interval,
+        // counted without visiting them (a week-long truth has tens of millions).
+        let active = FrameRuns::new(s.intervals.iter().map(|&iv| {
+            (
+                first_true(frames, |f| centre(f) - hop >= iv.0 - 1e-9),
+                first_true(frames, |f| centre(f) + hop > iv.1 + 1e-9),
+            )
+        }));
         let hit_frames: std::collections::BTreeSet<u64> = mine
             .iter()
             .filter(|(_, e)| *e < HIT_DEG)
             .map(|(d, _)| frame_of(d))
             .collect();
-        let frames_detected = active.iter().filter(|f| hit_frames.contains(f)).count();
+        let frames_detected = hit_frames.iter().filter(|&&f| active.contains(f)).count();
         let events_detected = s
             .intervals
             .iter()
@@ -302,7 +307,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
                 })
             })
             .count();
-        active_total += active.len();
+        active_total += active.len() as usize;
         detected_total += frames_detected;
         events_total += s.intervals.len();
         events_hit += events_detected;
@@ -316,7 +321,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             detections: errors.len(),
             mean_error_deg: mean(&errors),
             median_error_deg: median(&mut errors),
-            active_frames: active.len(),
+            active_frames: active.len() as usize,
             frames_detected,
             events: s.intervals.len(),
             events_detected,
@@ -327,7 +332,14 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             .iter()
             .any(|s| s.intervals.iter().any(|&iv| overlaps(t, iv, tail_s)))
     };
-    let background_frames = (0..frames).filter(|&f| !busy(centre(f))).count();
+    // Frames that overlap an interval (with its tail) are busy; the rest is background.
+    let busy_runs = FrameRuns::new(sources.iter().flat_map(|s| &s.intervals).map(|&(a, b)| {
+        (
+            first_true(frames, |f| centre(f) + hop > a),
+            first_true(frames, |f| centre(f) - hop >= b + tail_s),
+        )
+    }));
+    let background_frames = frames - busy_runs.len();
     let false_detections = dets.iter().filter(|d| !busy(d.time_s)).count();
     let background_s = background_frames as f64 * hop;
     Report {
@@ -378,3 +390,45 @@ fn median(v: &mut [f64]) -> Option<f64> {
 
 #[cfg(test)]
 mod tests;
+
+/// The first frame in `0..n` for which `cond` holds, or `n`; `cond` must be false and
+/// then true as the frame grows (a binary search, so that no frame is visited).
+fn first_true(n: u64, cond: impl Fn(u64) -> bool) -> u64 {
+    let (mut lo, mut hi) = (0, n);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if cond(mid) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}
+
+/// A set of frames as sorted, disjoint runs `[start, end)`.
+struct FrameRuns(Vec<(u64, u64)>);
+
+impl FrameRuns {
+    fn new(runs: impl Iterator<Item = (u64, u64)>) -> Self {
+        let mut runs: Vec<(u64, u64)> = runs.filter(|(a, b)| a < b).collect();
+        runs.sort_unstable();
+        let mut merged: Vec<(u64, u64)> = Vec::with_capacity(runs.len());
+        for (a, b) in runs {
+            match merged.last_mut() {
+                Some(last) if a <= last.1 => last.1 = last.1.max(b),
+                _ => merged.push((a, b)),
+            }
+        }
+        FrameRuns(merged)
+    }
+
+    fn len(&self) -> u64 {
+        self.0.iter().map(|(a, b)| b - a).sum()
+    }
+
+    fn contains(&self, f: u64) -> bool {
+        let i = self.0.partition_point(|&(_, b)| b <= f);
+        self.0.get(i).is_some_and(|&(a, _)| a <= f)
+    }
+}

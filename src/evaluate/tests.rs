@@ -140,3 +140,52 @@ fn reads_every_output_format_and_refuses_several_files() {
     assert!(err.to_string().contains("2 files"), "{err}");
     assert!(parse_detections("time_s,x\n0.5,oops\n").is_err());
 }
+
+#[test]
+fn frame_runs_count_what_visiting_every_frame_counts() {
+    // Issue 31, item 14: the active and background frames are counted by binary search
+    // over runs, not by visiting (and storing) every frame; a brute force agrees.
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    for _ in 0..300 {
+        let hop = rng.random_range(0.001..0.05);
+        let frames: u64 = rng.random_range(0..400);
+        let centre = |f: u64| (f as f64 + 1.0) * hop;
+        let intervals: Vec<(f64, f64)> = (0..rng.random_range(0..5))
+            .map(|_| {
+                let a: f64 = rng.random_range(-0.5..frames as f64 * hop + 0.5);
+                (a, a + rng.random_range(0.0..1.0))
+            })
+            .collect();
+        let inside = |f: u64, (a, b): (f64, f64)| {
+            centre(f) - hop >= a - 1e-9 && centre(f) + hop <= b + 1e-9
+        };
+        let runs = FrameRuns::new(intervals.iter().map(|&iv| {
+            (
+                first_true(frames, |f| centre(f) - hop >= iv.0 - 1e-9),
+                first_true(frames, |f| centre(f) + hop > iv.1 + 1e-9),
+            )
+        }));
+        let brute: Vec<u64> = (0..frames)
+            .filter(|&f| intervals.iter().any(|&iv| inside(f, iv)))
+            .collect();
+        assert_eq!(runs.len(), brute.len() as u64);
+        for f in 0..frames + 3 {
+            assert_eq!(runs.contains(f), brute.contains(&f), "frame {f}");
+        }
+    }
+}
+
+#[test]
+fn a_week_long_truth_is_scored_in_bounded_memory_and_time() {
+    let mut t = truth();
+    t.duration_s = MAX_DURATION_S;
+    t.sample_rate = 768_000;
+    t.sources = vec![source(0, Vector3::x(), vec![[1.0, MAX_DURATION_S - 1.0]])];
+    let start = std::time::Instant::now();
+    let report = evaluate(&t, &[], 0.0).unwrap();
+    assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
+    // The default frames at 768 kHz hop by 1/93.75 s: about 5.7e7 frames in a week,
+    // which the old count visited and stored one by one.
+    assert!(report.sources[0].active_frames > 56_000_000, "{report:?}");
+}
