@@ -3,7 +3,7 @@
 use super::args::EvaluateArgs;
 use anyhow::{Context, Result};
 use ssl::evaluate::evaluate;
-use ssl::record::{parse_detections, read_detections, MAX_RESULT_BYTES};
+use ssl::record::read_detections;
 use ssl::stream::{io_reason, read_text_from};
 use ssl::Truth;
 use std::path::Path;
@@ -19,11 +19,7 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
     } else {
         Truth::from_file(&args.truth)?
     };
-    let detections = if args.result == Path::new("-") {
-        parse_detections(&stdin(MAX_RESULT_BYTES)?).context("<stdin>")?
-    } else {
-        read_detections(&args.result)?
-    };
+    let detections = read_detections(&args.result)?;
     let tail = args
         .tail
         .map_or(truth.rt60_s().map_or(0.0, |t| t / 2.0), f64::from);

@@ -4,8 +4,7 @@ use super::args::PlotArgs;
 use super::sink::Sink;
 use anyhow::{bail, Context, Result};
 use ssl::evaluate::evaluate;
-use ssl::plot::{parse_result, plot, PlotData};
-use ssl::record::MAX_RESULT_BYTES;
+use ssl::plot::{plot, read_plot_file, PlotData};
 use ssl::stream::{io_reason, read_text, read_text_from};
 use ssl::Truth;
 use std::io::Write;
@@ -43,7 +42,7 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     let mut sink = Sink::open(args.output.as_deref(), &inputs)?;
     let mut data = PlotData::default();
     for path in &args.results {
-        let one = parse_result(&text(path, MAX_RESULT_BYTES)?).with_context(|| shown(path))?;
+        let one = read_plot_file(path)?;
         data.array = data.array.or(one.array);
         data.threshold = data.threshold.or(one.threshold);
         data.files.extend(one.files);

@@ -157,9 +157,8 @@ fn frame_runs_count_what_visiting_every_frame_counts() {
                 (a, a + rng.random_range(0.0..1.0))
             })
             .collect();
-        let inside = |f: u64, (a, b): (f64, f64)| {
-            centre(f) - hop >= a - 1e-9 && centre(f) + hop <= b + 1e-9
-        };
+        let inside =
+            |f: u64, (a, b): (f64, f64)| centre(f) - hop >= a - 1e-9 && centre(f) + hop <= b + 1e-9;
         let runs = FrameRuns::new(intervals.iter().map(|&iv| {
             (
                 first_true(frames, |f| centre(f) - hop >= iv.0 - 1e-9),

@@ -14,7 +14,7 @@
 
 mod read;
 
-pub use read::{parse_result, PlotData, PlotFile};
+pub use read::{parse_result, read_plot_data, read_plot_file, PlotData, PlotFile};
 
 use crate::evaluate::Report;
 use crate::record::{DetectionRecord, Truth};

@@ -2,8 +2,10 @@
 //! file, in any of the three formats, with the array and the threshold when the result
 //! is a JSON document.
 
-use crate::record::{DetectionRecord, EventRecord, ReadError};
-use serde_json::Value;
+use crate::record::{
+    read_result, read_result_file, DetectionRecord, EventRecord, ReadError, ResultInfo,
+    ResultRecord,
+};
 
 /// One file's rows.
 #[derive(Debug, Clone, Default)]
@@ -41,98 +43,33 @@ impl PlotData {
         }
     }
 
-    /// Adds a detection; one with a value that is not finite (`inf` in a CSV) is
-    /// refused: nothing can be drawn of it, and it would stretch the axes without end.
-    fn add_detection(&mut self, r: DetectionRecord) -> Result<(), String> {
-        if let Some(field) = r.non_finite() {
-            return Err(format!("a detection's {field} is not a finite number"));
-        }
-        let name = r.file.clone();
-        self.file(&name).detections.push(r);
-        Ok(())
-    }
-
-    /// Adds an event; one with a value that is not finite is refused.
-    fn add_event(&mut self, e: EventRecord) -> Result<(), String> {
-        if let Some(field) = e.non_finite() {
-            return Err(format!("an event's {field} is not a finite number"));
-        }
-        let name = e.file.clone();
-        self.file(&name).events.push(e);
-        Ok(())
-    }
-}
-
-fn bad(message: String) -> ReadError {
-    ReadError::Format {
-        path: None,
-        message,
-    }
-}
-
-/// Parses a CSV (detections or `--events`), NDJSON or JSON result.
-pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
-    let mut data = PlotData::default();
-    let trimmed = text.trim_start();
-    if !trimmed.starts_with('{') {
-        let events = trimmed.starts_with("file,source,start_s,");
-        if !events && !trimmed.starts_with("time_s,") {
-            let first = trimmed
-                .lines()
-                .next()
-                .unwrap_or("")
-                .chars()
-                .take(60)
-                .collect::<String>();
-            return Err(bad(format!(
-                "not a result of ssl analyze: its first line is {first:?}, not a CSV header of detections or events"
-            )));
-        }
-        let mut reader = csv::Reader::from_reader(text.as_bytes());
-        let headers = reader.headers().map_err(|e| bad(e.to_string()))?.clone();
-        for (i, row) in reader.records().enumerate() {
-            let row = row.map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
-            if events {
-                let e = row
-                    .deserialize::<EventRecord>(Some(&headers))
-                    .map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
-                data.add_event(e)
-                    .map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
-            } else {
-                let r = row
-                    .deserialize::<DetectionRecord>(Some(&headers))
-                    .map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
-                data.add_detection(r)
-                    .map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
+    /// Adds a record to its file.
+    fn add(&mut self, record: ResultRecord) {
+        match record {
+            ResultRecord::Detection(r) => {
+                let name = r.file.clone();
+                self.file(&name).detections.push(r);
+            }
+            ResultRecord::Event(e) => {
+                let name = e.file.clone();
+                self.file(&name).events.push(e);
             }
         }
-        return Ok(data);
     }
-    if let Ok(doc) = serde_json::from_str::<Value>(trimmed) {
-        if doc.get("detections").is_some() {
-            let rows: Vec<DetectionRecord> = serde_json::from_value(doc["detections"].clone())
-                .map_err(|e| bad(format!("`detections`: {e}")))?;
-            for (k, r) in rows.into_iter().enumerate() {
-                data.add_detection(r)
-                    .map_err(|e| bad(format!("`detections`[{k}]: {e}")))?;
-            }
-            if let Some(events) = doc.get("events") {
-                let events: Vec<EventRecord> = serde_json::from_value(events.clone())
-                    .map_err(|e| bad(format!("`events`: {e}")))?;
-                for (k, e) in events.into_iter().enumerate() {
-                    data.add_event(e)
-                        .map_err(|e| bad(format!("`events`[{k}]: {e}")))?;
-                }
-            }
-            let g = &doc["geometry"];
+
+    /// Adds what a result read by [`read_result`] holds: its records, and from a JSON
+    /// document the array and the threshold.
+    fn take(&mut self, info: &ResultInfo) {
+        if let Some(g) = &info.geometry {
             if let Some(mics) = g["microphones"].as_u64() {
-                data.array = Some(match g["name"].as_str() {
+                self.array = Some(match g["name"].as_str() {
                     Some(n) => format!("{n} ({mics} mics)"),
                     None => format!("{mics} mics"),
                 });
             }
-            let p = &doc["parameters"];
-            data.threshold = match (
+        }
+        if let Some(p) = &info.parameters {
+            self.threshold = match (
                 p["min_score_per_pair"].as_f64(),
                 p["threshold_sigmas"].as_f64(),
             ) {
@@ -140,26 +77,35 @@ pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
                 (None, Some(z)) => Some(format!("calibrated per frame, {z} sigmas")),
                 _ => None,
             };
-            return Ok(data);
         }
     }
-    for (i, line) in trimmed
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty())
-    {
-        let v: Value =
-            serde_json::from_str(line).map_err(|e| bad(format!("line {}: {e}", i + 1)))?;
-        let added = if v.get("start_s").is_some() {
-            data.add_event(
-                serde_json::from_value(v).map_err(|e| bad(format!("line {}: {e}", i + 1)))?,
-            )
-        } else {
-            data.add_detection(
-                serde_json::from_value(v).map_err(|e| bad(format!("line {}: {e}", i + 1)))?,
-            )
-        };
-        added.map_err(|e| bad(format!("line {}: {e}", i + 1)))?;
-    }
+}
+
+/// Reads a CSV (detections or `--events`), NDJSON or JSON result, streamed by the one
+/// reader of results ([`read_result`]), which refuses what `ssl analyze` does not write
+/// (a number that is not finite included: nothing can be drawn of it).
+pub fn read_plot_data(input: impl std::io::Read) -> Result<PlotData, ReadError> {
+    let mut data = PlotData::default();
+    let info = read_result(input, |r| {
+        data.add(r);
+        Ok(())
+    })?;
+    data.take(&info);
+    Ok(data)
+}
+
+/// Parses a result's text (see [`read_plot_data`]).
+pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
+    read_plot_data(text.as_bytes())
+}
+
+/// Reads a result file, or standard input for `-` (see [`read_plot_data`]).
+pub fn read_plot_file(path: &std::path::Path) -> Result<PlotData, ReadError> {
+    let mut data = PlotData::default();
+    let info = read_result_file(path, |r| {
+        data.add(r);
+        Ok(())
+    })?;
+    data.take(&info);
     Ok(data)
 }

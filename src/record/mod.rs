@@ -22,7 +22,10 @@ pub use event::EventRecord;
 pub use metadata::{
     ambiguity_note, FileEntry, GeometryInfo, MicInfo, ParametersInfo, RunMetadata, Tool,
 };
-pub use read::{parse_detections, read_detections, ReadError, MAX_RESULT_BYTES, MAX_TRUTH_BYTES};
+pub use read::{
+    parse_detections, read_detections, read_result, read_result_file, ReadError, ResultInfo,
+    ResultRecord, MAX_RESULT_BYTES, MAX_TRUTH_BYTES,
+};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 
 pub(crate) use crate::text::fixed;

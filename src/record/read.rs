@@ -1,8 +1,9 @@
 //! Reading records back: detections in any of the three formats, and truth files.
 
-use super::{DetectionRecord, Truth};
+use super::{DetectionRecord, EventRecord, Truth};
 use crate::stream::{io_reason, read_text};
 use serde_json::Value;
+use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 
 /// Why a result or truth file could not be read.
@@ -55,36 +56,395 @@ fn read_file(path: &Path, limit: u64) -> Result<String, ReadError> {
     })
 }
 
-/// Reads the detections of a CSV, NDJSON or JSON result of `ssl analyze`.
-pub fn read_detections(path: &Path) -> Result<Vec<DetectionRecord>, ReadError> {
-    parse_detections(&read_file(path, MAX_RESULT_BYTES)?).map_err(|e| in_file(path, e))
+/// One record of a result, as read.
+#[derive(Debug, Clone)]
+pub enum ResultRecord {
+    /// A row of detections.
+    Detection(DetectionRecord),
+    /// A row of `--events`.
+    Event(EventRecord),
 }
 
-/// Parses detections from the text of a CSV, NDJSON or JSON result.
-pub fn parse_detections(text: &str) -> Result<Vec<DetectionRecord>, ReadError> {
-    let trimmed = text.trim_start();
-    if !trimmed.starts_with('{') {
-        let mut reader = csv::Reader::from_reader(text.as_bytes());
-        return reader
-            .deserialize()
-            .enumerate()
-            .map(|(i, r)| r.map_err(|e| format_error(format!("row {}: {e}", i + 1))))
-            .collect();
-    }
-    if let Ok(doc) = serde_json::from_str::<Value>(trimmed) {
-        if let Some(detections) = doc.get("detections") {
-            return serde_json::from_value(detections.clone())
-                .map_err(|e| format_error(format!("`detections`: {e}")));
+/// What a result says besides its records: a JSON document's `geometry` and
+/// `parameters` (`None` in CSV and NDJSON), and how many records of each kind it held.
+#[derive(Debug, Clone, Default)]
+pub struct ResultInfo {
+    /// The document's `geometry` object.
+    pub geometry: Option<Value>,
+    /// The document's `parameters` object.
+    pub parameters: Option<Value>,
+    /// Detections read.
+    pub detections: u64,
+    /// Events read.
+    pub events: u64,
+}
+
+/// Reads a result of `ssl analyze` in any of its three formats (CSV of detections or of
+/// events, NDJSON, one JSON document), record by record: `each` gets every record in
+/// order as it is read, so a result of any size is read in the memory its caller keeps.
+/// A UTF-8 byte order mark is skipped. What `ssl analyze` does not write is an error
+/// with its position: an empty input, text that is not a result, a malformed record, a
+/// number that is not finite. The input is read up to [`MAX_RESULT_BYTES`].
+/// `each` may refuse a record with a message, which becomes the error.
+pub fn read_result(
+    input: impl Read,
+    mut each: impl FnMut(ResultRecord) -> Result<(), String>,
+) -> Result<ResultInfo, ReadError> {
+    let mut input = BufReader::with_capacity(1 << 16, Limited(input.take(MAX_RESULT_BYTES + 1)));
+    let first = first_byte(&mut input).map_err(|e| format_error(io_reason(&e)))?;
+    let mut info = ResultInfo::default();
+    match first {
+        None => Err(format_error(
+            "empty: not a result of ssl analyze (an NDJSON result with no detections is empty; CSV and JSON keep a header)".into(),
+        )),
+        Some(b'{') => {
+            let mut de = serde_json::Deserializer::from_reader(input);
+            loop {
+                let seed = TopSeed {
+                    each: &mut each,
+                    info: &mut info,
+                };
+                serde::de::DeserializeSeed::deserialize(seed, &mut de).map_err(json_error)?;
+                if de.end().is_ok() {
+                    return Ok(info);
+                }
+            }
+        }
+        Some(_) => {
+            read_csv(input, &mut info, &mut each)?;
+            Ok(info)
         }
     }
-    trimmed
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| {
-            serde_json::from_str(l).map_err(|e| format_error(format!("line {}: {e}", i + 1)))
-        })
-        .collect()
+}
+
+/// Reads a result file, or standard input for `-` (see [`read_result`]).
+pub fn read_result_file(
+    path: &Path,
+    each: impl FnMut(ResultRecord) -> Result<(), String>,
+) -> Result<ResultInfo, ReadError> {
+    let shown = |p: &Path| {
+        if p == Path::new("-") {
+            PathBuf::from("<stdin>")
+        } else {
+            p.to_path_buf()
+        }
+    };
+    let result = if path == Path::new("-") {
+        read_result(std::io::stdin().lock(), each)
+    } else {
+        let file = std::fs::File::open(path).map_err(|error| ReadError::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        read_result(file, each)
+    };
+    result.map_err(|e| match e {
+        ReadError::Format { message, .. } => ReadError::Format {
+            path: Some(shown(path)),
+            message,
+        },
+        other => other,
+    })
+}
+
+/// Reads the detections of a CSV, NDJSON or JSON result of `ssl analyze` (`-` is
+/// standard input). Events are left out; a result that holds only events is an error.
+pub fn read_detections(path: &Path) -> Result<Vec<DetectionRecord>, ReadError> {
+    let mut rows = Vec::new();
+    let info = read_result_file(path, |r| {
+        if let ResultRecord::Detection(d) = r {
+            rows.push(d);
+        }
+        Ok(())
+    })?;
+    only_events(&info).map_err(|e| in_file(path, e))?;
+    Ok(rows)
+}
+
+/// Parses detections from the text of a CSV, NDJSON or JSON result (see
+/// [`read_detections`]).
+pub fn parse_detections(text: &str) -> Result<Vec<DetectionRecord>, ReadError> {
+    let mut rows = Vec::new();
+    let info = read_result(text.as_bytes(), |r| {
+        if let ResultRecord::Detection(d) = r {
+            rows.push(d);
+        }
+        Ok(())
+    })?;
+    only_events(&info)?;
+    Ok(rows)
+}
+
+fn only_events(info: &ResultInfo) -> Result<(), ReadError> {
+    if info.detections == 0 && info.events > 0 {
+        return Err(format_error(
+            "holds events (--events) but no detections: analyse without --events to score or read its rows".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// A reader that fails past [`MAX_RESULT_BYTES`] instead of reading on.
+struct Limited<R>(std::io::Take<R>);
+
+impl<R: Read> Read for Limited<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.0.read(buf)?;
+        if self.0.limit() == 0 {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::FileTooLarge,
+                format!("longer than {MAX_RESULT_BYTES} bytes"),
+            ));
+        }
+        Ok(n)
+    }
+}
+
+/// Skips a byte order mark and leading white space; the first byte after them.
+fn first_byte(input: &mut impl BufRead) -> std::io::Result<Option<u8>> {
+    let buf = input.fill_buf()?;
+    if buf.starts_with(b"\xEF\xBB\xBF") {
+        input.consume(3);
+    }
+    loop {
+        let buf = input.fill_buf()?;
+        if buf.is_empty() {
+            return Ok(None);
+        }
+        match buf.iter().position(|b| !b.is_ascii_whitespace()) {
+            Some(i) => return Ok(Some(buf[i])),
+            // A buffer of nothing but white space: on to the next.
+            None => {
+                let n = buf.len();
+                input.consume(n);
+            }
+        }
+    }
+}
+
+fn json_error(e: serde_json::Error) -> ReadError {
+    if e.is_io() {
+        return format_error(format!("cannot read: {e}"));
+    }
+    format_error(e.to_string())
+}
+
+/// The CSV of detections (`time_s,...`) or of events (`file,source,start_s,...`), row by
+/// row.
+fn read_csv(
+    input: impl Read,
+    info: &mut ResultInfo,
+    each: &mut impl FnMut(ResultRecord) -> Result<(), String>,
+) -> Result<(), ReadError> {
+    let mut reader = csv::Reader::from_reader(input);
+    let not_result = |first: String| {
+        format_error(format!(
+            "not a result of ssl analyze: its first line is {first:?}, not a CSV header of detections or events"
+        ))
+    };
+    let headers = match reader.byte_headers() {
+        Ok(h) => h.clone(),
+        Err(e) if e.is_io_error() => return Err(format_error(format!("cannot read: {e}"))),
+        Err(_) => return Err(not_result(String::new())),
+    };
+    let first = String::from_utf8_lossy(&headers.as_slice()[..headers.as_slice().len().min(60)])
+        .into_owned();
+    let events = headers.get(0) == Some(b"file")
+        && headers.get(1) == Some(b"source")
+        && headers.get(2) == Some(b"start_s");
+    if !events && headers.get(0) != Some(b"time_s") {
+        let shown: Vec<String> = headers
+            .iter()
+            .map(|f| String::from_utf8_lossy(f).into_owned())
+            .collect();
+        return Err(not_result(if shown.is_empty() {
+            first
+        } else {
+            shown.join(",").chars().take(60).collect()
+        }));
+    }
+    let mut row = csv::ByteRecord::new();
+    let mut n = 0u64;
+    loop {
+        match reader.read_byte_record(&mut row) {
+            Ok(false) => return Ok(()),
+            Ok(true) => {}
+            Err(e) => return Err(format_error(format!("row {}: {e}", n + 1))),
+        }
+        n += 1;
+        let line = row.position().map_or(n + 1, |p| p.line());
+        let at = |e: String| format_error(format!("row {n} (line {line}): {e}"));
+        let record = if events {
+            ResultRecord::Event(
+                row.deserialize(Some(&headers))
+                    .map_err(|e| at(e.to_string()))?,
+            )
+        } else {
+            ResultRecord::Detection(
+                row.deserialize(Some(&headers))
+                    .map_err(|e| at(e.to_string()))?,
+            )
+        };
+        accept(record, info, each).map_err(at)?;
+    }
+}
+
+/// Counts a record and hands it over, refusing one with a number that is not finite.
+fn accept(
+    record: ResultRecord,
+    info: &mut ResultInfo,
+    each: &mut impl FnMut(ResultRecord) -> Result<(), String>,
+) -> Result<(), String> {
+    match &record {
+        ResultRecord::Detection(d) => {
+            if let Some(field) = d.non_finite() {
+                return Err(format!("a detection's {field} is not a finite number"));
+            }
+            info.detections += 1;
+        }
+        ResultRecord::Event(e) => {
+            if let Some(field) = e.non_finite() {
+                return Err(format!("an event's {field} is not a finite number"));
+            }
+            info.events += 1;
+        }
+    }
+    each(record)
+}
+
+/// A top-level JSON object: a document (`detections` and `events` are streamed, the
+/// rest kept) or one NDJSON record.
+struct TopSeed<'a, F> {
+    each: &'a mut F,
+    info: &'a mut ResultInfo,
+}
+
+impl<'de, F: FnMut(ResultRecord) -> Result<(), String>> serde::de::DeserializeSeed<'de>
+    for TopSeed<'_, F>
+{
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de, F: FnMut(ResultRecord) -> Result<(), String>> serde::de::Visitor<'de> for TopSeed<'_, F> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a result of ssl analyze: a JSON document, or NDJSON records")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        use serde::de::Error;
+        let mut fields = serde_json::Map::new();
+        let mut document = false;
+        while let Some(key) = map.next_key::<String>()? {
+            let kind = match key.as_str() {
+                "detections" => Kind::Detection,
+                "events" => Kind::Event,
+                _ => {
+                    let value: Value = map.next_value()?;
+                    fields.insert(key, value);
+                    continue;
+                }
+            };
+            let seed = ListSeed {
+                kind,
+                each: &mut *self.each,
+                info: &mut *self.info,
+            };
+            match map.next_value_seed(seed)? {
+                // A document's list, streamed.
+                None => document = true,
+                // An event's count of detections.
+                Some(count) => {
+                    fields.insert(key, Value::from(count));
+                }
+            }
+        }
+        if document {
+            self.info.geometry = fields.remove("geometry");
+            self.info.parameters = fields.remove("parameters");
+            return Ok(());
+        }
+        let record = if fields.contains_key("time_s") {
+            ResultRecord::Detection(
+                serde_json::from_value(Value::Object(fields)).map_err(A::Error::custom)?,
+            )
+        } else if fields.contains_key("start_s") {
+            ResultRecord::Event(
+                serde_json::from_value(Value::Object(fields)).map_err(A::Error::custom)?,
+            )
+        } else {
+            return Err(A::Error::custom(
+                "an object that is not a result of ssl analyze (no `detections`, `time_s` or `start_s`)",
+            ));
+        };
+        accept(record, self.info, self.each).map_err(A::Error::custom)
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Kind {
+    Detection,
+    Event,
+}
+
+/// A document's `detections` or `events` list, each element handed over as it is read;
+/// or an event record's `detections` count.
+struct ListSeed<'a, F> {
+    kind: Kind,
+    each: &'a mut F,
+    info: &'a mut ResultInfo,
+}
+
+impl<'de, F: FnMut(ResultRecord) -> Result<(), String>> serde::de::DeserializeSeed<'de>
+    for ListSeed<'_, F>
+{
+    type Value = Option<u64>;
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Option<u64>, D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de, F: FnMut(ResultRecord) -> Result<(), String>> serde::de::Visitor<'de>
+    for ListSeed<'_, F>
+{
+    type Value = Option<u64>;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a list of records (or an event's count of detections)")
+    }
+
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Option<u64>, E> {
+        Ok(Some(v))
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Option<u64>, A::Error> {
+        use serde::de::Error;
+        let (list, mut k) = (
+            match self.kind {
+                Kind::Detection => "detections",
+                Kind::Event => "events",
+            },
+            0usize,
+        );
+        loop {
+            let record = match self.kind {
+                Kind::Detection => seq.next_element()?.map(ResultRecord::Detection),
+                Kind::Event => seq.next_element()?.map(ResultRecord::Event),
+            };
+            let Some(record) = record else {
+                return Ok(None);
+            };
+            accept(record, self.info, self.each)
+                .map_err(|e| A::Error::custom(format!("`{list}`[{k}]: {e}")))?;
+            k += 1;
+        }
+    }
 }
 
 impl Truth {
