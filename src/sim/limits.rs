@@ -23,6 +23,12 @@ pub const MAX_ROOM_M: f64 = 1000.0;
 /// Image sources one scene may render, over all responses (about a minute of work).
 pub const MAX_IMAGES: f64 = 2e9;
 
+/// Samples one scene may convolve, over all microphones: every active interval of every
+/// source and every fan, each with the length of its responses added (a convolution
+/// costs its input plus its response). About a minute of work on one core (100 ns a
+/// sample measured, with 1000 and 3000 free-field fans); shared with [`MAX_IMAGES`].
+pub const MAX_CONVOLVED_SAMPLES: f64 = 6e8;
+
 /// The fastest a moving source turns (degrees per second, either way): one turn a
 /// second. Its responses are rendered every degree, so a second of it costs 360 of them.
 pub const MAX_TURN_DEG_S: f64 = 360.0;
@@ -173,28 +179,46 @@ pub(crate) fn check_cost(
     mics: usize,
     room_volume: Option<f64>,
     reach_m: f64,
+    speed_of_sound: f64,
 ) -> Result<(), SceneError> {
-    let samples = scene.duration * scene.sample_rate as f64 * mics as f64;
+    let fs = scene.sample_rate as f64;
+    let samples = scene.duration * fs * mics as f64;
     require!(
         samples <= MAX_CHANNEL_SAMPLES,
         "{mics} channels of {} s at {} Hz is {samples:.3e} samples; at most {MAX_CHANNEL_SAMPLES:.3e} are rendered (the simulator holds the recording in memory): shorten the scene",
         scene.duration,
         scene.sample_rate
     );
-    if let Some(volume) = room_volume {
-        // A moving source needs a response per position (see `render`).
-        let positions: f64 = scene
-            .source
+    // Convolutions: each active interval (or turning block) of a source, and each fan
+    // over the whole scene, through responses as long as sound takes to reach and decay.
+    let response = reach_m / speed_of_sound * fs;
+    let whole = [[0.0, scene.duration]];
+    let (mut input, mut pieces, mut positions) = (0.0, 0.0, 0.0);
+    for s in &scene.source {
+        let intervals = s.active.as_deref().unwrap_or(&whole);
+        input += intervals
             .iter()
-            .map(|s| super::source::positions(s, scene.duration, scene.sample_rate as f64) as f64)
-            .sum();
-        let responses =
-            mics as f64 * (positions + scene.noise.as_ref().map_or(0, |n| n.fan.len()) as f64);
-        let images = image_count(reach_m, volume) * responses;
-        require!(
-            images <= MAX_IMAGES,
-            "rendering needs about {images:.1e} image sources ({responses} responses reaching {reach_m:.0} m in a {volume:.0} m^3 room); at most {MAX_IMAGES:.0e} are supported: a shorter rt60, a larger room or fewer sources"
-        );
+            .map(|[a, b]| (b - a).max(0.0) * fs)
+            .sum::<f64>();
+        // A moving source needs a response per position (see `render`).
+        let at = super::source::positions(s, scene.duration, fs);
+        positions += at as f64;
+        pieces += intervals.len().max(at) as f64;
     }
+    let fans = scene.noise.as_ref().map_or(0, |n| n.fan.len()) as f64;
+    let convolved =
+        mics as f64 * (input + fans * scene.duration * fs + (pieces + 2.0 * fans) * response);
+    // Image sources, in a room: for every response.
+    let images = room_volume.map_or(0.0, |volume| {
+        image_count(reach_m, volume) * mics as f64 * (positions + fans)
+    });
+    // Each bound alone is about a minute of work; together they share it.
+    let work = images / MAX_IMAGES + convolved / MAX_CONVOLVED_SAMPLES;
+    require!(
+        work <= 1.0,
+        "rendering needs about {images:.1e} image sources and convolves about {convolved:.1e} samples ({pieces} active intervals or moving blocks and {fans} fans, through responses of {:.2} s, at {mics} microphones): about {:.0} minutes of work, and at most one is done ({MAX_IMAGES:.0e} image sources, or {MAX_CONVOLVED_SAMPLES:.0e} samples): fewer intervals or fans, a shorter rt60, a larger room or a shorter scene",
+        response / fs,
+        work.ceil()
+    );
     Ok(())
 }

@@ -52,6 +52,7 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
         placed.mics.len(),
         placed.room.map(|r| r.dims.x * r.dims.y * r.dims.z),
         placed.c * placed.tail_s + farthest(&placed, scene)?,
+        placed.c,
     )?;
     let len = (scene.duration * scene.sample_rate as f64).round() as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(scene.seed);

@@ -76,7 +76,9 @@ impl Room {
             if !measured.is_finite() {
                 fail!(
                     SceneError::Invalid,
-                    "rt60 {rt60} s: the simulated room does not decay as requested"
+                    "rt60 {rt60} s: the simulated room does not decay as requested: in a room of {:.0} m^3 sound travels {:.0} ms between walls on average, too long for its echoes to decay 25 dB within 1.5 x rt60; a longer rt60 or a smaller room",
+                    v,
+                    4.0 * v / s / 343.0 * 1000.0
                 );
             }
             log_inv_beta *= measured / rt60;

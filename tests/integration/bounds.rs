@@ -194,6 +194,36 @@ fn simulate_validates_its_scene_and_its_cost_before_rendering() {
             "image sources",
         ),
         ("".into(), SOURCE.repeat(1001), "at most 1000 are supported"),
+        // Issue 31, item 20: "does not decay as requested" said nothing more.
+        (
+            "[room]\ndimensions = [50.0, 50.0, 50.0]\nrt60 = 0.05".into(),
+            SOURCE.into(),
+            "sound travels 97 ms between walls on average, too long for its echoes to decay 25 dB within 1.5 x rt60; a longer rt60 or a smaller room",
+        ),
+        // Issue 31, item 12: what the cost check ignored. 100,000 free-field fans ran
+        // past 120 s; 8,000 active intervals at RT60 2.5 s took 99 s.
+        (
+            "duration = 5.0".into(),
+            format!(
+                "{SOURCE}[noise]\nsnr_db = 10\n{}",
+                "[[noise.fan]]\nposition = [3.0, 3.0, 1.0]\nsignal = \"pink\"\n".repeat(100_000)
+            ),
+            "100000 fans",
+        ),
+        (
+            "duration = 20.0\n[room]\ndimensions = [10.0, 8.0, 4.0]\nrt60 = 1.0".into(),
+            SOURCE.replace(
+                "active = [[0.4, 0.9]]",
+                &format!(
+                    "active = [{}]",
+                    (0..20000)
+                        .map(|i| format!("[{:.4}, {:.4}]", i as f64 * 0.001, i as f64 * 0.001 + 0.0005))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ),
+            "20000 active intervals",
+        ),
     ];
     for (head, body, needle) in cases {
         // A head that sets sample_rate or duration replaces the default lines.
