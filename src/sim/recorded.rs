@@ -6,7 +6,7 @@ use std::path::Path;
 
 /// Reads a mono WAV as f64 samples at the scene's rate (resampled when the file has
 /// another rate).
-pub fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
+pub fn read_mono(path: &Path, rate: u32, needed_s: f64) -> Result<Vec<f64>, SceneError> {
     let name = path.display().to_string();
     let input = |error| SceneError::Input {
         path: path.to_path_buf(),
@@ -20,19 +20,23 @@ pub fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
             stream.format.channels
         );
     }
+    // Only the first `needed_s` seconds are ever played (and a margin that keeps the
+    // resampler's output the same up to them): a long file is not read whole.
+    let from = stream.format.sample_rate;
+    let limit = ((needed_s * from as f64).ceil() as usize).saturating_add(RESAMPLER_MARGIN);
     let mut all = Vec::new();
     let mut buf = vec![0.0f32; 65536];
-    loop {
+    while all.len() < limit {
         let n = stream.read(&mut buf).map_err(input)?;
         if n == 0 {
             break;
         }
         all.extend(buf[..n].iter().map(|&v| v as f64));
     }
+    all.truncate(limit);
     if all.is_empty() {
         fail!(SceneError::Invalid, "{name}: no samples");
     }
-    let from = stream.format.sample_rate;
     if from == rate {
         return Ok(all);
     }
@@ -42,6 +46,10 @@ pub fn read_mono(path: &Path, rate: u32) -> Result<Vec<f64>, SceneError> {
         ))
     })
 }
+
+/// Samples read past what is played, so that resampling ends the same: several of the
+/// resampler's 1024-sample chunks.
+const RESAMPLER_MARGIN: usize = 16384;
 
 /// `x` at `from` Hz resampled to `to` Hz (rubato's synchronous FFT resampler, whose
 /// anti-aliasing filter removes what the lower rate cannot hold; its delay is removed).

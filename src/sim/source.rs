@@ -49,7 +49,11 @@ pub(super) fn render_source(
     };
     let recording = match (&s.signal, &s.file) {
         (SignalKind::File, Some(f)) => {
-            Some(read_mono(&dir.join(f), scene.sample_rate).map_err(about)?)
+            // The longest interval plays the most of it.
+            let longest = s.active.as_deref().map_or(scene.duration, |list| {
+                list.iter().map(|[a, b]| b - a).fold(0.0, f64::max)
+            });
+            Some(read_mono(&dir.join(f), scene.sample_rate, longest).map_err(about)?)
         }
         (SignalKind::File, None) => fail!(
             SceneError::Invalid,

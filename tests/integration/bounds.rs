@@ -642,3 +642,50 @@ fn a_json_result_is_read_in_the_memory_of_its_rows() {
         "JSON {from_json:.0} MB against NDJSON {from_ndjson:.0} MB"
     );
 }
+
+#[test]
+fn a_long_file_source_is_read_only_as_far_as_it_is_played() {
+    // Issue 31, item 15: a `file` source was read whole as f64 (a 300M-sample WAV
+    // aborted at 2 GB). A sparse 50M-sample file (100 MB of zeros on disk, 400 MB as
+    // f64) played for 1 s now takes a few MB.
+    let dir = tempdir();
+    let d = dir.path();
+    let frames: u32 = 50_000_000;
+    let mut header = Vec::new();
+    header.extend_from_slice(b"RIFF");
+    header.extend_from_slice(&(36 + 2 * frames).to_le_bytes());
+    header.extend_from_slice(b"WAVEfmt ");
+    header.extend_from_slice(&16u32.to_le_bytes());
+    header.extend_from_slice(&1u16.to_le_bytes()); // PCM
+    header.extend_from_slice(&1u16.to_le_bytes()); // mono
+    header.extend_from_slice(&16000u32.to_le_bytes());
+    header.extend_from_slice(&32000u32.to_le_bytes());
+    header.extend_from_slice(&2u16.to_le_bytes());
+    header.extend_from_slice(&16u16.to_le_bytes());
+    header.extend_from_slice(b"data");
+    header.extend_from_slice(&(2 * frames).to_le_bytes());
+    let long = write(d, "long.wav", &header);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&long)
+        .unwrap()
+        .set_len(header.len() as u64 + 2 * frames as u64)
+        .unwrap();
+    let sim = scene_file(
+        d,
+        "",
+        "[[source]]\nazimuth_deg = 30.0\ndistance = 1.0\nsignal = \"file\"\nfile = \"long.wav\"\nactive = [[0.0, 1.0]]\n",
+    );
+    let (_, mb) = support::harness::run_measured(
+        support::harness::binary(),
+        &[
+            "simulate",
+            d.join(&sim).to_str().unwrap(),
+            "-o",
+            d.join("out.wav").to_str().unwrap(),
+        ],
+    )
+    .unwrap();
+    eprintln!("a 50M-sample file source, 1 s played: {mb:.0} MB");
+    assert!(mb < 60.0, "{mb:.0} MB");
+}

@@ -34,7 +34,11 @@ pub fn moving_talker(
     deg_per_s: f64,
     seed: u64,
 ) -> Result<Moving, Box<dyn std::error::Error>> {
-    let speech = read_mono(&testdata(&format!("speech/{}", SPEECH[0].0)), rate)?;
+    let speech = read_mono(
+        &testdata(&format!("speech/{}", SPEECH[0].0)),
+        rate,
+        f64::INFINITY,
+    )?;
     let (start, end) = (1.0, 1.0 + SPEECH[0].1);
     let source = Source {
         place: Place::Moving {
