@@ -76,7 +76,13 @@ pub fn run(args: &PlotArgs) -> Result<()> {
         args.file.as_deref(),
         truth.as_ref().zip(report.as_ref()),
     )
-    .map_err(|e| anyhow::anyhow!("{}: {e}", shown(&args.results[0])))?;
+    .map_err(|e| {
+        let hint = match e {
+            ssl::plot::PlotError::TooManyFiles(_) => " with --file NAME",
+            _ => "",
+        };
+        anyhow::anyhow!("{}: {e}{hint}", shown(&args.results[0]))
+    })?;
     sink.write_all(svg.as_bytes())
         .map_err(|e| anyhow::anyhow!("cannot write {}: {}", sink.shown(), io_reason(&e)))?;
     sink.commit()

@@ -26,6 +26,10 @@ pub const TIME_BINS: usize = 1200;
 /// The most marks one panel draws.
 pub const MAX_MARKS: usize = 20_000;
 
+/// The most files one picture draws (a row of three panels each): its size stays
+/// bounded (40,000 one-row files made 629 MB of SVG).
+pub const MAX_FILES: usize = 64;
+
 /// Width of the picture and height of one file's row (pixels).
 const WIDTH: u32 = 1500;
 const ROW: u32 = 440;
@@ -36,6 +40,9 @@ pub enum PlotError {
     /// The result holds nothing to draw for the files asked.
     #[error("{0}")]
     Empty(String),
+    /// More files than one picture draws.
+    #[error("the result holds {0} files; one picture draws at most {MAX_FILES}: pick one")]
+    TooManyFiles(usize),
     /// The drawing failed (a bug).
     #[error("drawing failed: {0}")]
     Draw(String),
@@ -143,6 +150,9 @@ pub fn plot(
             ),
             None => "the result holds no detections and no events to draw".into(),
         }));
+    }
+    if files.len() > MAX_FILES {
+        return Err(PlotError::TooManyFiles(files.len()));
     }
     let height = ROW * files.len() as u32 + 40;
     let mut svg = String::new();

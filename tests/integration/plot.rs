@@ -217,3 +217,35 @@ fn the_readme_picture_is_current() {
         "docs/example.svg is stale: SSL_UPDATE_PLOTS=1 cargo test --release --test integration plot::"
     );
 }
+
+#[test]
+fn one_picture_draws_a_bounded_number_of_files() {
+    // Issue 31, item 16: the SVG grew with the number of files (40,000 one-row files:
+    // 629 MB). At most ssl::plot::MAX_FILES rows; more is an error naming --file.
+    let dir = tempdir();
+    let d = dir.path();
+    let header = "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics,source\n";
+    let rows = |n: usize| {
+        (0..n)
+            .map(|i| format!("0.1,0,0,1,0,0,3,f{i}.wav,9,8,1\n"))
+            .collect::<String>()
+    };
+    let max = ssl::plot::MAX_FILES;
+    write(d, "many.csv", format!("{header}{}", rows(max + 1)));
+    write(d, "most.csv", format!("{header}{}", rows(max)));
+    let out = run(&["plot", s(&d.join("many.csv")), "-o", s(&d.join("many.svg"))]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains(&format!(
+            "the result holds {} files; one picture draws at most {max}: pick one with --file NAME",
+            max + 1
+        )),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!d.join("many.svg").exists());
+    let out = run(&["plot", s(&d.join("most.csv")), "-o", s(&d.join("most.svg"))]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let size = std::fs::metadata(d.join("most.svg")).unwrap().len();
+    assert!(size < 2 << 20, "{size} bytes");
+}
