@@ -379,6 +379,19 @@ pub enum ParamsError {
         /// The smallest power of two that fits.
         needed: usize,
     },
+    /// The input's dereverberation (`wpe`) would need more memory than it may take: its
+    /// filters grow as the square of the microphones.
+    #[error("dereverberating the input (wpe) with {mics} microphones at {sample_rate} Hz needs about {mb:.0} MB for its filters, which grow as the square of the microphones; at most {max_mb} MB are taken: dereverberate with fewer microphones (a geometry of a subset)")]
+    WpeTooLarge {
+        /// Microphones filtered.
+        mics: usize,
+        /// The recording's sample rate (Hz).
+        sample_rate: u32,
+        /// Megabytes the filters would take.
+        mb: f64,
+        /// Megabytes allowed.
+        max_mb: usize,
+    },
     /// M is 0 or more than [`MAX_PEAKS`].
     #[error("the number of peaks per pair must be between 1 and {MAX_PEAKS}, got {0}")]
     Peaks(usize),

@@ -255,6 +255,18 @@ impl<S: SampleSource> Analysis<S> {
         let sample_rate = source.sample_rate();
         let analyzer =
             Analyzer::new(geometry, sample_rate, params).map_err(|e| fail(&name, e.into()))?;
+        if params.wpe {
+            let bytes = super::wpe::filter_bytes(geometry.mics.len(), sample_rate);
+            if bytes > super::wpe::MAX_BYTES {
+                let e = crate::method::ParamsError::WpeTooLarge {
+                    mics: geometry.mics.len(),
+                    sample_rate,
+                    mb: bytes / 1048576.0,
+                    max_mb: (super::wpe::MAX_BYTES / 1048576.0) as usize,
+                };
+                return Err(fail(&name, ErrorKind::Params(e)));
+            }
+        }
         let n = analyzer.frame_size();
         if let Some(samples) = source.frames().filter(|&f| f < n as u64) {
             let kind = ErrorKind::TooShort {

@@ -689,3 +689,63 @@ fn a_long_file_source_is_read_only_as_far_as_it_is_played() {
     eprintln!("a 50M-sample file source, 1 s played: {mb:.0} MB");
     assert!(mb < 60.0, "{mb:.0} MB");
 }
+
+#[test]
+fn dereverberation_takes_memory_as_samples_come_and_refuses_what_it_cannot_hold() {
+    // Issue 31, item 17: --wpe reserved 2 s x rate x channels up front (a 1024-channel
+    // 768 kHz header asked 6.29 GB). A streamed header promising that, with 2 MB of
+    // data, now runs in a 1 GB address space.
+    let dir = tempdir();
+    let d = dir.path();
+    let (channels, rate) = (1024u16, 768_000u32);
+    let mut wav = Vec::new();
+    wav.extend_from_slice(b"RIFF\xff\xff\xff\xffWAVEfmt ");
+    wav.extend_from_slice(&16u32.to_le_bytes());
+    wav.extend_from_slice(&1u16.to_le_bytes());
+    wav.extend_from_slice(&channels.to_le_bytes());
+    wav.extend_from_slice(&rate.to_le_bytes());
+    wav.extend_from_slice(&(rate * 2 * channels as u32).to_le_bytes());
+    wav.extend_from_slice(&(2 * channels).to_le_bytes());
+    wav.extend_from_slice(&16u16.to_le_bytes());
+    wav.extend_from_slice(b"data\xff\xff\xff\xff");
+    wav.resize(wav.len() + 1000 * 2 * channels as usize, 0);
+    write(d, "wide.wav", &wav);
+    let four: String = ARRAY
+        .split("[[mic]]\n")
+        .skip(1)
+        .enumerate()
+        .map(|(i, m)| format!("[[mic]]\n{m}channel = {i}\n"))
+        .collect();
+    write(d, "array.toml", four);
+    let script = format!(
+        "ulimit -v 1000000 && exec {} analyze - -g array.toml --wpe -j 1 < wide.wav",
+        env!("CARGO_BIN_EXE_ssl")
+    );
+    let out = std::process::Command::new("sh")
+        .args(["-c", &script])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(matches!(out.status.code(), Some(0 | 1)), "{err}");
+    assert!(!err.contains("channel"), "the filter ran: {err}");
+    assert!(!err.contains("memory allocation"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    // Filters that grow as the square of the microphones are refused beyond 32.
+    let mics: String = (0..64)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / 64.0;
+            format!(
+                "[[mic]]\nposition = [{:.4}, {:.4}, 0.0]\nchannel = {i}\n",
+                0.1 * a.cos(),
+                0.1 * a.sin()
+            )
+        })
+        .collect();
+    write(d, "ring64.toml", mics);
+    refused(
+        d,
+        &["analyze", "wide.wav", "-g", "ring64.toml", "--wpe"],
+        "dereverberating the input (wpe) with 64 microphones at 768000 Hz needs about",
+    );
+}
