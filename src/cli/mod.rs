@@ -66,6 +66,9 @@ fn completions(shell: clap_complete::Shell) -> anyhow::Result<()> {
 /// No space left on device`), and a reader that went away ends the run quietly.
 fn print(text: &[u8]) -> anyhow::Result<()> {
     use std::io::Write;
+    if sink::stdout_was_closed() {
+        anyhow::bail!("cannot write standard output: it is closed (>&-)");
+    }
     let mut out = std::io::stdout().lock();
     out.write_all(text)
         .and_then(|()| out.flush())

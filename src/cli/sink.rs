@@ -359,7 +359,7 @@ impl Write for Sink {
 /// then opens `/dev/null` read-write in its place before `main`, so that writes vanish
 /// without an error; a shell's `> /dev/null` opens it write-only. Linux only (it reads
 /// /proc); elsewhere `false`.
-fn stdout_was_closed() -> bool {
+pub fn stdout_was_closed() -> bool {
     let is_null = std::fs::read_link("/proc/self/fd/1").is_ok_and(|p| p == Path::new("/dev/null"));
     let read_write = std::fs::read_to_string("/proc/self/fdinfo/1").is_ok_and(|info| {
         info.lines()

@@ -68,7 +68,8 @@ fn check_truth(truth: &Truth) -> Result<(), EvaluateError> {
     let d = truth.duration_s;
     if !(d.is_finite() && d > 0.0 && d <= MAX_DURATION_S) {
         return bad(format!(
-            "duration_s {d} is not between 0 and {MAX_DURATION_S} s"
+            "duration_s {} is not between 0 and {MAX_DURATION_S} s",
+            crate::text::Shown(d)
         ));
     }
     for s in &truth.sources {

@@ -202,6 +202,16 @@ impl Geometry {
         side: Option<Vector3<f64>>,
         explicit_channels: bool,
     ) -> Result<Self> {
+        if let Some(c) = name
+            .as_deref()
+            .and_then(|n| n.chars().find(|c| c.is_control()))
+        {
+            fail!(
+                GeometryError::Invalid,
+                "name holds a control character ({}); a name is plain text, printed as it is",
+                c.escape_unicode()
+            );
+        }
         let mut warnings = Vec::new();
         if mics.len() < 2 {
             fail!(
@@ -251,13 +261,23 @@ impl Geometry {
         for i in 0..mics.len() {
             for j in i + 1..mics.len() {
                 let d = (mics[j].position - mics[i].position).norm();
+                if d == 0.0 {
+                    fail!(
+                        GeometryError::Invalid,
+                        "mics {} and {} have the same position {}",
+                        i + 1,
+                        j + 1,
+                        crate::text::shown3(&mics[i].position.into())
+                    );
+                }
                 if d < MIN_SPACING_M {
                     fail!(
                         GeometryError::Invalid,
-                        "mics {} and {} have the same position {:?}",
+                        "mics {} and {} are {} um apart, closer than {} um: no delay between them can be measured (positions in metres? give each microphone its own position)",
                         i + 1,
                         j + 1,
-                        mics[i].position.as_slice()
+                        crate::text::Shown(crate::text::fixed(d * 1e6, 3)),
+                        MIN_SPACING_M * 1e6
                     );
                 }
                 aperture = aperture.max(d);
@@ -275,8 +295,8 @@ impl Geometry {
             if !(s.iter().all(|v| v.is_finite()) && s.norm() > 0.0) {
                 fail!(
                     GeometryError::Invalid,
-                    "side must be a finite non-zero vector, got {:?}",
-                    s.as_slice()
+                    "side must be a finite non-zero vector, got {}",
+                    crate::text::shown3(&[s.x, s.y, s.z])
                 );
             }
         }

@@ -5,7 +5,7 @@
 //! stages; the engine's [`Setup`](super::engine::setup::Setup) holds them beside this.
 
 use super::paper::pairs::{pair_count, pair_index};
-use super::params::{default_frame_size, frame_size_for_ms, Params, ParamsError};
+use super::params::{default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_FRAME_SIZE};
 use crate::geometry::Geometry;
 
 /// The frame layout of a run (see the module).
@@ -39,6 +39,13 @@ impl Layout {
         params: &Params,
     ) -> Result<Self, ParamsError> {
         params.check()?;
+        if let Some(ms) = params.frame_ms.filter(|_| params.frame_size.is_none()) {
+            // The nearest power of two, which must be a frame size (not clamped to one).
+            let p = (ms * sample_rate as f64 / 1000.0).log2().round();
+            if !(4.0..=MAX_FRAME_SIZE.trailing_zeros() as f64).contains(&p) {
+                return Err(ParamsError::FrameMsRange { ms, sample_rate });
+            }
+        }
         let n = params.frame_size.unwrap_or_else(|| match params.frame_ms {
             Some(ms) => frame_size_for_ms(ms, sample_rate),
             None => default_frame_size(sample_rate),

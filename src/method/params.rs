@@ -365,8 +365,17 @@ pub enum ParamsError {
     )]
     FrameSize(usize),
     /// The frame length in milliseconds is not a positive number.
-    #[error("the frame length must be a positive number of milliseconds, got {0}")]
+    #[error("the frame length must be a positive number of milliseconds, got {}", crate::text::Shown(*.0))]
     FrameMs(f64),
+    /// The frame length in milliseconds is not 16 to [`MAX_FRAME_SIZE`] samples at the
+    /// recording's rate.
+    #[error("a frame of {} ms at {sample_rate} Hz would be {} samples; frames are 16 to {MAX_FRAME_SIZE} samples ({:.2} to {:.0} ms at this rate)", crate::text::Shown(*ms), crate::text::Shown(ms * *sample_rate as f64 / 1000.0), 16000.0 / *sample_rate as f64, MAX_FRAME_SIZE as f64 * 1000.0 / *sample_rate as f64)]
+    FrameMsRange {
+        /// The frame length asked for (ms).
+        ms: f64,
+        /// The recording's sample rate (Hz).
+        sample_rate: u32,
+    },
     /// The frame cannot hold the array's largest delay on both sides of lag 0.
     #[error("the array's largest delay ({delay} samples at {sample_rate} Hz) does not fit in a frame of {frame_size} samples: a frame of {needed} samples or more is needed")]
     FrameTooShort {
@@ -396,13 +405,13 @@ pub enum ParamsError {
     #[error("the number of peaks per pair must be between 1 and {MAX_PEAKS}, got {0}")]
     Peaks(usize),
     /// The tolerance is negative or not a number.
-    #[error("the consistency tolerance must be a non-negative number of samples, got {0}")]
+    #[error("the consistency tolerance must be a non-negative number of samples, got {}", crate::text::Shown(f64::from(*.0)))]
     Tolerance(f32),
     /// The tolerance in microseconds is negative or not a number.
-    #[error("the consistency tolerance must be a non-negative number of microseconds, got {0}")]
+    #[error("the consistency tolerance must be a non-negative number of microseconds, got {}", crate::text::Shown(*.0))]
     ToleranceUs(f64),
     /// The residual gate is not a positive number of microseconds.
-    #[error("the residual gate must be a positive number of microseconds, got {0}")]
+    #[error("the residual gate must be a positive number of microseconds, got {}", crate::text::Shown(*.0))]
     ResidualGate(f64),
     /// The number of frames averaged is 0 or more than [`MAX_AVERAGE_FRAMES`].
     #[error("the number of frames to average must be between 1 and {MAX_AVERAGE_FRAMES}, got {0}")]
@@ -411,25 +420,25 @@ pub enum ParamsError {
     #[error("the most sources per frame must be 1 to 4, got {0}")]
     MaxSources(usize),
     /// The candidates' share of the threshold is not in (0, 1].
-    #[error("the candidates' share of the threshold must be over 0 and at most 1, got {0}")]
+    #[error("the candidates' share of the threshold must be over 0 and at most 1, got {}", crate::text::Shown(*.0))]
     Candidates(f64),
     /// The riders' share of the threshold is not in (0, 1].
-    #[error("the riders' share of the threshold must be over 0 and at most 1, got {0}")]
+    #[error("the riders' share of the threshold must be over 0 and at most 1, got {}", crate::text::Shown(*.0))]
     Riders(f64),
     /// The threshold's allowance for chance is negative or not a number.
-    #[error("the threshold's allowance for chance must be a non-negative number of standard deviations, got {0}")]
+    #[error("the threshold's allowance for chance must be a non-negative number of standard deviations, got {}", crate::text::Shown(*.0))]
     ThresholdSigmas(f64),
     /// The reverberation share is outside 0 to 1.
-    #[error("the share of late reverberation must be between 0 and 1, got {0}")]
+    #[error("the share of late reverberation must be between 0 and 1, got {}", crate::text::Shown(f64::from(*.0)))]
     ReverbLevel(f32),
     /// The background's time constant is not a positive number of seconds.
-    #[error("the background's time constant must be a positive number of seconds, got {0}")]
+    #[error("the background's time constant must be a positive number of seconds, got {}", crate::text::Shown(*.0))]
     BackgroundS(f64),
     /// The learned patterns' longer average has no positive time constant.
-    #[error("the time constant of the average the talkers' patterns are removed from must be a positive number of seconds, got {0}")]
+    #[error("the time constant of the average the talkers' patterns are removed from must be a positive number of seconds, got {}", crate::text::Shown(*.0))]
     PatternsS(f64),
     /// The threshold is not a number.
-    #[error("the detection threshold must be a number, got {0}")]
+    #[error("the detection threshold must be a number, got {}", crate::text::Shown(*.0))]
     MinScore(f64),
     /// The speed of sound is outside [`SPEED_OF_SOUND_RANGE`].
     #[error("the speed of sound must be {low} to {high} m/s, got {0:e}", low = SPEED_OF_SOUND_RANGE.0, high = SPEED_OF_SOUND_RANGE.1)]

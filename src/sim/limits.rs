@@ -5,6 +5,7 @@
 use super::room::image_count;
 use super::scene::{SceneFile, SignalKind};
 use super::SceneError;
+use crate::text::{shown3, Shown};
 
 /// The longest scene (seconds).
 pub const MAX_DURATION_S: f64 = 3600.0;
@@ -44,6 +45,12 @@ macro_rules! require {
     };
 }
 
+/// A noise component's weight: within 100 dB of the others (10^(-1e9/20) is 0, which
+/// left nothing to scale and wrote NaN).
+fn weight_ok(db: f64) -> bool {
+    (-100.0..=100.0).contains(&db)
+}
+
 fn finite3(p: &[f64; 3]) -> bool {
     p.iter().all(|v| v.is_finite())
 }
@@ -59,7 +66,7 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
     require!(
         scene.duration.is_finite() && scene.duration > 0.0 && scene.duration <= MAX_DURATION_S,
         "duration must be between 0 and {MAX_DURATION_S} seconds, got {}",
-        scene.duration
+        Shown(scene.duration)
     );
     require!(
         (scene.duration * fs).round() >= 1.0,
@@ -70,17 +77,18 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
     let c = scene.speed_of_sound.unwrap_or(343.0);
     require!(
         c.is_finite() && (SPEED_RANGE.0..=SPEED_RANGE.1).contains(&c),
-        "speed_of_sound must be between {} and {} m/s, got {c}",
+        "speed_of_sound must be between {} and {} m/s, got {}",
         SPEED_RANGE.0,
-        SPEED_RANGE.1
+        SPEED_RANGE.1,
+        Shown(c)
     );
     if let Some(room) = &scene.room {
         require!(
             room.dimensions
                 .iter()
                 .all(|d| d.is_finite() && *d > 0.0 && *d <= MAX_ROOM_M),
-            "room dimensions must be between 0 and {MAX_ROOM_M} m, got {:?}",
-            room.dimensions
+            "room dimensions must be between 0 and {MAX_ROOM_M} m, got {}",
+            shown3(&room.dimensions)
         );
     }
     require!(
@@ -110,12 +118,13 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
         require!(
             s.level_db.is_finite() && (-200.0..=40.0).contains(&s.level_db),
             "{what}: level_db must be between -200 and 40 dBFS, got {}",
-            s.level_db
+            Shown(s.level_db)
         );
         if let Some(d) = s.distance {
             require!(
                 d > 0.0 && d <= MAX_DISTANCE_M,
-                "{what}: distance must be between 0 and {MAX_DISTANCE_M} m, got {d}"
+                "{what}: distance must be between 0 and {MAX_DISTANCE_M} m, got {}",
+                Shown(d)
             );
         }
         if let Some(turn) = s.turn_deg_per_s {
@@ -125,22 +134,25 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
             );
             require!(
                 turn.abs() <= MAX_TURN_DEG_S,
-                "{what}: turn_deg_per_s must be at most {MAX_TURN_DEG_S} deg/s either way, got {turn}"
+                "{what}: turn_deg_per_s must be at most {MAX_TURN_DEG_S} deg/s either way, got {}",
+                Shown(turn)
             );
         }
         if s.signal == SignalKind::Clicks {
             let rate = s.rate.unwrap_or(10.0);
             require!(
                 rate > 0.0 && rate <= 1000.0,
-                "{what}: rate must be between 0 and 1000 clicks per second, got {rate}"
+                "{what}: rate must be between 0 and 1000 clicks per second, got {}",
+                Shown(rate)
             );
         }
         if s.signal == SignalKind::Tone {
             let f = s.frequency.unwrap_or(1000.0);
             require!(
                 f > 0.0 && f < fs / 2.0,
-                "{what}: frequency must be between 0 and {} Hz (half the sample rate), got {f}",
-                fs / 2.0
+                "{what}: frequency must be between 0 and {} Hz (half the sample rate), got {}",
+                fs / 2.0,
+                Shown(f)
             );
         }
     }
@@ -148,25 +160,25 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
         require!(
             noise.snr_db.is_finite() && (-100.0..=100.0).contains(&noise.snr_db),
             "[noise] snr_db must be between -100 and 100 dB, got {}",
-            noise.snr_db
+            Shown(noise.snr_db)
         );
         require!(
             noise
                 .sensor_db
                 .is_none_or(|d| d.is_finite() && (-200.0..=40.0).contains(&d)),
-            "[noise] sensor_db must be between -200 and 40 dBFS, got {:?}",
-            noise.sensor_db
+            "[noise] sensor_db must be between -200 and 40 dBFS, got {}",
+            Shown(noise.sensor_db.unwrap_or(f64::NAN))
         );
         require!(
             noise
                 .fan
                 .iter()
-                .all(|f| finite3(&f.position) && f.weight_db.is_finite())
+                .all(|f| finite3(&f.position) && weight_ok(f.weight_db))
                 && noise
                     .diffuse
                     .as_ref()
-                    .is_none_or(|d| d.weight_db.is_finite()),
-            "[noise] positions and weight_db must be finite numbers"
+                    .is_none_or(|d| weight_ok(d.weight_db)),
+            "[noise] positions must be finite numbers, and weight_db between -100 and 100 dB"
         );
     }
     Ok(())

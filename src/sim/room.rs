@@ -48,7 +48,8 @@ impl Room {
         if !(rt60.is_finite() && rt60 >= 0.0) {
             fail!(
                 SceneError::Invalid,
-                "rt60 must be a non-negative number of seconds, got {rt60}"
+                "rt60 must be a non-negative number of seconds, got {}",
+                crate::text::Shown(rt60)
             );
         }
         if rt60 == 0.0 {
@@ -114,7 +115,8 @@ impl Room {
         if !(0.0..=1.0).contains(&absorption) || absorption == 0.0 {
             fail!(
                 SceneError::Invalid,
-                "wall absorption must be in (0, 1], got {absorption}"
+                "wall absorption must be in (0, 1], got {}",
+                crate::text::Shown(absorption)
             );
         }
         Ok(Room {
@@ -225,8 +227,8 @@ fn check_dims(d: &Vector3<f64>) -> Result<()> {
     if !d.iter().all(|v| v.is_finite() && *v > 0.0) {
         fail!(
             SceneError::Invalid,
-            "room dimensions must be positive numbers of metres, got {:?}",
-            d.as_slice()
+            "room dimensions must be positive numbers of metres, got {}",
+            crate::text::shown3(&[d.x, d.y, d.z])
         );
     }
     Ok(())

@@ -165,7 +165,11 @@ impl fmt::Display for Warning {
                     (None, None) => write!(f, "no frame held a consistent set of delays")?,
                 }
                 match threshold_per_pair {
-                    Some(t) => write!(f, ", against a threshold of {t} per pair")?,
+                    Some(t) => write!(
+                        f,
+                        ", against a threshold of {} per pair",
+                        crate::text::Shown(f64::from(*t))
+                    )?,
                     None => write!(f, ", against the threshold calibrated from each frame's background")?,
                 }
                 if *steady {

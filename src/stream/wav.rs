@@ -112,6 +112,11 @@ impl WavStream {
                     consumed += body.len() as u64;
                     body.truncate(len as usize);
                     if &head[0..4] == b"fmt " {
+                        if fmt.is_some() {
+                            return Err(InputError::Corrupt(
+                                "corrupt WAV: two format chunks (which one describes the data cannot be told)".into(),
+                            ));
+                        }
                         fmt = Some(body);
                     } else if len >= 16 {
                         // ds64: the 64-bit RIFF size, then the 64-bit data size.

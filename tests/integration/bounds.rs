@@ -749,3 +749,180 @@ fn dereverberation_takes_memory_as_samples_come_and_refuses_what_it_cannot_hold(
         "dereverberating the input (wpe) with 64 microphones at 768000 Hz needs about",
     );
 }
+
+#[test]
+fn messages_show_numbers_briefly_and_say_what_is_wrong() {
+    // Issue 31, item 20 (and the NaN WAV of item 19).
+    let dir = tempdir();
+    let d = dir.path();
+    simulate_and_analyze(d);
+    let no_long_numbers = |err: &str| {
+        let longest = err
+            .split(|c: char| !c.is_ascii_digit())
+            .map(str::len)
+            .max()
+            .unwrap_or(0);
+        assert!(longest < 20, "a number of {longest} digits: {err}");
+    };
+    // A warning's threshold, a truth's duration, a scene's duration.
+    let out = ssl()
+        .current_dir(d)
+        .args([
+            "analyze",
+            "sim.wav",
+            "-g",
+            "array.toml",
+            "--min-score",
+            "1e300",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        stderr(&out).contains("a threshold of 1e300 per pair"),
+        "{}",
+        stderr(&out)
+    );
+    no_long_numbers(&stderr(&out));
+    let mut t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("sim.truth.json")).unwrap()).unwrap();
+    t["duration_s"] = 1e300.into();
+    write(d, "t.json", t.to_string());
+    refused(
+        d,
+        &["evaluate", "--truth", "t.json", "r.csv"],
+        "duration_s 1e300 is not",
+    );
+    let text = std::fs::read_to_string(d.join("scene.toml"))
+        .unwrap()
+        .replace("duration = 1.0", "duration = 1e300");
+    write(d, "long.toml", text);
+    refused(d, &["simulate", "long.toml", "-o", "x.wav"], "got 1e300");
+    // An optional number is shown as a number, not `Some(...)`.
+    let text = std::fs::read_to_string(d.join("scene.toml")).unwrap()
+        + "[noise]\nsnr_db = 10\nsensor_db = 1e9\n";
+    write(d, "sensor.toml", text);
+    refused(
+        d,
+        &["simulate", "sensor.toml", "-o", "x.wav"],
+        "dBFS, got 1e9",
+    );
+    let out = ssl()
+        .current_dir(d)
+        .args(["simulate", "sensor.toml", "-o", "x.wav"])
+        .output()
+        .unwrap();
+    assert!(!stderr(&out).contains("Some("), "{}", stderr(&out));
+    // A weight that leaves nothing to scale (it wrote an all-NaN float WAV).
+    let text = std::fs::read_to_string(d.join("scene.toml"))
+        .unwrap()
+        .replace("sample_rate = 16000", "sample_rate = 16000\nformat = \"float32\"")
+        + "[noise]\nsnr_db = 10\n[[noise.fan]]\nposition = [3.0, 3.0, 1.0]\nsignal = \"pink\"\nweight_db = -1e9\n";
+    write(d, "weight.toml", text);
+    refused(
+        d,
+        &["simulate", "weight.toml", "-o", "x.wav"],
+        "weight_db between -100 and 100 dB",
+    );
+    // Microphones 10 um apart are not "the same position".
+    write(
+        d,
+        "close.toml",
+        "[[mic]]\nposition = [0.0, 0.0, 0.0]\n[[mic]]\nposition = [0.00001, 0.0, 0.0]\n",
+    );
+    refused(
+        d,
+        &["geometry", "close.toml"],
+        "mics 1 and 2 are 10 um apart, closer than 100 um",
+    );
+    // A name with a terminal escape sequence is refused, not printed raw.
+    write(
+        d,
+        "escape.toml",
+        format!("name = \"a\\u001b[2Jb\"\n{ARRAY}"),
+    );
+    refused(
+        d,
+        &["geometry", "escape.toml"],
+        "name holds a control character",
+    );
+    // --frame-ms out of range is an error, as -n is (it was clamped without a word).
+    refused(
+        d,
+        &[
+            "analyze",
+            "sim.wav",
+            "-g",
+            "array.toml",
+            "--frame-ms",
+            "1e300",
+        ],
+        "a frame of 1e300 ms at 16000 Hz would be 1.6e301 samples; frames are 16 to 65536 samples",
+    );
+    // Two format chunks: which one describes the data cannot be told.
+    let wav = std::fs::read(d.join("sim.wav")).unwrap();
+    let fmt_at = wav.windows(4).position(|w| w == b"fmt ").unwrap();
+    let fmt_len = u32::from_le_bytes(wav[fmt_at + 4..fmt_at + 8].try_into().unwrap()) as usize;
+    let chunk = wav[fmt_at..fmt_at + 8 + fmt_len].to_vec();
+    let doubled = [&wav[..fmt_at], &chunk, &wav[fmt_at..]].concat();
+    write(d, "two.wav", doubled);
+    refused(
+        d,
+        &["analyze", "two.wav", "-g", "array.toml"],
+        "two format chunks",
+    );
+}
+
+#[test]
+fn every_subcommand_refuses_a_closed_standard_output_and_a_file_size_limit_is_an_error() {
+    // Issue 31, item 19: ssl geometry, evaluate and completions exited 0 with standard
+    // output closed; `ulimit -f` killed a run by SIGXFSZ without a message.
+    let dir = tempdir();
+    let d = dir.path();
+    simulate_and_analyze(d);
+    for args in [
+        "geometry array.toml",
+        "evaluate --truth sim.truth.json r.csv",
+        "completions bash",
+        "analyze sim.wav -g array.toml",
+    ] {
+        let out = std::process::Command::new("sh")
+            .args([
+                "-c",
+                &format!("exec {} {args} >&-", env!("CARGO_BIN_EXE_ssl")),
+            ])
+            .current_dir(d)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{args}: {}", stderr(&out));
+        assert!(
+            stderr(&out).contains("standard output"),
+            "{args}: {}",
+            stderr(&out)
+        );
+    }
+    // A file size limit of 8 KB (ulimit -f counts 1024-byte blocks) on a long output.
+    let out = std::process::Command::new("sh")
+        .args([
+            "-c",
+            &format!(
+                "ulimit -f 8 && exec {} analyze sim.wav -g array.toml --no-track -f json -o big.json",
+                env!("CARGO_BIN_EXE_ssl")
+            ),
+        ])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("cannot write big.json: File too large"),
+        "{err}"
+    );
+    assert!(!d.join("big.json").exists());
+    let left: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporary files left: {left:?}");
+}
