@@ -168,7 +168,7 @@ impl fmt::Display for Warning {
                     Some(t) => write!(
                         f,
                         ", against a threshold of {} per pair",
-                        crate::text::Shown(f64::from(*t))
+                        crate::text::Shown(*t)
                     )?,
                     None => write!(f, ", against the threshold calibrated from each frame's background")?,
                 }
