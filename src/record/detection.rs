@@ -73,7 +73,7 @@ impl DetectionRecord {
 
     /// The first of its numbers that is NaN or infinite, by field name: such a record is
     /// never written, nor read back.
-    pub(crate) fn non_finite(&self) -> Option<&'static str> {
+    pub fn non_finite(&self) -> Option<&'static str> {
         first_non_finite(&[
             ("time_s", self.time_s),
             ("azimuth_deg", self.azimuth_deg),

@@ -65,7 +65,7 @@ impl EventRecord {
 
     /// The first of its numbers that is NaN or infinite, by field name: such a record is
     /// never written, nor read back.
-    pub(crate) fn non_finite(&self) -> Option<&'static str> {
+    pub fn non_finite(&self) -> Option<&'static str> {
         first_non_finite(&[
             ("start_s", self.start_s),
             ("end_s", self.end_s),

@@ -103,6 +103,20 @@ pub fn simulate(scene: &SceneFile, dir: &Path) -> Result<Simulation, SceneError>
         noise,
         recording: None,
     };
+    // A number that is not finite has no sample value (int formats would write 0, a
+    // float file NaN, which every reader refuses): no scene that passed its checks
+    // gives one, and none is ever written.
+    for (c, ch) in out.iter().enumerate() {
+        if let Some(k) = ch
+            .iter()
+            .position(|v| !(v.is_finite() && (*v as f32).is_finite()))
+        {
+            fail!(
+                SceneError::Invalid,
+                "the rendered sample {k} of channel {c} is not a finite number; the scene's levels are out of reach"
+            );
+        }
+    }
     Ok(Simulation {
         sample_rate: scene.sample_rate,
         format: scene.format,

@@ -53,16 +53,6 @@ pub fn write_wav(
             hound::SampleFormat::Int
         },
     };
-    // A number that is not finite has no sample value: int formats would write 0 and a
-    // float file NaN, which every reader refuses. Nothing is written.
-    for (c, ch) in channels.iter().enumerate() {
-        if let Some(k) = ch.iter().position(|v| !v.is_finite()) {
-            return Err(hound::Error::IoError(std::io::Error::new(
-                std::io::ErrorKind::InvalidData,
-                format!("sample {k} of channel {c} is not a finite number"),
-            )));
-        }
-    }
     let mut w = hound::WavWriter::create(path, spec)?;
     let len = channels.iter().map(Vec::len).min().unwrap_or(0);
     let full = ((1i64 << (bits - 1)) - 1) as f64;

@@ -41,6 +41,10 @@ pub struct WavStream {
     /// Bytes after the last whole sample frame of the data, when its length is known up
     /// front (the header's, or a file's remainder when the header has a placeholder).
     tail: u64,
+    /// Whether the data can hold what the header promises: whole frames, and a file
+    /// long enough. When not, the length is not promised to the analysis, which reads
+    /// to the end and reports the damage, as it does from a pipe.
+    whole: bool,
 }
 
 impl WavStream {
@@ -167,6 +171,7 @@ impl WavStream {
         };
         format.frames = data_bytes.map(|d| d / block_align);
         let tail = data_bytes.map_or(0, |d| d % block_align);
+        let whole = tail == 0 && available.is_none_or(|a| data_bytes.is_none_or(|d| a >= d));
         Ok(WavStream {
             name: name.to_string(),
             format,
@@ -180,6 +185,7 @@ impl WavStream {
             live: size.is_none(),
             partial: 0,
             tail,
+            whole,
         })
     }
 
@@ -335,7 +341,7 @@ impl SampleSource for WavStream {
     }
 
     fn frames(&self) -> Option<u64> {
-        self.format.frames
+        self.format.frames.filter(|_| self.whole)
     }
 
     fn read(&mut self, out: &mut [f32]) -> Result<usize, InputError> {

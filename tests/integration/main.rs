@@ -12,6 +12,7 @@ mod bounds;
 mod cli;
 mod entry_points;
 mod formats;
+mod fuzz;
 mod inputs;
 mod live;
 mod man;
