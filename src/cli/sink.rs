@@ -30,6 +30,24 @@ static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// `ssl simulate`'s two files are both replaced or neither at every instant.
 static COMMIT: Mutex<()> = Mutex::new(());
 
+/// Set when a signal arrives, before its handler waits for a commit to end: the commit
+/// then waits for the handler to end the process (with the signal's status).
+static SIGNALLED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Holds the commit lock for `f`; when a signal came meanwhile, the process ends by it.
+fn committing<T>(f: impl FnOnce() -> T) -> T {
+    let result = {
+        let _commit = COMMIT.lock();
+        f()
+    };
+    if SIGNALLED.load(std::sync::atomic::Ordering::SeqCst) {
+        loop {
+            std::thread::park();
+        }
+    }
+    result
+}
+
 /// The signals whose default action ends the process: each removes the temporary files
 /// and exits with 128 + its number, after any commit under way. SIGXFSZ (a file size
 /// limit, `ulimit -f`) is caught instead, so the write that passes the limit fails with
@@ -47,6 +65,7 @@ pub fn remove_temporaries_on_signal() {
     };
     std::thread::spawn(move || {
         if let Some(signal) = signals.forever().next() {
+            SIGNALLED.store(true, std::sync::atomic::Ordering::SeqCst);
             let _commit = COMMIT.lock();
             if let Ok(paths) = TEMPORARIES.lock() {
                 for p in paths.iter() {
@@ -255,8 +274,7 @@ impl Sink {
     pub fn commit(mut self) -> Result<()> {
         self.flush().map_err(|e| self.write_error(&e))?;
         if let Kind::Atomic(tmp, target) = self.kind {
-            let _commit = COMMIT.lock();
-            tmp.persist(&target)
+            committing(|| tmp.persist(&target))
                 .map_err(|e| anyhow::anyhow!("cannot write {}: {}", self.shown, io_reason(&e)))?;
         }
         Ok(())
@@ -277,8 +295,7 @@ impl Sink {
         } else {
             "not written"
         };
-        let _commit = COMMIT.lock();
-        tmp.persist(&partial).map_err(|e| {
+        committing(|| tmp.persist(&partial)).map_err(|e| {
             anyhow::anyhow!("cannot write {}: {}", partial.display(), io_reason(&e))
         })?;
         Ok(Some(format!(
@@ -297,24 +314,28 @@ impl Sink {
         let Kind::Atomic(tmp, target) = self.kind else {
             return second.commit();
         };
-        let _commit = COMMIT.lock();
-        let backup =
-            match std::fs::metadata(&target) {
-                Ok(_) => Some(Temporary::backup(&target).map_err(|e| {
-                    anyhow::anyhow!("cannot write {}: {}", self.shown, io_reason(&e))
-                })?),
-                Err(_) => None,
-            };
+        committing(|| Self::replace_both(tmp, &target, &self.shown, second))
+    }
+
+    /// The renames of [`Sink::commit_both`], under the commit lock.
+    fn replace_both(tmp: Temporary, target: &Path, shown: &str, second: Sink) -> Result<()> {
+        let backup = match std::fs::metadata(target) {
+            Ok(_) => Some(
+                Temporary::backup(target)
+                    .map_err(|e| anyhow::anyhow!("cannot write {}: {}", shown, io_reason(&e)))?,
+            ),
+            Err(_) => None,
+        };
         let restore = |backup: Option<Temporary>| match backup {
             Some(b) => {
-                let _ = b.persist(&target);
+                let _ = b.persist(target);
             }
             None => {
-                let _ = std::fs::remove_file(&target);
+                let _ = std::fs::remove_file(target);
             }
         };
-        if let Err(e) = tmp.persist(&target) {
-            bail!("cannot write {}: {}", self.shown, io_reason(&e));
+        if let Err(e) = tmp.persist(target) {
+            bail!("cannot write {}: {}", shown, io_reason(&e));
         }
         // A seam for the test that signals the process between the two renames.
         if let Some(ms) = std::env::var("SSL_TEST_COMMIT_PAUSE_MS")

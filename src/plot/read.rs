@@ -85,13 +85,7 @@ impl PlotData {
 /// reader of results ([`read_result`]), which refuses what `ssl analyze` does not write
 /// (a number that is not finite included: nothing can be drawn of it).
 pub fn read_plot_data(input: impl std::io::Read) -> Result<PlotData, ReadError> {
-    let mut data = PlotData::default();
-    let info = read_result(input, |r| {
-        data.add(r);
-        Ok(())
-    })?;
-    data.take(&info);
-    Ok(data)
+    gather(|each| read_result(input, each))
 }
 
 /// Parses a result's text (see [`read_plot_data`]).
@@ -101,8 +95,17 @@ pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
 
 /// Reads a result file, or standard input for `-` (see [`read_plot_data`]).
 pub fn read_plot_file(path: &std::path::Path) -> Result<PlotData, ReadError> {
+    gather(|each| read_result_file(path, each))
+}
+
+/// The records and the document's figures that `read` hands over, as drawn.
+fn gather(
+    read: impl FnOnce(
+        &mut dyn FnMut(ResultRecord) -> Result<(), String>,
+    ) -> Result<ResultInfo, ReadError>,
+) -> Result<PlotData, ReadError> {
     let mut data = PlotData::default();
-    let info = read_result_file(path, |r| {
+    let info = read(&mut |r| {
         data.add(r);
         Ok(())
     })?;

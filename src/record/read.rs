@@ -34,10 +34,18 @@ fn format_error(message: String) -> ReadError {
     }
 }
 
+/// `e` in the file `path` (`-`: `<stdin>`), unless it names its file already.
 fn in_file(path: &Path, e: ReadError) -> ReadError {
     match e {
-        ReadError::Format { message, .. } => ReadError::Format {
-            path: Some(path.to_path_buf()),
+        ReadError::Format {
+            message,
+            path: None,
+        } => ReadError::Format {
+            path: Some(if path == Path::new("-") {
+                PathBuf::from("<stdin>")
+            } else {
+                path.to_path_buf()
+            }),
             message,
         },
         other => other,
@@ -122,13 +130,6 @@ pub fn read_result_file(
     path: &Path,
     each: impl FnMut(ResultRecord) -> Result<(), String>,
 ) -> Result<ResultInfo, ReadError> {
-    let shown = |p: &Path| {
-        if p == Path::new("-") {
-            PathBuf::from("<stdin>")
-        } else {
-            p.to_path_buf()
-        }
-    };
     let result = if path == Path::new("-") {
         read_result(std::io::stdin().lock(), each)
     } else {
@@ -138,50 +139,40 @@ pub fn read_result_file(
         })?;
         read_result(file, each)
     };
-    result.map_err(|e| match e {
-        ReadError::Format { message, .. } => ReadError::Format {
-            path: Some(shown(path)),
-            message,
-        },
-        other => other,
-    })
+    result.map_err(|e| in_file(path, e))
 }
 
 /// Reads the detections of a CSV, NDJSON or JSON result of `ssl analyze` (`-` is
 /// standard input). Events are left out; a result that holds only events is an error.
 pub fn read_detections(path: &Path) -> Result<Vec<DetectionRecord>, ReadError> {
-    let mut rows = Vec::new();
-    let info = read_result_file(path, |r| {
-        if let ResultRecord::Detection(d) = r {
-            rows.push(d);
-        }
-        Ok(())
-    })?;
-    only_events(&info).map_err(|e| in_file(path, e))?;
-    Ok(rows)
+    detections(|each| read_result_file(path, each)).map_err(|e| in_file(path, e))
 }
 
 /// Parses detections from the text of a CSV, NDJSON or JSON result (see
 /// [`read_detections`]).
 pub fn parse_detections(text: &str) -> Result<Vec<DetectionRecord>, ReadError> {
+    detections(|each| read_result(text.as_bytes(), each))
+}
+
+/// The detections `read` hands over; a result of events only is an error.
+fn detections(
+    read: impl FnOnce(
+        &mut dyn FnMut(ResultRecord) -> Result<(), String>,
+    ) -> Result<ResultInfo, ReadError>,
+) -> Result<Vec<DetectionRecord>, ReadError> {
     let mut rows = Vec::new();
-    let info = read_result(text.as_bytes(), |r| {
+    let info = read(&mut |r| {
         if let ResultRecord::Detection(d) = r {
             rows.push(d);
         }
         Ok(())
     })?;
-    only_events(&info)?;
-    Ok(rows)
-}
-
-fn only_events(info: &ResultInfo) -> Result<(), ReadError> {
     if info.detections == 0 && info.events > 0 {
         return Err(format_error(
             "holds events (--events) but no detections: analyse without --events to score or read its rows".into(),
         ));
     }
-    Ok(())
+    Ok(rows)
 }
 
 /// A reader that fails past [`MAX_RESULT_BYTES`] instead of reading on.

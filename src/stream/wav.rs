@@ -41,9 +41,9 @@ pub struct WavStream {
     /// Bytes after the last whole sample frame of the data, when its length is known up
     /// front (the header's, or a file's remainder when the header has a placeholder).
     tail: u64,
-    /// Whether the data can hold what the header promises: whole frames, and a file
-    /// long enough. When not, the length is not promised to the analysis, which reads
-    /// to the end and reports the damage, as it does from a pipe.
+    /// Whether the data's length is whole sample frames. When not, the length is not
+    /// promised to the analysis, which reads to the end and reports the damage, from a
+    /// file as from a pipe (whose length is the header's alone).
     whole: bool,
 }
 
@@ -171,7 +171,7 @@ impl WavStream {
         };
         format.frames = data_bytes.map(|d| d / block_align);
         let tail = data_bytes.map_or(0, |d| d % block_align);
-        let whole = tail == 0 && available.is_none_or(|a| data_bytes.is_none_or(|d| a >= d));
+        let whole = tail == 0;
         Ok(WavStream {
             name: name.to_string(),
             format,
