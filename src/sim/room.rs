@@ -139,7 +139,11 @@ impl Room {
         let volume = self.dims.x * self.dims.y * self.dims.z;
         let mut len = 0.5;
         let mut last = self.eyring_rt60();
+        // The image sources of every response measured so far: together, at most one
+        // calibration response's worth.
+        let mut spent = 0.0;
         loop {
+            spent += image_count(343.0 * len, volume);
             let t = self.reference_rt60(len);
             if t.is_finite() {
                 if t < len {
@@ -148,7 +152,7 @@ impl Room {
                 last = t;
             }
             len *= 2.0;
-            if image_count(343.0 * len, volume) > MAX_CALIBRATION_IMAGES {
+            if spent + image_count(343.0 * len, volume) > MAX_CALIBRATION_IMAGES {
                 return last;
             }
         }
