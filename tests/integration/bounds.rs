@@ -919,10 +919,5 @@ fn every_subcommand_refuses_a_closed_standard_output_and_a_file_size_limit_is_an
         "{err}"
     );
     assert!(!d.join("big.json").exists());
-    let left: Vec<_> = std::fs::read_dir(d)
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
-        .collect();
-    assert!(left.is_empty(), "temporary files left: {left:?}");
+    assert!(temporaries(d).is_empty(), "{:?}", temporaries(d));
 }

@@ -19,7 +19,7 @@ use ssl::stream::WavStream;
 use ssl::{Geometry, Localizer, Options};
 use std::io::Cursor;
 use std::panic::AssertUnwindSafe;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use support::*;
 
@@ -416,29 +416,6 @@ fn fuzz_the_truth_reader_and_the_scores() {
     });
 }
 
-/// `ssl analyze` of `path` from the file and through a pipe, with the name replaced.
-fn file_and_pipe(path: &Path, geometry: &Path) -> [(Option<i32>, String, String); 2] {
-    let args = ["-g", s(geometry), "--format", "ndjson", "--no-track"];
-    let from_file = ssl()
-        .arg("analyze")
-        .arg(path)
-        .args(args)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .unwrap();
-    let from_pipe = run_with_stdin(
-        &[&["analyze", "-"][..], &args[..]].concat(),
-        std::fs::read(path).unwrap(),
-    );
-    [(from_file, s(path)), (from_pipe, "<stdin>")].map(|(out, name)| {
-        (
-            out.status.code(),
-            String::from_utf8_lossy(&out.stdout).replace(name, "IN"),
-            stderr(&out).replace(name, "IN"),
-        )
-    })
-}
-
 #[test]
 fn the_binary_reads_the_corpus_the_same_from_a_file_and_a_pipe() {
     let geometry = corpus_dir("geometry").join("pair.toml");
@@ -459,7 +436,10 @@ fn the_binary_reads_the_corpus_the_same_from_a_file_and_a_pipe() {
         inputs.push(p);
     }
     for path in &inputs {
-        let [file, pipe] = file_and_pipe(path, &geometry);
+        let [file, pipe] = analyze_file_and_pipe(
+            path,
+            &["-g", s(&geometry), "--format", "ndjson", "--no-track"],
+        );
         assert_eq!(file, pipe, "{}: a file and a pipe differ", path.display());
         assert!(
             !file.2.contains("panicked"),

@@ -275,20 +275,12 @@ fn stdin_with_placeholder_lengths_matches_the_file() {
     }
 }
 
-/// `ssl analyze` of `bytes` as a file and through a pipe: (exit status, stdout with the
-/// input's name replaced, stderr with the same).
+/// `ssl analyze` of `bytes` written as a file, and through a pipe (see
+/// [`analyze_file_and_pipe`]).
 fn file_and_pipe(dir: &Path, geo: &Path, bytes: &[u8]) -> [(Option<i32>, String, String); 2] {
     let path = dir.join("cut.wav");
     std::fs::write(&path, bytes).unwrap();
-    let from_file = run(&["analyze", s(&path), "-g", s(geo)]);
-    let from_pipe = run_with_stdin(&["analyze", "-", "-g", s(geo)], bytes.to_vec());
-    [(from_file, s(&path)), (from_pipe, "<stdin>")].map(|(out, name)| {
-        (
-            out.status.code(),
-            String::from_utf8_lossy(&out.stdout).replace(name, "IN"),
-            stderr(&out).replace(name, "IN"),
-        )
-    })
+    analyze_file_and_pipe(&path, &["-g", s(geo)])
 }
 
 #[test]

@@ -11,16 +11,6 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use support::*;
 
-/// The files in `dir` whose names end in `.tmp`.
-fn temporaries(dir: &Path) -> Vec<String> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".tmp"))
-        .collect()
-}
-
 const SCENE: &str = "sample_rate = 16000\nduration = 1.0\n[array]\ngeometry = \"prism.toml\"\nposition = [0.0, 0.0, 0.0]\n[[source]]\nazimuth_deg = 30.0\ndistance = 2.0\nsignal = \"white\"\n";
 
 #[test]

@@ -256,6 +256,34 @@ pub fn run_with_stdin(args: &[&str], input: Vec<u8>) -> Output {
     out
 }
 
+/// The files in `dir` whose names end in `.tmp` (the temporary outputs).
+pub fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+/// `ssl analyze` of the file `path` with `args`, and of its bytes through a pipe: each
+/// run's status, stdout and stderr, with the input's name replaced by `IN`, so that the
+/// two can be compared.
+pub fn analyze_file_and_pipe(path: &Path, args: &[&str]) -> [(Option<i32>, String, String); 2] {
+    let from_file = run(&[&["analyze", s(path)][..], args].concat());
+    let from_pipe = run_with_stdin(
+        &[&["analyze", "-"][..], args].concat(),
+        std::fs::read(path).unwrap(),
+    );
+    [(from_file, s(path)), (from_pipe, "<stdin>")].map(|(out, name)| {
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).replace(name, "IN"),
+            stderr(&out).replace(name, "IN"),
+        )
+    })
+}
+
 pub fn run(args: &[&str]) -> Output {
     ssl().args(args).stdin(Stdio::null()).output().unwrap()
 }
