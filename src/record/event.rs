@@ -33,12 +33,26 @@ pub struct EventRecord {
     pub detections: u64,
     /// Mean score of the detections.
     pub score: f64,
+    /// Azimuth of the first detection (degrees): where a moving source started.
+    #[serde(default)]
+    pub start_azimuth_deg: f64,
+    /// Elevation of the first detection (degrees).
+    #[serde(default)]
+    pub start_elevation_deg: f64,
+    /// Azimuth of the last detection (degrees): where a moving source ended.
+    #[serde(default)]
+    pub end_azimuth_deg: f64,
+    /// Elevation of the last detection (degrees).
+    #[serde(default)]
+    pub end_elevation_deg: f64,
 }
 
 impl EventRecord {
     /// The record of `event` in the recording named `file`. Fails on a non-finite value.
     pub fn new(file: &str, e: &Event) -> Result<Self, OutputError> {
         let (azimuth, elevation) = angles_deg(&e.direction);
+        let (start_azimuth, start_elevation) = angles_deg(&e.start_direction);
+        let (end_azimuth, end_elevation) = angles_deg(&e.end_direction);
         let record = EventRecord {
             file: file.to_string(),
             source: e.source,
@@ -52,6 +66,10 @@ impl EventRecord {
             spread_deg: fixed(e.spread_deg, 3),
             detections: e.detections,
             score: fixed(e.score, 4),
+            start_azimuth_deg: fixed(start_azimuth, 3),
+            start_elevation_deg: fixed(start_elevation, 3),
+            end_azimuth_deg: fixed(end_azimuth, 3),
+            end_elevation_deg: fixed(end_elevation, 3),
         };
         match record.non_finite() {
             Some(field) => Err(OutputError::NonFiniteEvent {
@@ -76,6 +94,10 @@ impl EventRecord {
             ("z", self.z),
             ("spread_deg", self.spread_deg),
             ("score", self.score),
+            ("start_azimuth_deg", self.start_azimuth_deg),
+            ("start_elevation_deg", self.start_elevation_deg),
+            ("end_azimuth_deg", self.end_azimuth_deg),
+            ("end_elevation_deg", self.end_elevation_deg),
         ])
     }
 }

@@ -23,6 +23,10 @@ pub struct Event {
     pub detections: u64,
     /// Mean score of the detections.
     pub score: f64,
+    /// The direction of its first detection (unit vector): where a moving source started.
+    pub start_direction: Vector3<f64>,
+    /// The direction of its last detection: where a moving source ended.
+    pub end_direction: Vector3<f64>,
 }
 
 /// An event being accumulated: sums only, so memory does not grow with its length.
@@ -30,6 +34,9 @@ pub struct Event {
 pub(crate) struct Accumulator {
     start_s: f64,
     end_s: f64,
+    /// The first and the last detection's directions.
+    first: Vector3<f64>,
+    last: Vector3<f64>,
     sum: Vector3<f64>,
     score: f64,
     count: u64,
@@ -40,13 +47,22 @@ impl Accumulator {
         Accumulator {
             start_s: d.time_s,
             end_s: d.time_s,
+            first: d.direction,
+            last: d.direction,
             sum: d.direction,
             score: d.score,
             count: 1,
         }
     }
 
+    /// Adds `d` (detections may come out of order: a candidate's, once confirmed).
     pub fn add(&mut self, d: &Detection) {
+        if d.time_s < self.start_s {
+            self.first = d.direction;
+        }
+        if d.time_s >= self.end_s {
+            self.last = d.direction;
+        }
         self.start_s = self.start_s.min(d.time_s);
         self.end_s = self.end_s.max(d.time_s);
         self.sum += d.direction;
@@ -70,6 +86,8 @@ impl Accumulator {
             spread_deg: resultant.clamp(-1.0, 1.0).acos().to_degrees(),
             detections: self.count,
             score: self.score / n,
+            start_direction: self.first,
+            end_direction: self.last,
         }
     }
 }

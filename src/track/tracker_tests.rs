@@ -124,6 +124,11 @@ fn a_source_moving_at_60_degrees_a_second_is_one_track() {
     assert_eq!(events.len(), 1);
     // The spread of a 180 deg sweep is large, and says so.
     assert!(events[0].spread_deg > 45.0, "{}", events[0].spread_deg);
+    // Its start and end are where the source was first and last heard.
+    let azimuth = |u: &Vector3<f64>| u.y.atan2(u.x).to_degrees();
+    assert!((azimuth(&events[0].start_direction) + 90.0).abs() < 1e-6);
+    let last = -90.0 + 60.0 * 298.0 * HOP;
+    assert!((azimuth(&events[0].end_direction) - last).abs() < 1e-6);
 }
 
 /// A talker turning at 60 deg/s who pauses for 0.7 s comes back 42 deg on, further

@@ -132,9 +132,23 @@ fn two_talkers_taking_turns_are_two_tracks_and_three_events() {
     };
     let text = csv(&["--events"]);
     assert!(text.starts_with(
-        "file,source,start_s,end_s,azimuth_deg,elevation_deg,x,y,z,spread_deg,detections,score\n"
+        "file,source,start_s,end_s,azimuth_deg,elevation_deg,x,y,z,spread_deg,detections,score,\
+         start_azimuth_deg,start_elevation_deg,end_azimuth_deg,end_elevation_deg\n"
     ));
     assert_eq!(text.lines().count(), 4);
+    // Talkers who stay put start and end where they are heard on average.
+    for line in text.lines().skip(1) {
+        let f: Vec<f64> = line
+            .split(',')
+            .skip(4)
+            .filter_map(|v| v.parse().ok())
+            .collect();
+        let (azimuth, start, end) = (f[0], f[8], f[10]);
+        assert!(
+            (start - azimuth).abs() < 5.0 && (end - azimuth).abs() < 5.0,
+            "{line}"
+        );
+    }
     let untracked = parse_csv(&csv(&["--no-track"]));
     assert!(untracked.iter().all(|r| r.source.is_none()));
     eprintln!("{} rows untracked, {} tracked", untracked.len(), rows.len());
