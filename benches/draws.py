@@ -108,7 +108,7 @@ def clap_file(dir, rng, kind):
     return path
 
 
-def room_block(rng, rt60):
+def room_block(rng):
     dims = [rng.uniform(5.5, 9.0), rng.uniform(4.5, 7.5), rng.uniform(2.6, 3.4)]
     pos = [rng.uniform(1.5, dims[0] - 1.5), rng.uniform(1.5, dims[1] - 1.5), rng.uniform(0.9, 1.4)]
     return dims, pos
@@ -196,13 +196,13 @@ def family_scene(family, seed, dir, geometry, speech):
         rt60 = {"paper": rng.uniform(0.3, 0.4), "paper-far": rng.uniform(0.3, 0.4), "hard": rng.uniform(0.7, 0.85)}[family]
         snr = {"paper": 10.0, "paper-far": 10.0, "hard": 5.0}[family]
         far = (2.5, 3.5) if family == "paper-far" else (1.0, 3.0)
-        dims, pos = room_block(rng, rt60)
+        dims, pos = room_block(rng)
         sources, duration = speech_turns(rng, dims, pos, 4, 30, (0.3, 1.2), far, speech)
         fans = fan_positions(rng, dims, pos, near=False)
         return scene_toml(dims, pos, rt60, rate, duration, seed, geometry, sources, snr, fans, -6.0), sources
     if family == "turns":
         rt60 = rng.uniform(0.25, 0.45)
-        dims, pos = room_block(rng, rt60)
+        dims, pos = room_block(rng)
         base = rng.uniform(-180, 180)
         sources, t = [], 0.3
         for i in range(6):
@@ -219,7 +219,7 @@ def family_scene(family, seed, dir, geometry, speech):
         return scene_toml(dims, pos, rt60, rate, t + 0.5, seed, geometry, sources, 15.0, fans, -6.0), sources
     if family in ("claps", "knocks"):
         rt60 = rng.uniform(0.25, 0.6)
-        dims, pos = room_block(rng, rt60)
+        dims, pos = room_block(rng)
         kind = "clap" if family == "claps" else "knock"
         path = clap_file(dir, nrng, kind)
         sources, t = [], 0.4
@@ -237,7 +237,7 @@ def family_scene(family, seed, dir, geometry, speech):
         return scene_toml(dims, pos, rt60, rate, t + 0.5, seed, geometry, sources, 25.0, fans, -6.0), sources
     if family == "background":
         rt60 = rng.uniform(0.2, 0.6)
-        dims, pos = room_block(rng, rt60)
+        dims, pos = room_block(rng)
         duration = 60.0
         # A reference for the noise's level only: 10 ms at the very end, not scored.
         sources = [{"azimuth_deg": 0.0, "elevation_deg": 0.0, "distance": 1.0, "signal": "white", "level_db": -26,
@@ -362,8 +362,9 @@ def rs_scenes(root, seed, work):
     import scipy.io
 
     loc = scipy.io.loadmat(os.path.join(src, "source_location.mat"))["sourceLocation"]
-    # Which end of the line is channel 1: the nearest microphone to a source hears it first.
-    first = [int(np.argmax(np.abs(r[:, 0]) > 0.3 * np.max(np.abs(r[:, 0])))) for r in rirs]
+    # Channel k sits at z = 0.03 k: checked once on the 32-channel responses, where the
+    # earliest onset of source 1 (z = 0.086) is on channel 3 and of source 3 (z = 0.78)
+    # on channel 25.
     zc = (mics[0] + mics[-1]) / 2 * 0.03
     geometry = os.path.join(work, "ula8.toml")
     with open(geometry, "w") as f:
