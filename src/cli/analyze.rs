@@ -172,10 +172,16 @@ fn nothing_confirmed(
     p: &ssl::track::TrackParams,
 ) -> Option<String> {
     (stats.rows == 0 && stats.unconfirmed > 0).then(|| {
-        let rule = format!(
-            "a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates",
-            p.confirm_hits, p.confirm_candidates, p.confirm_weak
-        );
+        let rule = match p.confirm_by {
+            ssl::track::ConfirmBy::Rules => format!(
+                "a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates",
+                p.confirm_hits, p.confirm_candidates, p.confirm_weak
+            ),
+            ssl::track::ConfirmBy::Evidence => format!(
+                "none gathered the evidence a source needs for at most {} false sources an hour (--false-per-hour)",
+                p.false_per_hour
+            ),
+        };
         if p.keep_unconfirmed {
             format!(
                 "no source confirmed: all {} detections (candidates included) were isolated ({rule}); they are written with an empty source",

@@ -1,7 +1,7 @@
 //! The command line's arguments (clap). `man/` is generated from these definitions.
 
 use super::values::{
-    candidate_share, choice, non_negative, non_negative_f64, parse_f64, positive,
+    candidate_share, choice, false_per_hour, non_negative, non_negative_f64, parse_f64, positive,
     smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
 };
 use clap::{Args, Parser, Subcommand};
@@ -10,7 +10,8 @@ use ssl::method::{
     DEFAULT_MAX_SOURCES, DEFAULT_PATTERNS_S, DEFAULT_PEAKS, DEFAULT_RESIDUAL_GATE_US,
     DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES, MAX_PEAKS, MAX_SOURCES,
 };
-use ssl::track::TrackParams;
+use ssl::track::{ConfirmBy, TrackParams};
+use ssl::Named;
 use ssl::{Format, Options};
 use std::path::PathBuf;
 
@@ -238,7 +239,15 @@ pub struct AnalyzeArgs {
     #[arg(long, conflicts_with = "no_track")]
     pub keep_unconfirmed: bool,
 
-    /// A track is confirmed by 2 detections within this many seconds (of its latest)
+    /// How a candidate becomes a source
+    #[arg(long, value_name = "HOW", default_value = TrackParams::default().confirm_by.name(), value_parser = choice::<ConfirmBy>(), conflicts_with = "no_track")]
+    pub confirm_by: ConfirmBy,
+
+    /// With --confirm-by evidence: at most this many false sources an hour of background (fewer: more evidence needed before a source is reported)
+    #[arg(long, value_name = "F", default_value_t = TrackParams::default().false_per_hour, value_parser = false_per_hour, conflicts_with = "no_track")]
+    pub false_per_hour: f64,
+
+    /// With --confirm-by rules: a track is confirmed by 2 detections within this many seconds (of its latest)
     #[arg(long, value_name = "SECONDS", default_value_t = TrackParams::default().confirm_s, value_parser = tracker_seconds, conflicts_with = "no_track")]
     pub confirm_s: f64,
 
@@ -371,6 +380,8 @@ impl AnalyzeArgs {
         o.riders = self.riders;
         o.patterns_s = self.patterns_s;
         o.keep_unconfirmed = self.keep_unconfirmed;
+        o.confirm_by = self.confirm_by;
+        o.false_per_hour = self.false_per_hour;
         o.confirm_s = self.confirm_s;
         o.delay_s = self.delay_s;
         o.smooth_s = self.smooth_s;

@@ -2,6 +2,7 @@
 //! one kind of number or choice and says what is wrong with it.
 
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use ssl::track::evidence::CANDIDATES_PER_HOUR;
 use ssl::track::{MAX_DELAY_S, MAX_SMOOTH_S};
 use ssl::Named;
 
@@ -64,6 +65,18 @@ pub(super) fn tracker_seconds(s: &str) -> std::result::Result<f64, String> {
     if v > MAX_DELAY_S {
         return Err(format!(
             "{v} is over {MAX_DELAY_S} s (rows wait that long in memory)"
+        ));
+    }
+    Ok(v)
+}
+
+/// The false sources an hour (`--false-per-hour`): over 0, at most the candidates an
+/// hour ([`CANDIDATES_PER_HOUR`]).
+pub(super) fn false_per_hour(s: &str) -> std::result::Result<f64, String> {
+    let v = positive(s)?;
+    if v > CANDIDATES_PER_HOUR {
+        return Err(format!(
+            "{v} is over {CANDIDATES_PER_HOUR}, the candidates an hour it is a share of"
         ));
     }
     Ok(v)

@@ -208,10 +208,18 @@ impl<S: SampleSource> Recording<'_, S> {
             .method
             .speed_of_sound
             .unwrap_or(geometry.speed_of_sound);
-        let mut tracker =
-            (settings.track.clone()).map(|p| Tracker::for_array(p, geometry, rate, speed));
         // Frame i's centre is at (i + 1) hops (docs/interface.md, "Frames and time").
         let hop = self.analysis.frame_size() as f64 / 2.0 / rate;
+        let method = &settings.method;
+        let mut tracker = (settings.track.clone()).map(|p| {
+            Tracker::for_array(p, geometry, rate, speed).looking(
+                hop * method.average_frames as f64,
+                method.candidates,
+                method.background_s.map_or(0.0, |_| {
+                    hop * crate::method::beyond::background::WARMUP_FRAMES as f64
+                }),
+            )
+        });
         let mut failure = None;
         let (summary, result) = self.analysis.run(|index, detections| {
             if let Some(t) = tracker.as_mut() {

@@ -10,7 +10,7 @@ use crate::method::{
     DEFAULT_PATTERNS_S, DEFAULT_PEAKS, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL,
     DEFAULT_RIDERS, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
 };
-use crate::track::{TrackParams, TrackParamsError};
+use crate::track::{ConfirmBy, TrackParams, TrackParamsError};
 
 /// What a user asks of a [`Localizer`](super::Localizer): one field per option of
 /// `ssl analyze`, in its units. Start from a preset ([`Options::default`],
@@ -84,7 +84,11 @@ pub struct Options {
     pub patterns_s: f64,
     /// Write the detections no track confirmed too, without a source.
     pub keep_unconfirmed: bool,
-    /// A track's confirmation window (seconds).
+    /// How a candidate becomes a source.
+    pub confirm_by: ConfirmBy,
+    /// With [`ConfirmBy::Evidence`]: at most this many false sources an hour.
+    pub false_per_hour: f64,
+    /// A track's confirmation window (seconds, [`ConfirmBy::Rules`]).
     pub confirm_s: f64,
     /// The tracker's delay (seconds).
     pub delay_s: f64,
@@ -124,6 +128,8 @@ impl Default for Options {
             riders: None,
             patterns_s: DEFAULT_PATTERNS_S,
             keep_unconfirmed: false,
+            confirm_by: track.confirm_by,
+            false_per_hour: track.false_per_hour,
             confirm_s: track.confirm_s,
             delay_s: track.delay_s,
             smooth_s: track.smooth_s,
@@ -228,6 +234,8 @@ impl Options {
         };
         let defaults = TrackParams::default();
         let track = self.track.then(|| TrackParams {
+            confirm_by: self.confirm_by,
+            false_per_hour: self.false_per_hour,
             confirm_s: self.confirm_s,
             // A run of candidates spans at most the window it is counted over.
             weak_span_s: defaults.weak_span_s.min(self.confirm_s),

@@ -1,6 +1,7 @@
 //! A candidate track: detections that no track took, waiting to be confirmed (see the
 //! [`track`](super) module), and the gate within which further detections join it.
 
+use super::evidence::Test;
 use super::motion::Track;
 use super::{TrackParams, MAX_CANDIDATE_GATE_DEG};
 use crate::geometry::Geometry;
@@ -21,6 +22,8 @@ pub(super) struct Candidate {
     pub hits: VecDeque<(u64, Detection)>,
     /// The time of its latest detection heard alone (see [`TrackParams::alone_s`]).
     pub alone_s: f64,
+    /// Its evidence (with [`ConfirmBy::Evidence`](super::ConfirmBy::Evidence)).
+    pub test: Test,
 }
 
 impl Candidate {

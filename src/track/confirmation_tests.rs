@@ -1,6 +1,21 @@
-//! The tracker's tests of how candidates become tracks (on hand-made detections).
+//! The tracker's tests of how candidates become tracks by the rules of 0.2.0
+//! ([`ConfirmBy::Rules`], on hand-made detections); by their evidence, in
+//! `evidence_tests.rs`.
 
 use super::*;
+
+/// The defaults, confirming by the rules.
+fn rules() -> TrackParams {
+    TrackParams {
+        confirm_by: ConfirmBy::Rules,
+        ..TrackParams::default()
+    }
+}
+
+/// As the tracker tests' `track_margins`, by the rules.
+fn track_margins(frames: &[Vec<(f64, f64)>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
+    confirmed_rows(track_with(rules(), frames))
+}
 
 /// Candidates under the threshold make a track on their own only as a dense run (12
 /// within the confirmation window: here one every 5 frames, 11 in 0.5 s, never does;
@@ -56,7 +71,7 @@ fn a_steady_run_of_candidates_confirms_a_track() {
             })
             .collect()
     };
-    let params = TrackParams::default();
+    let params = rules();
     assert_eq!((params.confirm_tight, params.tight_deg), (8, 1.5));
     // Eight within 1 deg of their mean within 0.5 s: a source.
     let (rows, events) = track_margins(&run(1.0, 8));
@@ -74,7 +89,7 @@ fn a_steady_run_of_candidates_confirms_a_track() {
 /// with its earlier detections.
 #[test]
 fn a_source_heard_only_beside_a_talker_needs_a_moment_alone() {
-    let params = TrackParams::default();
+    let params = rules();
     assert_eq!(params.alone_s, 0.1);
     // A talker at 30 deg in every frame but a pause at frames 60-79 (0.2 s); a second
     // direction at 100 deg every 10th frame from frame 20, above the threshold, in the
@@ -106,7 +121,7 @@ fn a_source_heard_only_beside_a_talker_needs_a_moment_alone() {
     assert_eq!(sources(&rows), vec![1]);
     let loose = TrackParams {
         alone_s: 0.0,
-        ..TrackParams::default()
+        ..rules()
     };
     let (rows, _) = track_with(loose, &frames(false));
     assert!(rows.iter().any(|r| r.1 == Some(2)));
@@ -152,7 +167,7 @@ fn a_stray_before_a_long_silence_is_not_the_run_that_confirms() {
 /// there neither; spread over 0.16 s, both confirm.
 #[test]
 fn a_run_packed_into_consecutive_frames_confirms_nothing() {
-    let params = TrackParams::default();
+    let params = rules();
     assert_eq!(params.weak_span_s, 0.15);
     let frames_per_span = (params.weak_span_s / HOP).round() as u64;
     let run = |count: u64, step: u64, spread: f64| -> Vec<Vec<(f64, f64)>> {
@@ -180,7 +195,7 @@ fn a_run_packed_into_consecutive_frames_confirms_nothing() {
     // Without the condition, the packed runs confirm.
     let loose = TrackParams {
         weak_span_s: 0.0,
-        ..TrackParams::default()
+        ..rules()
     };
     assert_eq!(track_with(loose.clone(), &run(9, 1, 0.3)).0.len(), 9);
     assert_eq!(track_with(loose, &run(14, 1, 2.0)).0.len(), 14);
@@ -205,10 +220,7 @@ fn a_dense_run_is_counted_over_the_last_confirmation_window() {
         .collect();
     let run: Vec<u64> = (30..36).chain(60..66).collect();
     for (delay_s, first) in [(1.0, true), (0.5, false)] {
-        let params = TrackParams {
-            delay_s,
-            ..TrackParams::default()
-        };
+        let params = TrackParams { delay_s, ..rules() };
         let (rows, events) = track_with(params, &frames);
         let kept: Vec<u64> = rows.iter().map(|r| r.0).collect();
         let expected: Vec<u64> = first.then_some(0).into_iter().chain(run.clone()).collect();
@@ -237,10 +249,7 @@ fn a_candidates_first_detections_wait_for_its_confirmation() {
         })
         .collect();
     for (delay_s, kept) in [(1.0, 7), (0.5, 2)] {
-        let params = TrackParams {
-            delay_s,
-            ..TrackParams::default()
-        };
+        let params = TrackParams { delay_s, ..rules() };
         let (rows, events) = track_with(params, &frames);
         assert_eq!(rows.len(), kept, "delay {delay_s}: {rows:?}");
         assert!(rows.iter().all(|r| r.1 == Some(1)));
@@ -272,7 +281,7 @@ fn a_small_arrays_candidates_join_within_a_wider_gate() {
         [-0.25, 0.2, -0.18],
     ])
     .unwrap();
-    let p = TrackParams::default();
+    let p = rules();
     let gate = |g: &Geometry, p: &TrackParams| candidate_gate_deg(p, g, 16000.0, 343.0);
     assert!(
         (gate(&tetra, &p) - 8.0).abs() < 0.05,
@@ -282,7 +291,7 @@ fn a_small_arrays_candidates_join_within_a_wider_gate() {
     assert_eq!(gate(&prism, &p), p.candidate_gate_deg);
     let off = TrackParams {
         candidate_gate_samples: 0.0,
-        ..TrackParams::default()
+        ..rules()
     };
     assert_eq!(gate(&tetra, &off), p.candidate_gate_deg);
     // Twelve candidates within 0.5 s at 43.5 and 36.5 deg in turn.

@@ -55,6 +55,11 @@ impl Accumulator {
         }
     }
 
+    /// When its first detection was (seconds).
+    pub fn start_s(&self) -> f64 {
+        self.start_s
+    }
+
     /// Adds `d` (detections may come out of order: a candidate's, once confirmed).
     pub fn add(&mut self, d: &Detection) {
         if d.time_s < self.start_s {

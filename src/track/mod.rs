@@ -57,7 +57,9 @@
 //! Measured in docs/tracking.md.
 
 mod candidate;
+pub mod clutter;
 mod event;
+pub mod evidence;
 pub mod image;
 mod motion;
 mod output;
@@ -69,10 +71,52 @@ pub use event::Event;
 pub use output::{TrackStats, Tracked};
 pub use tracker::{Tracker, ELEVATION_WEIGHT};
 
+/// How a candidate becomes a source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ConfirmBy {
+    /// By the evidence of its detections ([`evidence`]): one overwhelming detection
+    /// confirms at once, many weak consistent ones over time, at most
+    /// [`TrackParams::false_per_hour`] false sources an hour.
+    Evidence,
+    /// By the rules of 0.2.0 ([`TrackParams::confirm_hits`] and the fields after it),
+    /// kept so that results made with them can be reproduced (`--confirm-by rules`).
+    Rules,
+}
+
+impl crate::named::Named for ConfirmBy {
+    const ALL: &'static [(ConfirmBy, &'static str, &'static str)] = &[
+        (
+            ConfirmBy::Evidence,
+            "evidence",
+            "By the evidence of its detections: a clap at once, a distant talker over time, at most --false-per-hour false sources an hour of background",
+        ),
+        (
+            ConfirmBy::Rules,
+            "rules",
+            "By the rules of ssl 0.2.0 (2 detections over the threshold within --confirm-s, or runs of candidates), to reproduce its results",
+        ),
+    ];
+}
+
+impl ConfirmBy {
+    /// What results written before the choice existed were made with.
+    fn before_the_choice() -> Self {
+        ConfirmBy::Rules
+    }
+}
+
 /// The tracker's parameters (see the module's documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[non_exhaustive]
 pub struct TrackParams {
+    /// How a candidate becomes a source.
+    #[serde(default = "ConfirmBy::before_the_choice")]
+    pub confirm_by: ConfirmBy,
+    /// With [`ConfirmBy::Evidence`]: at most this many false sources an hour of
+    /// background (sets the threshold `ln(N / F)` of [`evidence`]).
+    #[serde(default = "default_false_per_hour")]
+    pub false_per_hour: f64,
     /// Detections at or above the detection threshold a candidate needs to become a
     /// track.
     pub confirm_hits: usize,
@@ -164,6 +208,8 @@ pub struct TrackParams {
 impl Default for TrackParams {
     fn default() -> Self {
         TrackParams {
+            confirm_by: ConfirmBy::Rules,
+            false_per_hour: 1.0,
             confirm_hits: 2,
             confirm_candidates: 4,
             confirm_weak: 12,
@@ -184,6 +230,10 @@ impl Default for TrackParams {
             smooth_s: 0.2,
         }
     }
+}
+
+fn default_false_per_hour() -> f64 {
+    TrackParams::default().false_per_hour
 }
 
 fn default_smooth_s() -> f64 {
@@ -287,6 +337,17 @@ impl TrackParams {
                     crate::text::Shown(v)
                 );
             }
+        }
+        if !(self.false_per_hour.is_finite()
+            && self.false_per_hour > 0.0
+            && self.false_per_hour <= evidence::CANDIDATES_PER_HOUR)
+        {
+            fail!(
+                TrackParamsError::Invalid,
+                "the false sources an hour must be over 0 and at most {}, got {}",
+                evidence::CANDIDATES_PER_HOUR,
+                crate::text::Shown(self.false_per_hour)
+            );
         }
         if !(self.candidate_gate_samples.is_finite()
             && (0.0..=100.0).contains(&self.candidate_gate_samples))

@@ -33,6 +33,8 @@ pub(super) struct Track {
     velocity: Vector3<f64>,
     /// Its direction and the time the velocity was last measured from.
     anchor: (Vector3<f64>, f64),
+    /// Whether its velocity has been measured yet (over [`VELOCITY_SPAN_S`]).
+    measured: bool,
 }
 
 impl Track {
@@ -44,7 +46,13 @@ impl Track {
             event,
             velocity: Vector3::zeros(),
             anchor: (direction, last_s),
+            measured: false,
         }
+    }
+
+    /// How fast it turns (degrees per second), once measured; `None` before.
+    pub fn speed_deg_s(&self) -> Option<f64> {
+        self.measured.then(|| self.velocity.norm().to_degrees())
     }
 
     /// Where it is expected at time `t_s`: its direction moved on by its velocity (for
@@ -100,6 +108,7 @@ impl Track {
                 v
             };
             self.anchor = (u, d.time_s);
+            self.measured = true;
         }
     }
 }

@@ -1,12 +1,14 @@
 //! The tracker: association, confirmation, activity (see the module's documentation).
 
 use super::candidate::{candidate_gate_deg, heard_alone, Candidate};
+use super::clutter::Clutter;
 use super::event::{Accumulator, Event};
+use super::evidence::{self, Evidence, Test, ACTIVE_S};
 use super::image::{is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
 use super::output::{TrackStats, Tracked};
 use super::smoother::Smoother;
-use super::{TrackParams, MAX_TRACKS};
+use super::{ConfirmBy, TrackParams, MAX_TRACKS};
 use crate::geometry::{Geometry, Shape};
 use crate::method::direction::angle_between_deg;
 use crate::method::Detection;
@@ -17,6 +19,27 @@ use std::collections::{HashMap, VecDeque};
 /// against one in the plane when detections are associated: its elevation errs by 5-10
 /// deg on real speech where its azimuth errs by 1 (docs/field.md).
 pub const ELEVATION_WEIGHT: f64 = 0.25;
+
+/// With [`ConfirmBy::Evidence`], a track's gate right after its last detection, in
+/// candidates' gates: narrow, so that a source 10 deg from the last one after a pause
+/// starts its own track, yet wide enough for the scatter of the track's own rows.
+const GATE_IN_CANDIDATE_GATES: f64 = 1.5;
+
+/// With [`ConfirmBy::Evidence`], how fast the gate of a track measured still widens
+/// (degrees per second): a talker shifting in his seat. A track turning widens it by
+/// half its speed more; one whose speed is not measured yet by
+/// [`TrackParams::max_speed_deg_s`].
+const STILL_DRIFT_DEG_S: f64 = 3.0;
+
+/// With [`ConfirmBy::Evidence`], a stretch of activity ends after a silence as long as
+/// itself, at least this long (seconds) and at most [`TrackParams::end_s`]: each clap
+/// is its own event, a sentence's pauses are not ends.
+const END_MIN_S: f64 = 0.3;
+
+/// The defaults a tracker assumes before it is told the recording's looks
+/// ([`Tracker::looking`]): 6 hops of 512 samples at 48 kHz, candidates down to 0.4.
+const DEFAULT_LOOK_S: f64 = 0.064;
+const DEFAULT_FLOOR: f64 = 0.4;
 
 #[derive(Clone, Copy)]
 enum Slot {
@@ -57,11 +80,44 @@ pub struct Tracker {
     pairs: Vec<(f64, usize, Slot)>,
     used: Vec<Option<Slot>>,
     taken: Vec<(bool, u64)>,
+    /// With [`ConfirmBy::Evidence`]: the test's parameters, where clutter comes from,
+    /// and how far a direction moves per sample of delay error (degrees; 0 unknown).
+    evidence: Evidence,
+    clutter: Clutter,
+    spread_deg: f64,
+    /// Until then (seconds) candidates under the threshold tell nothing (see
+    /// [`Tracker::looking`]).
+    warmup_s: f64,
+}
+
+/// What a frame tells each of its detections: whether it was heard alone
+/// ([`TrackParams::alone_s`]) and its strongest detection's score.
+#[derive(Clone, Copy)]
+struct Frame {
+    alone: bool,
+    strongest: f64,
+}
+
+/// The angle between `a` and `b` for association (degrees): see [`Tracker::distance`].
+fn distance(plane: Option<Vector3<f64>>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    let Some(n) = plane else {
+        return angle_between_deg(a, b);
+    };
+    let (pa, pb) = (a - n * n.dot(a), b - n * n.dot(b));
+    let (ea, eb) = (n.dot(a).clamp(-1.0, 1.0), n.dot(b).clamp(-1.0, 1.0));
+    let in_plane = if pa.norm() > 1e-9 && pb.norm() > 1e-9 {
+        angle_between_deg(&pa, &pb)
+    } else {
+        0.0
+    };
+    let out = (ea.asin() - eb.asin()).to_degrees() * ELEVATION_WEIGHT;
+    in_plane.hypot(out)
 }
 
 impl Tracker {
     /// A tracker for one recording (parameters checked by [`TrackParams::check`]).
     pub fn new(params: TrackParams) -> Self {
+        let params_false_per_hour = params.false_per_hour;
         Tracker {
             candidate_gate: params.candidate_gate_deg,
             smoother: Smoother::new(params.smooth_s),
@@ -80,7 +136,23 @@ impl Tracker {
             pairs: Vec::new(),
             used: Vec::new(),
             taken: Vec::new(),
+            evidence: Evidence::new(DEFAULT_LOOK_S, DEFAULT_FLOOR, params_false_per_hour),
+            clutter: Clutter::default(),
+            spread_deg: 0.0,
+            warmup_s: 0.0,
         }
+    }
+
+    /// Tells the tracker the recording's looks: each averaged correlation spans
+    /// `look_s` seconds, candidates are reported down to `floor` times the threshold
+    /// (see [`evidence`]), and the method has begun removing the steady background
+    /// after `warmup_s` seconds (0: from the start, or never): until then a candidate
+    /// under the threshold may be that background (a fan beside the array), and tells
+    /// nothing.
+    pub fn looking(mut self, look_s: f64, floor: f64, warmup_s: f64) -> Self {
+        self.evidence = Evidence::new(look_s, floor, self.params.false_per_hour);
+        self.warmup_s = warmup_s;
+        self
     }
 
     /// A tracker for an array of `shape`: a planar array's detections are compared
@@ -101,6 +173,7 @@ impl Tracker {
     pub fn for_array(params: TrackParams, geometry: &Geometry, rate: f64, speed: f64) -> Self {
         let mut tracker = Tracker::for_shape(params, &geometry.shape);
         tracker.candidate_gate = candidate_gate_deg(&tracker.params, geometry, rate, speed);
+        tracker.spread_deg = geometry.direction_spread_deg(rate, speed);
         tracker
     }
 
@@ -108,18 +181,7 @@ impl Tracker {
     /// them, or for a planar array the angle between their projections on its plane
     /// combined with [`ELEVATION_WEIGHT`] times the difference of their angles out of it.
     fn distance(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
-        let Some(n) = self.plane else {
-            return angle_between_deg(a, b);
-        };
-        let (pa, pb) = (a - n * n.dot(a), b - n * n.dot(b));
-        let (ea, eb) = (n.dot(a).clamp(-1.0, 1.0), n.dot(b).clamp(-1.0, 1.0));
-        let in_plane = if pa.norm() > 1e-9 && pb.norm() > 1e-9 {
-            angle_between_deg(&pa, &pb)
-        } else {
-            0.0
-        };
-        let out = (ea.asin() - eb.asin()).to_degrees() * ELEVATION_WEIGHT;
-        in_plane.hypot(out)
+        distance(self.plane, a, b)
     }
 
     /// The fastest a track's direction is predicted to move (radians per second): twice
@@ -128,10 +190,47 @@ impl Tracker {
         2.0 * self.params.max_speed_deg_s.to_radians()
     }
 
-    /// The gate around a direction last confirmed `since` seconds ago.
-    fn gate(&self, since: f64) -> f64 {
-        (self.params.gate_deg + self.params.max_speed_deg_s * since.max(0.0))
-            .min(self.params.max_gate_deg)
+    /// The gate around a direction last confirmed `since` seconds ago, turning at
+    /// `speed` degrees per second (`None`: not measured yet).
+    fn gate(&self, speed: Option<f64>, since: f64) -> f64 {
+        let p = &self.params;
+        let (base, growth) = match p.confirm_by {
+            ConfirmBy::Rules => (p.gate_deg, p.max_speed_deg_s),
+            ConfirmBy::Evidence => (
+                GATE_IN_CANDIDATE_GATES * self.candidate_gate,
+                speed.map_or(p.max_speed_deg_s, |v| STILL_DRIFT_DEG_S + v / 2.0),
+            ),
+        };
+        (base + growth * since.max(0.0)).min(p.max_gate_deg)
+    }
+
+    /// A track's gate at `now`.
+    fn track_gate(&self, t: &Track, now: f64) -> f64 {
+        self.gate(t.speed_deg_s(), now - t.last_s)
+    }
+
+    /// How far a talking track's strays reach (degrees; see [`evidence::REACH_SAMPLES`]):
+    /// at least a track's gate right after a detection.
+    fn reach(&self) -> f64 {
+        (evidence::REACH_SAMPLES * self.spread_deg)
+            .min(evidence::MAX_REACH_DEG)
+            .max(self.gate(Some(0.0), 0.0))
+    }
+
+    /// Whether a track heard within [`ACTIVE_S`] of `now` is within reach of
+    /// `direction`, and whether any is heard at all.
+    fn beside(&self, direction: &Vector3<f64>, now: f64) -> (bool, bool) {
+        let reach = self.reach();
+        let mut busy = false;
+        for t in &self.tracks {
+            if t.event.is_some() && now - t.last_s <= ACTIVE_S {
+                busy = true;
+                if self.distance(direction, &t.predicted(now)) <= reach {
+                    return (true, true);
+                }
+            }
+        }
+        (false, busy)
     }
 
     /// Takes the detections of the frame at `time_s` (frames in order; none is fine: time
@@ -139,28 +238,35 @@ impl Tracker {
     /// [`Tracker::take_rows`] and [`Tracker::take_events`].
     pub fn push(&mut self, time_s: f64, detections: &[Detection]) {
         self.advance(time_s);
-        let alone = heard_alone(detections, &self.tracks, time_s, self.params.alone_s);
+        let frame = Frame {
+            alone: heard_alone(detections, &self.tracks, time_s, self.params.alone_s),
+            strongest: detections
+                .iter()
+                .filter(|d| !d.rider)
+                .map(|d| d.score)
+                .fold(0.0, f64::max),
+        };
         // Nearest first: every (detection, track or candidate) within its gate.
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
         for (i, d) in detections.iter().enumerate().filter(|(_, d)| !d.rider) {
             // A candidate (under the threshold) joins only what is close and recent.
-            let gate = |since: f64| {
+            let gate = |speed: Option<f64>, since: f64| {
                 if d.margin >= 1.0 {
-                    self.gate(since)
+                    self.gate(speed, since)
                 } else {
                     self.candidate_gate
                 }
             };
             for t in self.tracks.iter().filter(|t| t.event.is_some()) {
                 let angle = self.distance(&d.direction, &t.predicted(time_s));
-                if angle <= gate(time_s - t.last_s) {
+                if angle <= gate(t.speed_deg_s(), time_s - t.last_s) {
                     pairs.push((angle, i, Slot::Track(t.id)));
                 }
             }
             for c in &self.candidates {
                 let angle = self.distance(&d.direction, &c.direction);
-                if angle <= gate(time_s - c.last_s) {
+                if angle <= gate(None, time_s - c.last_s) {
                     pairs.push((angle, i, Slot::Candidate(c.key, 0)));
                 }
             }
@@ -181,7 +287,7 @@ impl Tracker {
             if used[i].is_some() || taken.contains(&key) {
                 continue;
             }
-            used[i] = Some(self.join(&detections[i], slot, alone));
+            used[i] = Some(self.join(&detections[i], slot, frame));
             taken.push(key);
         }
         // Riders: rows of the talking tracks near them that the frame's other detections
@@ -226,7 +332,7 @@ impl Tracker {
                     && self.tracks.iter().any(|t| {
                         t.event.is_some()
                             && self.distance(&d.direction, &t.predicted(time_s))
-                                <= self.gate(time_s - t.last_s)
+                                <= self.track_gate(t, time_s)
                     })
             {
                 if self.params.keep_unconfirmed {
@@ -244,8 +350,9 @@ impl Tracker {
                 last_s: d.time_s,
                 hits: VecDeque::new(),
                 alone_s: f64::NEG_INFINITY,
+                test: Test::new(self.evidence.look(d.time_s)),
             });
-            *placed = Some(self.join(d, Slot::Candidate(key, 0), alone));
+            *placed = Some(self.join(d, Slot::Candidate(key, 0), frame));
         }
         // Rows wait in the frame's order of its detections.
         for (d, slot) in detections.iter().zip(&used) {
@@ -265,8 +372,8 @@ impl Tracker {
 
     /// Adds `d` to a track or a candidate (confirming the candidate when it has enough);
     /// returns the slot its row waits in (a candidate's with the row's number).
-    /// `alone`: its frame is heard alone ([`TrackParams::alone_s`]).
-    fn join(&mut self, d: &Detection, slot: Slot, alone: bool) -> Slot {
+    /// `frame`: what its frame tells it.
+    fn join(&mut self, d: &Detection, slot: Slot, frame: Frame) -> Slot {
         let (max_speed, plane) = (self.max_speed(), self.plane);
         match slot {
             Slot::Track(id) => {
@@ -284,6 +391,7 @@ impl Tracker {
             }
             Slot::Dropped => slot,
             Slot::Candidate(key, _) => {
+                let nats = self.hit_nats(d, frame);
                 let row = self.next_row;
                 self.next_row += 1;
                 let i = self
@@ -295,16 +403,53 @@ impl Tracker {
                 c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
                 c.hits.push_back((row, *d));
-                if alone {
+                if frame.alone {
                     c.alone_s = d.time_s;
                 }
-                if c.confirmed(&self.params) {
+                let confirmed = match (self.params.confirm_by, nats) {
+                    (ConfirmBy::Rules, _) => c.confirmed(&self.params),
+                    (ConfirmBy::Evidence, nats) => {
+                        let e = &self.evidence;
+                        let look = e.look(d.time_s);
+                        c.test.hit(look, nats.unwrap_or(0.0), e, |_| false);
+                        if nats.is_none() {
+                            c.test.mute();
+                        }
+                        c.test.total() >= e.confirm_nats
+                    }
+                };
+                if confirmed {
                     let c = self.candidates.remove(i);
                     self.confirm(c);
                 }
                 Slot::Candidate(key, row)
             }
         }
+    }
+
+    /// What detection `d` of a candidate is worth ([`evidence`]), or `None` when a
+    /// talking track heard beside it makes it tell nothing. A detection over the
+    /// threshold weaker than its frame's strongest counts at its margin times its share
+    /// of the strongest score: a loud sound's stray is not a second source's evidence.
+    fn hit_nats(&self, d: &Detection, frame: Frame) -> Option<f64> {
+        let (near, busy) = self.beside(&d.direction, d.time_s);
+        if near || d.margin < 1.0 && d.time_s < self.warmup_s {
+            return None;
+        }
+        let m = if d.margin > 1.0 && frame.strongest > 0.0 {
+            d.margin * (d.score / frame.strongest).min(1.0)
+        } else {
+            d.margin
+        };
+        let floor = if busy {
+            evidence::BUSY_RATE_PER_S
+        } else if d.margin >= 1.0 {
+            evidence::QUIET_RATE_PER_S
+        } else {
+            evidence::CANDIDATE_RATE_PER_S
+        };
+        let rate = self.clutter.rate(&d.direction, d.time_s, floor);
+        Some(self.evidence.hit_nats(m, rate))
     }
 
     /// A candidate becomes a track: the nearest track's when one is within its gate
@@ -314,8 +459,11 @@ impl Tracker {
         let now = c.last_s;
         // Detections before a silence longer than the confirmation window are not the
         // run that confirmed it: a stray there would start the event early.
-        for row in c.strays(self.params.confirm_s) {
-            self.resolved.insert(row, None);
+        // (With the evidence, a stray followed by a silence has been rejected.)
+        if self.params.confirm_by == ConfirmBy::Rules {
+            for row in c.strays(self.params.confirm_s) {
+                self.resolved.insert(row, None);
+            }
         }
         // A talking track's floor or ceiling image starts nothing (see `image`).
         if self.tracks.iter().any(|t| {
@@ -334,7 +482,7 @@ impl Tracker {
             .iter()
             .enumerate()
             .map(|(i, t)| (i, self.distance(&c.direction, &t.predicted(now)), t))
-            .filter(|(_, angle, t)| *angle <= self.gate(now - t.last_s))
+            .filter(|(_, angle, t)| *angle <= self.track_gate(t, now))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(i, _, _)| i);
         let id = match near {
@@ -394,14 +542,22 @@ impl Tracker {
             while c
                 .hits
                 .front()
-                .is_some_and(|(_, d)| now - d.time_s > delay_s)
+                .is_some_and(|(_, d)| now - d.time_s >= delay_s - 1e-9)
             {
                 let (row, _) = c.hits.pop_front().expect("checked");
                 self.resolved.insert(row, None);
             }
         }
         self.candidates.retain(|c| !c.hits.is_empty());
+        if p.confirm_by == ConfirmBy::Evidence {
+            self.weigh(now);
+        }
+        let by_length = self.params.confirm_by == ConfirmBy::Evidence;
         for t in &mut self.tracks {
+            let end_s = match &t.event {
+                Some(e) if by_length => (t.last_s - e.start_s()).clamp(END_MIN_S, end_s),
+                _ => end_s,
+            };
             if t.event.is_some() && now - t.last_s > end_s {
                 let e = t.event.take().expect("checked");
                 self.events.push(e.finish(t.id));
@@ -409,6 +565,35 @@ impl Tracker {
         }
         self.tracks
             .retain(|t| t.event.is_some() || now - t.last_s <= forget_s);
+    }
+
+    /// With [`ConfirmBy::Evidence`], time passes to `now` for every candidate's test:
+    /// looks gone by without a detection count against it (but those in which a track
+    /// was heard beside it), and a candidate whose evidence falls to
+    /// [`evidence::REJECT_NATS`] is clutter: its rows are dropped, and the clutter map
+    /// learns its place.
+    fn weigh(&mut self, now: f64) {
+        self.clutter.observe(now);
+        let look = self.evidence.look(now);
+        let e = self.evidence;
+        let mut i = 0;
+        while i < self.candidates.len() {
+            let near = self.beside(&self.candidates[i].direction, now).0 || now < self.warmup_s;
+            let c = &mut self.candidates[i];
+            c.test.close_to(look, &e, |_| near);
+            if near {
+                c.test.mute();
+            }
+            if c.test.rejected() {
+                let c = self.candidates.remove(i);
+                self.clutter.learn(&c.direction, c.test.hit_looks, now);
+                for (row, _) in c.hits {
+                    self.resolved.insert(row, None);
+                }
+                continue;
+            }
+            i += 1;
+        }
     }
 
     /// Gives out the waiting rows whose fate is known, in order (those no track

@@ -34,7 +34,11 @@ fn track(frames: &[Vec<f64>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
 
 /// As [`track`], with each detection's (azimuth, margin).
 fn track_margins(frames: &[Vec<(f64, f64)>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
-    let (rows, events) = track_with(TrackParams::default(), frames);
+    confirmed_rows(track_with(TrackParams::default(), frames))
+}
+
+/// The rows of [`track_with`], every one with its source.
+fn confirmed_rows((rows, events): (Vec<Row>, Vec<Event>)) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
     let rows = rows
         .into_iter()
         .map(|(f, source, a)| (f, source.expect("confirmed"), a))
@@ -61,7 +65,11 @@ fn track_with(params: TrackParams, frames: &[Vec<(f64, f64)>]) -> (Vec<Row>, Vec
         tracker.push(i as f64 * HOP, &ds);
         for r in tracker.take_rows() {
             // Rows come out at most the tracker's delay and the smoothing after their frame.
-            assert!(i as f64 * HOP - r.detection.time_s <= delay + 1e-9);
+            assert!(
+                i as f64 * HOP - r.detection.time_s <= delay + 1e-9,
+                "frame {i} row {:?} delay {delay}",
+                r.detection.time_s
+            );
             rows.push((r.detection.frame, r.source, r.detection.azimuth_deg));
         }
         events.extend(tracker.take_events());
@@ -410,3 +418,6 @@ fn riders_only_ride_along_a_talking_track() {
     // nothing to ride.
     assert_eq!(riding.len(), 14, "{riding:?}");
 }
+
+#[path = "evidence_tests.rs"]
+mod evidence;

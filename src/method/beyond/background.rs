@@ -38,6 +38,14 @@ pub const GATE: f64 = STEADY_FRAME;
 /// time on the 10-minute recording of docs/speed.md than 8, for no gain measured).
 pub const STRIDE: u64 = 8;
 
+/// In a steady room the estimate has learnt from four frames after this many (32 at
+/// [`STRIDE`] 8: 0.5 s at 16 kHz, 0.34 s at 48 kHz); before that a steady source beside
+/// the array is not yet removed, and a tracker takes what is under the threshold as
+/// telling nothing ([`Tracker::looking`](crate::track::Tracker::looking)). A fan 0.9 m
+/// from the array gave a false source in its first 0.6 s otherwise (docs/tracking.md);
+/// waiting the whole time constant lost talkers who start 1 s into a recording.
+pub const WARMUP_FRAMES: u64 = 4 * STRIDE;
+
 /// The ceiling under which a frame's weights let it teach the background ([`GATE`] times
 /// a frame at the noise level), in the units of `peak_ceiling`.
 pub fn gate(params: &Params) -> f64 {

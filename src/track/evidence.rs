@@ -1,0 +1,253 @@
+//! Whether a candidate is a source: Wald's sequential probability ratio test, counted
+//! per look (see the [`track`](super) module; docs/method.md, "Sources from evidence").
+//!
+//! Two hypotheses about a candidate: *source* (a sound keeps coming from that
+//! direction) and *clutter* (chance detections: background leaks, a talker's
+//! reflections and strays). A *look* is the span one averaged correlation covers
+//! ([`Params::average_frames`](crate::Params::average_frames) hops): detections
+//! within one look share most of their data, so a look is one observation, counted
+//! once, by its best detection.
+//!
+//! - A look with a detection adds `ln(f1(m) / f0(m)) + ln(P_D / (r x look))`: the
+//!   ratio of its margin `m` (score over the frame's threshold) under the two
+//!   hypotheses' laws, and of the chance that a source is heard in a look
+//!   ([`P_DETECT`]) to the chance that clutter falls in the candidate's gate in one
+//!   (`r`, a rate per second: [`Clutter::rate`]).
+//! - A look without one adds `ln(1 - P_D)`: a source would probably have been heard.
+//! - A candidate is a source once its sum reaches `ln(N / F)`, `N` candidates an hour
+//!   ([`CANDIDATES_PER_HOUR`]) of which at most `F` false
+//!   ([`TrackParams::false_per_hour`](super::TrackParams::false_per_hour)); it is
+//!   clutter once the sum falls to [`REJECT_NATS`].
+//!
+//! Margins follow Pareto laws from the candidates' floor `m0` (the share of the
+//! threshold candidates are reported down to): `f(m) = a m0^a / m^(a + 1)`, exponent
+//! [`SOURCE_PARETO`] for sources and [`CLUTTER_PARETO`] for clutter. Every constant
+//! was measured on training draws (`benches/draws.py --seed 900`), none on the scenes
+//! the method is scored on (docs/experiments.md, 2026-12-02).
+
+/// The chance a source is heard in a look: the share of 64 ms looks of training speech
+/// (prism, 48 kHz, RT60 0.3-0.8 s) with a detection within 10 deg of the talker.
+pub const P_DETECT: f64 = 0.65;
+
+/// The Pareto exponent of a source's margins (fitted by maximum likelihood on 4702
+/// training detections of speech, claps and knocks, above the candidates' floor).
+pub const SOURCE_PARETO: f64 = 1.6;
+
+/// The Pareto exponent of clutter's margins (41 training detections more than 30 deg
+/// from every source, background and rooms): clutter rarely stands far over the floor.
+pub const CLUTTER_PARETO: f64 = 5.3;
+
+/// Clutter over the threshold with no source active (per second, in a candidate's
+/// gate): the training background (six minutes of fans near and far, diffuse noise and
+/// a ceiling vent) gave none; taken as one in those 360 s.
+pub const QUIET_RATE_PER_S: f64 = 1.0 / 360.0;
+
+/// Clutter under the threshold (candidates) with no source active, before the
+/// [`Clutter`] map has learnt a place (per second, in a candidate's gate).
+pub const CANDIDATE_RATE_PER_S: f64 = 0.2;
+
+/// Clutter beside an active source (per second, in a candidate's gate): a talker's
+/// reflections and strays, measured on the training rooms 30 deg and more from the
+/// talkers while they spoke.
+pub const BUSY_RATE_PER_S: f64 = 0.65;
+
+/// Candidates started an hour, the `N` of the threshold `ln(N / F)`: 2500 measured on
+/// the prism at 48 kHz in the training meetings, four times that for smaller arrays,
+/// whose directions scatter more.
+pub const CANDIDATES_PER_HOUR: f64 = 10_000.0;
+
+/// A candidate whose evidence falls this low is clutter (nats): Wald's lower bound
+/// `ln(beta)` for a 5% chance of dropping a source this way (a source heard again later
+/// starts a new candidate).
+pub const REJECT_NATS: f64 = -3.0;
+
+/// A talking track heard within this long (seconds) makes the detections beside it
+/// suspect: four looks, so that a talker missed in a look or two (a third of looks,
+/// [`P_DETECT`]) still counts as talking; a loudspeaker in turn after a 0.5 s pause
+/// does not.
+pub const ACTIVE_S: f64 = 0.25;
+
+/// How far a talking track's strays reach, in samples of delay error on the array
+/// ([`Geometry::direction_spread_deg`](crate::geometry::Geometry::direction_spread_deg)):
+/// a small array's strays are its delays a sample off (14-16 deg from the talker on a
+/// 6.5 cm tetrahedron at 16 kHz, 13.4 deg a sample). A look in which a track this close
+/// is heard tells nothing about a candidate beside it.
+pub const REACH_SAMPLES: f64 = 1.6;
+
+/// The widest reach (degrees).
+pub const MAX_REACH_DEG: f64 = 30.0;
+
+/// The evidence test's parameters for one recording.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Evidence {
+    /// The span of one look (seconds).
+    pub look_s: f64,
+    /// The candidates' floor `m0`: margins are reported down to it.
+    pub floor: f64,
+    /// The confirmation threshold `ln(N / F)` (nats).
+    pub confirm_nats: f64,
+}
+
+impl Evidence {
+    /// For looks of `look_s` seconds, margins down to `floor` and at most
+    /// `false_per_hour` false sources an hour.
+    pub fn new(look_s: f64, floor: f64, false_per_hour: f64) -> Self {
+        Evidence {
+            look_s: look_s.max(1e-6),
+            floor: floor.clamp(1e-3, 1.0),
+            confirm_nats: (CANDIDATES_PER_HOUR / false_per_hour).ln().max(0.0),
+        }
+    }
+
+    /// The look a time falls in.
+    pub fn look(&self, time_s: f64) -> i64 {
+        (time_s / self.look_s).floor() as i64
+    }
+
+    /// The log ratio of margin `m` under the source and clutter laws (nats):
+    /// `ln(a1 / a0) + (a0 - a1) ln(m / m0)`. Margins under the floor count as at it.
+    pub fn margin_nats(&self, m: f64) -> f64 {
+        let m = if m.is_finite() { m } else { 1e6 };
+        (SOURCE_PARETO / CLUTTER_PARETO).ln()
+            + (CLUTTER_PARETO - SOURCE_PARETO) * (m.max(self.floor) / self.floor).ln()
+    }
+
+    /// A look with its best detection at margin `m`, clutter falling in the gate at
+    /// `rate` per second (nats).
+    pub fn hit_nats(&self, m: f64, rate: f64) -> f64 {
+        self.margin_nats(m) + (P_DETECT / (rate.max(1e-9) * self.look_s)).ln()
+    }
+
+    /// A look without a detection (nats).
+    pub fn miss_nats(&self) -> f64 {
+        (1.0 - P_DETECT).ln()
+    }
+}
+
+/// A candidate's running test: the looks counted so far, and the best detection of the
+/// look still open.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Test {
+    /// The evidence of the looks closed so far (nats).
+    pub nats: f64,
+    /// The last look counted or open.
+    look: i64,
+    /// The open look's best detection (nats), if it has one.
+    open: Option<f64>,
+    /// The open look tells nothing (a track was heard beside it): it counts 0.
+    mute: bool,
+    /// The looks closed with a detection.
+    pub hit_looks: u32,
+}
+
+impl Test {
+    /// A test whose first look is `look`.
+    pub fn new(look: i64) -> Self {
+        Test {
+            nats: 0.0,
+            look,
+            open: None,
+            mute: false,
+            hit_looks: 0,
+        }
+    }
+
+    /// Closes the looks before `look`: the open one by its best detection (or as a
+    /// miss), those in between as misses; `muted(l)` says whether look `l` tells
+    /// nothing.
+    pub fn close_to(&mut self, look: i64, e: &Evidence, mut muted: impl FnMut(i64) -> bool) {
+        while self.look < look {
+            if !self.mute {
+                self.nats += self.open.unwrap_or_else(|| e.miss_nats());
+            }
+            self.hit_looks += u32::from(self.open.is_some());
+            self.look += 1;
+            self.open = None;
+            self.mute = muted(self.look);
+            if self.nats <= REJECT_NATS {
+                return;
+            }
+        }
+    }
+
+    /// A detection worth `nats` in look `look` (at or after the last; earlier looks are
+    /// closed first with `muted`).
+    pub fn hit(&mut self, look: i64, nats: f64, e: &Evidence, muted: impl FnMut(i64) -> bool) {
+        self.close_to(look, e, muted);
+        self.open = Some(self.open.map_or(nats, |o: f64| o.max(nats)));
+    }
+
+    /// Marks the open look as telling nothing.
+    pub fn mute(&mut self) {
+        self.mute = true;
+    }
+
+    /// The evidence with the open look counted (nats).
+    pub fn total(&self) -> f64 {
+        self.nats
+            + if self.mute {
+                0.0
+            } else {
+                self.open.unwrap_or(0.0)
+            }
+    }
+
+    /// Whether the evidence has fallen to [`REJECT_NATS`].
+    pub fn rejected(&self) -> bool {
+        self.nats <= REJECT_NATS
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn e() -> Evidence {
+        Evidence::new(0.064, 0.4, 1.0)
+    }
+
+    #[test]
+    fn the_margin_ratio_is_the_two_pareto_densities() {
+        let e = e();
+        for m in [0.4_f64, 0.7, 1.0, 3.0, 30.0] {
+            let f = |a: f64| a * e.floor.powf(a) / m.powf(a + 1.0);
+            let direct = (f(SOURCE_PARETO) / f(CLUTTER_PARETO)).ln();
+            assert!((e.margin_nats(m) - direct).abs() < 1e-9, "{m}");
+        }
+    }
+
+    #[test]
+    fn one_clap_far_over_the_threshold_in_quiet_confirms_at_once() {
+        let e = e();
+        // A clap 30 times the threshold.
+        assert!(e.hit_nats(30.0, QUIET_RATE_PER_S) > e.confirm_nats);
+        // Beside a talker, one detection at the threshold does not.
+        assert!(e.hit_nats(1.0, BUSY_RATE_PER_S) < e.confirm_nats);
+    }
+
+    #[test]
+    fn a_look_counts_once_by_its_best_detection_and_a_silent_look_counts_against() {
+        let e = e();
+        let mut t = Test::new(0);
+        t.hit(0, 2.0, &e, |_| false);
+        t.hit(0, 3.0, &e, |_| false);
+        t.hit(0, 1.0, &e, |_| false);
+        assert_eq!(t.total(), 3.0);
+        t.hit(3, 1.0, &e, |_| false);
+        assert!((t.nats - (3.0 + 2.0 * e.miss_nats())).abs() < 1e-12);
+        assert!((t.total() - (4.0 + 2.0 * e.miss_nats())).abs() < 1e-12);
+        // Looks beside a heard track count nothing.
+        t.hit(6, 0.5, &e, |_| true);
+        assert!((t.nats - (4.0 + 2.0 * e.miss_nats())).abs() < 1e-12);
+        assert_eq!(t.total(), t.nats);
+    }
+
+    #[test]
+    fn a_candidate_never_heard_again_is_rejected() {
+        let e = e();
+        let mut t = Test::new(0);
+        t.hit(0, 1.0, &e, |_| false);
+        t.close_to(100, &e, |_| false);
+        assert!(t.rejected());
+    }
+}

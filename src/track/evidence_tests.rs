@@ -1,0 +1,171 @@
+//! The tracker's tests of how candidates become sources by their evidence
+//! ([`ConfirmBy::Evidence`], the default; on hand-made detections, the looks 64 ms).
+
+use super::*;
+
+/// The defaults, confirming by the evidence.
+fn evidence() -> TrackParams {
+    TrackParams {
+        confirm_by: ConfirmBy::Evidence,
+        ..TrackParams::default()
+    }
+}
+
+/// As the tracker tests' `track_margins`, by the evidence.
+fn track_margins(frames: &[Vec<(f64, f64)>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
+    confirmed_rows(track_with(evidence(), frames))
+}
+
+/// Claps: one detection each, far over the threshold, 0.6 s apart from one place. Each
+/// confirms at once and is its own event (a short stretch ends after a silence as long
+/// as itself).
+#[test]
+fn each_clap_is_found_in_its_own_event() {
+    let frames: Vec<Vec<(f64, f64)>> = (0..400)
+        .map(|f| {
+            if f % 60 == 5 && f < 300 {
+                vec![(70.0, 30.0)]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let (rows, events) = track_margins(&frames);
+    assert_eq!(rows.len(), 5);
+    assert!(rows.iter().all(|r| r.1 == 1), "one place, one source");
+    assert_eq!(events.len(), 5, "{events:?}");
+    assert!(events.iter().all(|e| e.detections == 1));
+}
+
+/// A distant talker heard only under the threshold (candidates at 0.5-0.8 of it, one
+/// frame in three, within 2 deg) is confirmed over time, and keeps most of its rows;
+/// the same detections scattered round the sphere never are.
+#[test]
+fn many_weak_consistent_detections_confirm_and_scattered_ones_never_do() {
+    let weak = |f: usize| 0.5 + 0.1 * (f % 4) as f64;
+    let steady: Vec<Vec<(f64, f64)>> = (0..150)
+        .map(|f| {
+            if f % 3 == 0 {
+                vec![(-20.0 + (f % 5) as f64 * 0.5, weak(f))]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let (rows, events) = track_margins(&steady);
+    assert_eq!(events.len(), 1);
+    assert!(rows.len() >= 45, "{}", rows.len());
+    let scattered: Vec<Vec<(f64, f64)>> = (0..3000)
+        .map(|f| {
+            if f % 3 == 0 {
+                vec![((f as f64 / 3.0 * 47.0) % 360.0 - 180.0, weak(f))]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let (rows, events) = track_with(evidence(), &scattered);
+    assert!(rows.is_empty() && events.is_empty());
+}
+
+/// A fan's leaks: single candidates from one place at half the threshold, one every
+/// 0.8 s for a minute, each rejected by the test. The clutter map learns the place:
+/// then a burst of three from there is not a source, and the same burst elsewhere is.
+#[test]
+fn a_fans_leaks_teach_the_clutter_map() {
+    let mut frames: Vec<Vec<(f64, f64)>> = (0..6000)
+        .map(|f| {
+            if f % 80 == 0 {
+                vec![(120.0, 0.5)]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let burst = |frames: &mut Vec<Vec<(f64, f64)>>, azimuth: f64| {
+        for f in [6010, 6016, 6022, 6028] {
+            frames.resize(f + 1, Vec::new());
+            frames[f] = vec![(azimuth, 0.55)];
+        }
+        frames.resize(6200, Vec::new());
+    };
+    let mut elsewhere = frames.clone();
+    burst(&mut frames, 120.0);
+    burst(&mut elsewhere, -30.0);
+    let (rows, events) = track_with(evidence(), &frames);
+    assert!(events.is_empty() && rows.is_empty(), "{events:?}");
+    let (_, events) = track_with(evidence(), &elsewhere);
+    assert_eq!(events.len(), 1, "{events:?}");
+    assert!(
+        (events[0]
+            .direction
+            .y
+            .atan2(events[0].direction.x)
+            .to_degrees()
+            + 30.0)
+            .abs()
+            < 1e-6
+    );
+}
+
+/// Sources in turn 10 deg apart after a 0.5 s pause are two sources; a talker who
+/// pauses 0.7 s and speaks again from where he was keeps his track, and after a second
+/// of speech his event too.
+#[test]
+fn a_source_after_a_pause_is_new_unless_where_the_last_was() {
+    let mut frames = vec![Vec::new(); 400];
+    for (from, to, azimuth) in [(0, 100, 30.0), (150, 250, 40.0), (320, 400, 40.5)] {
+        for f in (from..to).step_by(2) {
+            frames[f] = vec![(azimuth, 2.0)];
+        }
+    }
+    let (rows, events) = track_margins(&frames);
+    assert_eq!(rows.len(), 140);
+    assert!(rows.iter().all(|r| (r.2 < 35.0) == (r.1 == 1)));
+    let sources: Vec<u64> = events.iter().map(|e| e.source).collect();
+    assert_eq!(sources, vec![1, 2], "{events:?}");
+    assert_eq!(events[1].detections, 90);
+}
+
+/// Detections over the threshold beside a talker, scattered far from it: a talker's
+/// reflections and strays. They are weighed against the clutter beside a source, and
+/// never confirmed.
+#[test]
+fn scattered_strays_beside_a_talker_are_dropped() {
+    let frames: Vec<Vec<(f64, f64)>> = (0..500)
+        .map(|f| {
+            let mut ds = Vec::new();
+            if f % 2 == 0 {
+                ds.push((0.0, 3.0));
+            }
+            if f % 15 == 7 {
+                ds.push((60.0 + (f as f64 * 37.0) % 240.0, 1.2));
+            }
+            ds
+        })
+        .collect();
+    let (rows, events) = track_with(evidence(), &frames);
+    assert_eq!(events.len(), 1, "{events:?}");
+    assert!(rows.iter().all(|r| r.1 == Some(1) && r.2.abs() < 1e-9));
+}
+
+/// The threshold is set by the false sources an hour: fewer allowed, more evidence
+/// needed. A run of candidates that confirms at the default does not at 1e-6 an hour.
+#[test]
+fn fewer_false_sources_allowed_need_more_evidence() {
+    let frames: Vec<Vec<(f64, f64)>> = (0..25)
+        .map(|f| {
+            if f % 3 == 0 {
+                vec![(10.0, 0.7)]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    assert!(!track_with(evidence(), &frames).1.is_empty());
+    let strict = TrackParams {
+        false_per_hour: 1e-6,
+        ..evidence()
+    };
+    assert!(track_with(strict, &frames).1.is_empty());
+}
