@@ -208,7 +208,7 @@ pub struct TrackParams {
 impl Default for TrackParams {
     fn default() -> Self {
         TrackParams {
-            confirm_by: ConfirmBy::Rules,
+            confirm_by: ConfirmBy::Evidence,
             false_per_hour: 1.0,
             confirm_hits: 2,
             confirm_candidates: 4,

@@ -87,31 +87,43 @@ fn track_with(params: TrackParams, frames: &[Vec<(f64, f64)>]) -> (Vec<Row>, Vec
 #[test]
 fn two_talkers_taking_turns_keep_their_ids_and_outliers_are_dropped() {
     // A at 30 deg for 1 s, B at -60 deg for 1 s, A again after 2 s of silence; a
-    // detection every other frame, and single outliers in the silences.
+    // detection every other frame, twice the threshold, and single outliers at the
+    // threshold far from them while they talk (a reflection, a stray). (A single
+    // detection twice the threshold in silence is a sound: `evidence_tests.rs`.)
     let mut frames = vec![Vec::new(); 560];
     for (start, azimuth) in [(10, 30.0), (110, -60.0), (410, 31.0)] {
         for f in (start..start + 100).step_by(2) {
-            frames[f] = vec![azimuth];
+            frames[f] = vec![(azimuth, 2.0)];
         }
     }
-    for (f, azimuth) in [(250, 150.0), (300, -150.0), (350, 100.0)] {
-        frames[f] = vec![azimuth];
+    for (f, azimuth) in [(51, 150.0), (151, -150.0), (451, 100.0)] {
+        frames[f] = vec![(azimuth, 1.0)];
     }
-    let (rows, events) = track(&frames);
-    // Every row of the talkers, none of the outliers, in frame order.
-    assert_eq!(rows.len(), 150);
-    assert!(rows.windows(2).all(|w| w[0].0 < w[1].0));
-    assert!(rows.iter().all(|r| r.2 < 90.0));
-    let ids: Vec<u64> = rows.iter().map(|r| r.1).collect();
-    assert!(rows.iter().all(|r| (r.2 > 0.0) == (r.1 == 1)), "{ids:?}");
-    assert!(rows.iter().any(|r| r.1 == 2));
-    // Three stretches: A, B, A again with A's id.
-    assert_eq!(events.len(), 3, "{events:?}");
-    let e: Vec<(u64, u64)> = events.iter().map(|e| (e.source, e.detections)).collect();
-    assert_eq!(e, vec![(1, 50), (2, 50), (1, 50)]);
-    assert!((events[0].start_s - 0.10).abs() < 1e-9);
-    assert!((events[0].end_s - 1.08).abs() < 1e-9);
-    assert!(events.iter().all(|e| e.spread_deg < 1.0));
+    for params in [TrackParams::default(), rules()] {
+        let (rows, events) = confirmed_rows(track_with(params, &frames));
+        // Every row of the talkers, none of the outliers, in frame order.
+        assert_eq!(rows.len(), 150);
+        assert!(rows.windows(2).all(|w| w[0].0 < w[1].0));
+        assert!(rows.iter().all(|r| r.2 < 90.0));
+        let ids: Vec<u64> = rows.iter().map(|r| r.1).collect();
+        assert!(rows.iter().all(|r| (r.2 > 0.0) == (r.1 == 1)), "{ids:?}");
+        assert!(rows.iter().any(|r| r.1 == 2));
+        // Three stretches: A, B, A again with A's id.
+        assert_eq!(events.len(), 3, "{events:?}");
+        let e: Vec<(u64, u64)> = events.iter().map(|e| (e.source, e.detections)).collect();
+        assert_eq!(e, vec![(1, 50), (2, 50), (1, 50)]);
+        assert!((events[0].start_s - 0.10).abs() < 1e-9);
+        assert!((events[0].end_s - 1.08).abs() < 1e-9);
+        assert!(events.iter().all(|e| e.spread_deg < 1.0));
+    }
+}
+
+/// The defaults, confirming by the rules of 0.2.0.
+fn rules() -> TrackParams {
+    TrackParams {
+        confirm_by: ConfirmBy::Rules,
+        ..TrackParams::default()
+    }
 }
 
 #[test]
@@ -183,6 +195,8 @@ fn two_sources_in_the_same_frames_get_one_row_each() {
     assert_eq!(events.len(), 2);
 }
 
+/// By the rules. (By the evidence, a detection twice the threshold in silence is a
+/// sound, and scattered candidates never make a track: `evidence_tests.rs`.)
 #[test]
 fn scattered_detections_never_make_a_track() {
     // One detection every 0.2 s, each 47 deg round from the one before: no two
@@ -196,7 +210,10 @@ fn scattered_detections_never_make_a_track() {
             }
         })
         .collect();
-    let (rows, events) = track(&frames);
+    let frames: Vec<Vec<(f64, f64)>> = (frames.iter())
+        .map(|f| f.iter().map(|&a| (a, 2.0)).collect())
+        .collect();
+    let (rows, events) = track_with(rules(), &frames);
     assert!(rows.is_empty() && events.is_empty());
 }
 
@@ -230,7 +247,7 @@ fn a_talkers_floor_image_starts_no_track() {
     };
     let image_rule_only = TrackParams {
         alone_s: 0.0,
-        ..TrackParams::default()
+        ..rules()
     };
     // The image while the talker talks: only the talker's rows, one event, every image
     // detection dropped.
@@ -381,42 +398,45 @@ fn riders_only_ride_along_a_talking_track() {
         rider: true,
         ..detection(frame, azimuth)
     };
-    let mut tracker = Tracker::new(TrackParams::default());
-    let mut rows = Vec::new();
-    for f in 0..200u64 {
-        let mut ds = Vec::new();
-        // A talker at 40 deg, heard above the threshold every 10 frames for 0.5 s.
-        if f < 50 && f % 10 == 0 {
-            ds.push(detection(f, 40.0));
+    // Frames 11-25 (42.2-45 deg) by the rules, which confirm the track at frame 10;
+    // frames 1-25 but the talker's by the evidence, which confirms it at its first
+    // detection (twice the threshold, in silence).
+    for (params, expected) in [(rules(), 14), (TrackParams::default(), 23)] {
+        let mut tracker = Tracker::new(params);
+        let mut rows = Vec::new();
+        for f in 0..200u64 {
+            let mut ds = Vec::new();
+            // A talker at 40 deg, heard above the threshold every 10 frames for 0.5 s.
+            if f < 50 && f % 10 == 0 {
+                ds.push(detection(f, 40.0));
+            }
+            // Riders drifting from 40 to 50 deg by 0.2 deg a frame, between those.
+            if f < 50 && f % 10 != 0 {
+                ds.push(rider(f, 40.0 + 0.2 * f as f64));
+            }
+            // A dense run of riders at -60 deg, far from any track.
+            if f % 2 == 1 {
+                ds.push(rider(f, -60.0));
+            }
+            tracker.push(f as f64 * HOP, &ds);
+            rows.extend(tracker.take_rows());
         }
-        // Riders drifting from 40 to 50 deg by 0.2 deg a frame, between those.
-        if f < 50 && f % 10 != 0 {
-            ds.push(rider(f, 40.0 + 0.2 * f as f64));
-        }
-        // A dense run of riders at -60 deg, far from any track.
-        if f % 2 == 1 {
-            ds.push(rider(f, -60.0));
-        }
-        tracker.push(f as f64 * HOP, &ds);
+        tracker.finish();
         rows.extend(tracker.take_rows());
+        assert!(rows.iter().all(|r| r.source == Some(1)), "one track only");
+        assert!(rows.iter().all(|r| r.detection.azimuth_deg > 0.0));
+        let riding: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.detection.rider)
+            .map(|r| r.detection.azimuth_deg)
+            .collect();
+        // Within the candidates' gate (5 deg) of the track, which stays at 40 deg.
+        assert!(
+            !riding.is_empty() && riding.iter().all(|&a| a <= 45.0),
+            "{riding:?}"
+        );
+        assert_eq!(riding.len(), expected, "{riding:?}");
     }
-    tracker.finish();
-    rows.extend(tracker.take_rows());
-    assert!(rows.iter().all(|r| r.source == Some(1)), "one track only");
-    assert!(rows.iter().all(|r| r.detection.azimuth_deg > 0.0));
-    let riding: Vec<f64> = rows
-        .iter()
-        .filter(|r| r.detection.rider)
-        .map(|r| r.detection.azimuth_deg)
-        .collect();
-    // Within the candidates' gate (5 deg) of the track, which stays at 40 deg.
-    assert!(
-        !riding.is_empty() && riding.iter().all(|&a| a <= 45.0),
-        "{riding:?}"
-    );
-    // Frames 11-25 (42.2-45 deg); those before the track was confirmed (frame 10) had
-    // nothing to ride.
-    assert_eq!(riding.len(), 14, "{riding:?}");
 }
 
 #[path = "evidence_tests.rs"]

@@ -136,8 +136,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             _ if arg == "novotes" => params.bin_votes = false,
             // The tracker's (see `track_from`).
             Some(
-                "weak" | "tight" | "tightdeg" | "span" | "alone" | "confirm" | "delay" | "gate"
-                | "cgate" | "cgs" | "smooth",
+                "by" | "fph" | "weak" | "tight" | "tightdeg" | "span" | "alone" | "confirm"
+                | "delay" | "gate" | "cgate" | "cgs" | "smooth",
             ) => {}
             // A benchmark's own (an offset to its scenes' seeds).
             Some("seed" | "rot" | "only") => {}
@@ -161,6 +161,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
 /// `weak=N` (candidates that confirm a track alone), `tight=N` and `tightdeg=DEG` (a
 /// steady run of candidates that does), `span=S` (the least span of those runs),
 /// `alone=S` (how long no other track may have been heard before a detection alone),
+/// `by=evidence|rules` (how a candidate is confirmed), `fph=F` (false sources an hour),
 /// `confirm=S` (the confirmation
 /// window, seconds), `delay=S` (the tracker's delay), `cgate=DEG` and `cgs=SAMPLES` (a candidate's gate) and `gate=DEG` (the association gate); other arguments are left to
 /// `params_from`.
@@ -168,6 +169,10 @@ pub fn track_from(args: &[String]) -> ssl::track::TrackParams {
     let mut track = ssl::track::TrackParams::default();
     for (key, value) in args.iter().filter_map(|a| a.split_once('=')) {
         match key {
+            "by" => {
+                track.confirm_by = ssl::Named::from_name(value).expect("by takes evidence or rules")
+            }
+            "fph" => track.false_per_hour = value.parse().expect("fph takes a rate"),
             "weak" => track.confirm_weak = value.parse().expect("weak takes a count"),
             "tight" => track.confirm_tight = value.parse().expect("tight takes a count"),
             "tightdeg" => track.tight_deg = value.parse().expect("tightdeg takes degrees"),
