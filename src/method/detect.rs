@@ -64,6 +64,11 @@ pub(crate) fn detection(
 ) -> Detection {
     let (azimuth_deg, elevation_deg) = angles_deg(&u);
     let threshold = state.threshold * pair_count(state.live.len()) as f64;
+    let margin = if threshold > 0.0 {
+        score / threshold
+    } else {
+        f64::INFINITY
+    };
     Detection {
         frame: index,
         time_s: (index as f64 * setup.hop as f64 + setup.n as f64 / 2.0) / setup.rate,
@@ -72,11 +77,8 @@ pub(crate) fn detection(
         direction: u,
         score,
         mics: state.live.len(),
-        margin: if threshold > 0.0 {
-            score / threshold
-        } else {
-            f64::INFINITY
-        },
+        margin,
+        peak_margin: margin,
         rider: false,
     }
 }

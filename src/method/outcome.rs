@@ -29,6 +29,12 @@ pub struct Detection {
     /// [`Tracker`](crate::track::Tracker) to confirm or drop (infinite with a threshold
     /// of 0).
     pub margin: f64,
+    /// The largest margin this source reached in the frame: [`Detection::margin`], or
+    /// that of the same direction in the frame's own correlations when they were
+    /// searched too and scored it higher ([`frame_sources`](crate::method::beyond)): a
+    /// knock fills one frame of the average, and passes the threshold only in its own.
+    /// What a tracker weighs as evidence.
+    pub peak_margin: f64,
     /// A rider: from a frame that gave nothing down to
     /// [`Params::candidates`](crate::Params::candidates), found in its own correlations
     /// down to [`Params::riders`](crate::Params::riders); a tracker only lets it add a row to a
@@ -72,6 +78,16 @@ impl Detections {
     /// The detections, strongest first.
     pub fn as_slice(&self) -> &[Detection] {
         &self.items[..self.count]
+    }
+
+    /// Raises to `d`'s margin the [`Detection::peak_margin`] of each detection within
+    /// `within_deg` of it.
+    pub fn raise_peaks(&mut self, d: &Detection, within_deg: f64) {
+        for f in &mut self.items[..self.count] {
+            if f.direction.angle(&d.direction).to_degrees() <= within_deg {
+                f.peak_margin = f.peak_margin.max(d.margin);
+            }
+        }
     }
 
     /// Marks every detection a rider.

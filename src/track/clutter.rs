@@ -5,10 +5,15 @@
 //! The sphere is cut in cells of [`CELL_DEG`] of azimuth and elevation. Each cell
 //! counts the looks with a detection of the candidates rejected there, each count
 //! forgotten with a time constant of [`MEMORY_S`]. The rate of clutter at a direction is
-//! the count of its cell and its eight neighbours over the time observed (at most the
-//! memory), and never less than the rate the test starts from: the map only raises it
-//! where clutter has been seen.
+//! the mean of its posterior given the count of its cell and its eight neighbours over
+//! the time observed (at most the memory), from a prior at the rate the test starts
+//! from (`r0`) worth [`PRIOR_S`] of observation: `(r0 PRIOR_S + count) / (PRIOR_S +
+//! observed)`, and never less than `r0`. So a fan's leaks
+//! raise it within seconds, while a knock's reverberant tail, a few looks once, barely
+//! does (the count over the time observed alone read such a tail as three a second in
+//! a recording's first second, and every later knock from that place was dropped).
 
+use super::evidence::CANDIDATE_RATE_PER_S;
 use nalgebra::Vector3;
 
 /// A cell's size (degrees of azimuth and of elevation): the candidates' gate.
@@ -16,6 +21,10 @@ pub const CELL_DEG: f64 = 5.0;
 
 /// How long the map remembers (seconds): a fan switched off is forgotten in about this.
 pub const MEMORY_S: f64 = 30.0;
+
+/// The prior's weight (seconds of observation): for candidates under the threshold,
+/// one look of clutter ([`CANDIDATE_RATE_PER_S`]).
+pub const PRIOR_S: f64 = 1.0 / CANDIDATE_RATE_PER_S;
 
 const AZIMUTHS: usize = (360.0 / CELL_DEG) as usize;
 const ELEVATIONS: usize = (180.0 / CELL_DEG) as usize;
@@ -75,9 +84,6 @@ impl Clutter {
 
     /// The rate of clutter at `direction` (per second), at least `floor`.
     pub fn rate(&self, direction: &Vector3<f64>, now_s: f64, floor: f64) -> f64 {
-        let Some(start) = self.start_s else {
-            return floor;
-        };
         let (az, el) = cell(direction);
         let mut count = 0.0;
         for de in -1..=1 {
@@ -88,11 +94,9 @@ impl Clutter {
                 }
             }
         }
+        let start = self.start_s.unwrap_or(now_s);
         let observed = MEMORY_S * (1.0 - (-(now_s - start).max(0.0) / MEMORY_S).exp());
-        if observed <= 0.0 {
-            return floor;
-        }
-        (count / observed).max(floor)
+        ((floor * PRIOR_S + count) / (PRIOR_S + observed)).max(floor)
     }
 }
 
@@ -106,21 +110,27 @@ mod tests {
         let mut map = Clutter::default();
         map.observe(0.0);
         let fan = unit_from_angles(40.0, 10.0);
-        // Three looks with leaks a second, for 20 s.
-        for s in 0..20 {
+        // Three looks with leaks a second, for a minute.
+        for s in 0..60 {
             map.learn(&fan, 3, s as f64);
         }
-        let rate = map.rate(&unit_from_angles(41.0, 11.0), 20.0, 0.2);
-        assert!((2.0..4.0).contains(&rate), "{rate}");
-        assert_eq!(map.rate(&unit_from_angles(-90.0, 0.0), 20.0, 0.2), 0.2);
+        let rate = map.rate(&unit_from_angles(41.0, 11.0), 60.0, 0.2);
+        assert!((2.0..3.0).contains(&rate), "{rate}");
+        // A knock's tail, four looks once in the first second, raises it less than a
+        // second of the fan's leaks.
+        let mut once = Clutter::default();
+        once.observe(0.0);
+        once.learn(&fan, 4, 0.5);
+        let tail = once.rate(&fan, 1.0, 0.2);
+        assert!((0.2..1.0).contains(&tail), "{tail}");
+        assert_eq!(map.rate(&unit_from_angles(-90.0, 0.0), 60.0, 0.2), 0.2);
         // Forgotten after a few memories.
-        assert_eq!(map.rate(&fan, 200.0, 0.2), 0.2);
+        assert_eq!(map.rate(&fan, 250.0, 0.2), 0.2);
     }
 
     #[test]
     fn the_map_wraps_around_at_180_degrees() {
         let mut map = Clutter::default();
-        map.observe(0.0);
         map.learn(&unit_from_angles(179.0, 0.0), 50, 1.0);
         assert!(map.rate(&unit_from_angles(-179.0, 0.0), 1.0, 0.0) > 0.0);
     }

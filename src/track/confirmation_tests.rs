@@ -301,6 +301,7 @@ fn a_small_arrays_candidates_join_within_a_wider_gate() {
                 let side = if f % 8 == 0 { 1.0 } else { -1.0 };
                 vec![Detection {
                     margin: 0.6,
+                    peak_margin: 0.6,
                     rider: false,
                     ..detection(f, 40.0 + 3.5 * side)
                 }]

@@ -12,7 +12,7 @@
 //!   ratio of its margin `m` (score over the frame's threshold) under the two
 //!   hypotheses' laws, and of the chance that a source is heard in a look
 //!   ([`P_DETECT`]) to the chance that clutter falls in the candidate's gate in one
-//!   (`r`, a rate per second: [`Clutter::rate`]).
+//!   (`r`, a rate per second: [`Clutter::rate`](super::clutter::Clutter::rate)).
 //! - A look without one adds `ln(1 - P_D)`: a source would probably have been heard.
 //! - A candidate is a source once its sum reaches `ln(N / F)`, `N` candidates an hour
 //!   ([`CANDIDATES_PER_HOUR`]) of which at most `F` false
@@ -43,7 +43,7 @@ pub const CLUTTER_PARETO: f64 = 5.3;
 pub const QUIET_RATE_PER_S: f64 = 1.0 / 360.0;
 
 /// Clutter under the threshold (candidates) with no source active, before the
-/// [`Clutter`] map has learnt a place (per second, in a candidate's gate).
+/// [`Clutter`](super::clutter::Clutter) map has learnt a place (per second, in a candidate's gate).
 pub const CANDIDATE_RATE_PER_S: f64 = 0.2;
 
 /// Clutter beside an active source (per second, in a candidate's gate): a talker's

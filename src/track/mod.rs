@@ -21,7 +21,18 @@
 //!   to a fan and a false event a minute in a meeting; searching every frame down to
 //!   0.3 instead of only those that gave nothing took frames from the detections they
 //!   gave before: a third talker lost on the tetrahedron.)
-//! - **birth on confirmation:** a detection that joins no track starts a candidate; the
+//! - **birth on evidence** ([`ConfirmBy::Evidence`], the default): a detection that
+//!   joins no track starts a candidate, and the candidate becomes a track once the
+//!   evidence of what joins it passes a threshold set by
+//!   [`TrackParams::false_per_hour`] ([`evidence`]: a sequential probability ratio test
+//!   per candidate, with a map of where clutter comes from, [`clutter`]); it is
+//!   dropped once the evidence is against it, or when its detections have waited
+//!   [`TrackParams::delay_s`]. A track's gate is then narrow right after a pause unless
+//!   its speed has been measured, and a stretch of activity ends after a silence as
+//!   long as itself (at least 0.3 s, at most [`TrackParams::end_s`]): each clap is its
+//!   own event. The image and silent-track rules below hold as well;
+//! - **birth on confirmation** ([`ConfirmBy::Rules`], 0.2.0's): a detection that joins
+//!   no track starts a candidate; the
 //!   candidate becomes a track once [`TrackParams::confirm_hits`] detections above the
 //!   threshold have joined it within [`TrackParams::confirm_s`] (or
 //!   [`TrackParams::confirm_candidates`] with one above it, or
@@ -117,7 +128,8 @@ pub struct TrackParams {
     /// background (sets the threshold `ln(N / F)` of [`evidence`]).
     #[serde(default = "default_false_per_hour")]
     pub false_per_hour: f64,
-    /// Detections at or above the detection threshold a candidate needs to become a
+    /// With [`ConfirmBy::Rules`] (as the fields down to [`TrackParams::confirm_s`]):
+    /// detections at or above the detection threshold a candidate needs to become a
     /// track.
     pub confirm_hits: usize,
     /// Or this many detections of any margin, one of them at or above the threshold
@@ -170,7 +182,8 @@ pub struct TrackParams {
     /// confirmation window ([`TrackParams::delay`]).
     #[serde(default = "default_delay_s")]
     pub delay_s: f64,
-    /// Association gate (degrees) right after a track's last detection.
+    /// Association gate (degrees) right after a track's last detection, with
+    /// [`ConfirmBy::Rules`] (with the evidence: 1.5 candidates' gates).
     pub gate_deg: f64,
     /// The gate (degrees) of a candidate under the detection threshold (see
     /// [`Params::candidates`](crate::Params::candidates)): it never widens.

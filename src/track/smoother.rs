@@ -183,6 +183,7 @@ mod tests {
                 score: 1.0,
                 mics: 8,
                 margin: 1.0,
+                peak_margin: 1.0,
                 rider: false,
             },
             source,

@@ -428,22 +428,25 @@ impl Tracker {
     }
 
     /// What detection `d` of a candidate is worth ([`evidence`]), or `None` when a
-    /// talking track heard beside it makes it tell nothing. A detection over the
-    /// threshold weaker than its frame's strongest counts at its margin times its share
-    /// of the strongest score: a loud sound's stray is not a second source's evidence.
+    /// talking track heard beside it makes it tell nothing. Its margin is the largest
+    /// its frame gave it ([`Detection::peak_margin`]: a knock passes the threshold in
+    /// its frame's own correlations, not in their average); one over the threshold
+    /// weaker than its frame's strongest counts at that margin times its share of the
+    /// strongest score: a loud sound's stray is not a second source's evidence.
     fn hit_nats(&self, d: &Detection, frame: Frame) -> Option<f64> {
+        let margin = d.peak_margin.max(d.margin);
         let (near, busy) = self.beside(&d.direction, d.time_s);
-        if near || d.margin < 1.0 && d.time_s < self.warmup_s {
+        if near || margin < 1.0 && d.time_s < self.warmup_s {
             return None;
         }
-        let m = if d.margin > 1.0 && frame.strongest > 0.0 {
-            d.margin * (d.score / frame.strongest).min(1.0)
+        let m = if margin > 1.0 && frame.strongest > 0.0 {
+            margin * (d.score / frame.strongest).min(1.0)
         } else {
-            d.margin
+            margin
         };
         let floor = if busy {
             evidence::BUSY_RATE_PER_S
-        } else if d.margin >= 1.0 {
+        } else if margin >= 1.0 {
             evidence::QUIET_RATE_PER_S
         } else {
             evidence::CANDIDATE_RATE_PER_S

@@ -18,6 +18,7 @@ fn detection(frame: u64, azimuth: f64) -> Detection {
         score: 10.0,
         mics: 8,
         margin: 2.0,
+        peak_margin: 2.0,
         rider: false,
     }
 }
@@ -59,6 +60,7 @@ fn track_with(params: TrackParams, frames: &[Vec<(f64, f64)>]) -> (Vec<Row>, Vec
             .iter()
             .map(|&(a, margin)| Detection {
                 margin,
+                peak_margin: margin,
                 ..detection(i as u64, a)
             })
             .collect();
@@ -395,6 +397,7 @@ fn a_candidate_after_a_pause_does_not_move_its_track_alone() {
 fn riders_only_ride_along_a_talking_track() {
     let rider = |frame: u64, azimuth: f64| Detection {
         margin: 0.35,
+        peak_margin: 0.35,
         rider: true,
         ..detection(frame, azimuth)
     };

@@ -63,11 +63,17 @@ pub fn apart(u: &Vector3<f64>, f: &Vector3<f64>, image_elevation_deg: f64) -> bo
 }
 
 /// Adds to `found` (the average's sources, the strongest first) the directions of the
-/// frame's own, `own`, that are further sources, up to `max_sources` in all.
+/// frame's own, `own`, that are further sources, up to `max_sources` in all; a direction
+/// of the frame's own within [`SEPARATION_DEG`] of one found raises that one's
+/// [`Detection::peak_margin`] to its margin when higher (the same source, heard more
+/// clearly in the frame alone).
 pub fn add_further(found: &mut Detections, own: &Detections, max_sources: usize) {
     let Some(first) = found.as_slice().first().map(|d| d.score) else {
         return;
     };
+    for d in own.as_slice() {
+        found.raise_peaks(d, SEPARATION_DEG);
+    }
     for d in own.as_slice() {
         if found.len() >= max_sources {
             break;
@@ -93,6 +99,7 @@ mod tests {
             score,
             mics: 6,
             margin: 1.0,
+            peak_margin: 1.0,
             rider: false,
         }
     }
