@@ -31,7 +31,7 @@ pub struct Detection {
     pub margin: f64,
     /// The largest margin this source reached in the frame: [`Detection::margin`], or
     /// that of the same direction in the frame's own correlations when they were
-    /// searched too and scored it higher ([`frame_sources`](crate::method::beyond)): a
+    /// searched too and scored it higher (further sources, docs/method.md): a
     /// knock fills one frame of the average, and passes the threshold only in its own.
     /// What a tracker weighs as evidence.
     pub peak_margin: f64,
