@@ -4,14 +4,6 @@
 
 use super::*;
 
-/// The defaults, confirming by the rules.
-fn rules() -> TrackParams {
-    TrackParams {
-        confirm_by: ConfirmBy::Rules,
-        ..TrackParams::default()
-    }
-}
-
 /// As the tracker tests' `track_margins`, by the rules.
 fn track_margins(frames: &[Vec<(f64, f64)>]) -> (Vec<(u64, u64, f64)>, Vec<Event>) {
     confirmed_rows(track_with(rules(), frames))

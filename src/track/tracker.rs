@@ -429,9 +429,9 @@ impl Tracker {
                 if frame.alone {
                     c.alone_s = d.time_s;
                 }
-                let confirmed = match (self.params.confirm_by, nats) {
-                    (ConfirmBy::Rules, _) => c.confirmed(&self.params),
-                    (ConfirmBy::Evidence, nats) => {
+                let confirmed = match self.params.confirm_by {
+                    ConfirmBy::Rules => c.confirmed(&self.params),
+                    ConfirmBy::Evidence => {
                         let e = &self.evidence;
                         let look = e.look(d.time_s);
                         c.test.hit(look, nats.unwrap_or(0.0), e, |_| false);
