@@ -169,3 +169,34 @@ fn fewer_false_sources_allowed_need_more_evidence() {
     };
     assert!(track_with(strict, &frames).1.is_empty());
 }
+
+/// A clap's floor image, 19 deg below it at its azimuth a few frames later and loud
+/// (as measured on the fresh draws): it tells nothing while the clap's track is heard,
+/// so no second source. The same detections 40 deg round in azimuth are a source.
+#[test]
+fn a_claps_floor_image_is_not_a_second_source() {
+    let at = |frame: u64, azimuth: f64, elevation: f64, margin: f64| Detection {
+        elevation_deg: elevation,
+        direction: crate::method::direction::unit_from_angles(azimuth, elevation),
+        margin,
+        peak_margin: margin,
+        ..detection(frame, azimuth)
+    };
+    let run = |image_azimuth: f64| {
+        let mut tracker = Tracker::new(evidence());
+        for f in 0..100u64 {
+            let mut ds = Vec::new();
+            if f == 10 {
+                ds.push(at(f, 63.0, -15.0, 30.0));
+            }
+            if f == 13 || f == 14 {
+                ds.push(at(f, image_azimuth, -34.0, 3.5));
+            }
+            tracker.push(f as f64 * HOP, &ds);
+        }
+        tracker.finish();
+        tracker.take_events().count()
+    };
+    assert_eq!(run(64.0), 1);
+    assert_eq!(run(104.0), 2);
+}

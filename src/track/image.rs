@@ -35,6 +35,17 @@ pub const IMAGE_MAX_ELEVATION_DEG: f64 = 80.0;
 /// horizontal plane.
 pub fn is_vertical_image(candidate: &Vector3<f64>, source: &Vector3<f64>) -> bool {
     let elevation = |u: &Vector3<f64>| u.z.clamp(-1.0, 1.0).asin().to_degrees();
+    in_vertical_plane(candidate, source)
+        && (elevation(candidate) - elevation(source)).abs() >= IMAGE_ELEVATION_DEG
+}
+
+/// Whether `candidate` is at `source`'s azimuth (within [`IMAGE_AZIMUTH_DEG`]), both
+/// within [`IMAGE_MAX_ELEVATION_DEG`] of the horizontal plane: where its vertical
+/// reflections are heard, at whatever elevation (the evidence counts nothing there
+/// while the source talks: `evidence::ACTIVE_S`; a clap's floor image 19 deg below it
+/// was a false source on the fresh draws).
+pub fn in_vertical_plane(candidate: &Vector3<f64>, source: &Vector3<f64>) -> bool {
+    let elevation = |u: &Vector3<f64>| u.z.clamp(-1.0, 1.0).asin().to_degrees();
     let (ec, es) = (elevation(candidate), elevation(source));
     if ec.abs() > IMAGE_MAX_ELEVATION_DEG || es.abs() > IMAGE_MAX_ELEVATION_DEG {
         return false;
@@ -44,7 +55,7 @@ pub fn is_vertical_image(candidate: &Vector3<f64>, source: &Vector3<f64>) -> boo
     if apart > 180.0 {
         apart = 360.0 - apart;
     }
-    apart <= IMAGE_AZIMUTH_DEG && (ec - es).abs() >= IMAGE_ELEVATION_DEG
+    apart <= IMAGE_AZIMUTH_DEG
 }
 
 #[cfg(test)]

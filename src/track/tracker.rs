@@ -4,7 +4,7 @@ use super::candidate::{candidate_gate_deg, heard_alone, Candidate};
 use super::clutter::Clutter;
 use super::event::{Accumulator, Event};
 use super::evidence::{self, Evidence, Test, ACTIVE_S};
-use super::image::{is_vertical_image, IMAGE_TALKING_S};
+use super::image::{in_vertical_plane, is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
 use super::output::{TrackStats, Tracked};
 use super::smoother::Smoother;
@@ -240,14 +240,16 @@ impl Tracker {
     }
 
     /// Whether a track heard within [`ACTIVE_S`] of `now` is within reach of
-    /// `direction`, and whether any is heard at all.
+    /// `direction` or in its vertical plane (its floor and ceiling images,
+    /// [`in_vertical_plane`]), and whether any is heard at all.
     fn beside(&self, direction: &Vector3<f64>, now: f64) -> (bool, bool) {
         let reach = self.reach();
         let mut busy = false;
         for t in &self.tracks {
             if t.event.is_some() && now - t.last_s <= ACTIVE_S {
                 busy = true;
-                if self.distance(direction, &t.predicted(now)) <= reach {
+                let at = t.predicted(now);
+                if self.distance(direction, &at) <= reach || in_vertical_plane(direction, &at) {
                     return (true, true);
                 }
             }
