@@ -493,11 +493,11 @@ impl Tracker {
                 self.resolved.insert(row, None);
             }
         }
-        // A talking track's floor or ceiling image starts nothing (see `image`).
+        // A talking track's floor or ceiling image starts nothing (see `image`): a track
+        // heard within `IMAGE_TALKING_S`, whether its stretch of activity has ended or
+        // not (with the evidence a short one ends after 0.3 s of silence).
         if self.tracks.iter().any(|t| {
-            t.event.is_some()
-                && now - t.last_s <= IMAGE_TALKING_S
-                && is_vertical_image(&c.direction, &t.predicted(now))
+            now - t.last_s <= IMAGE_TALKING_S && is_vertical_image(&c.direction, &t.predicted(now))
         }) {
             for (row, _) in &c.hits {
                 self.resolved.insert(*row, None);
