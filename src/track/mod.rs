@@ -203,7 +203,9 @@ pub struct TrackParams {
     /// 0.4 s pause keeps its track (at 25 it did not on the prism at 48 kHz; nothing
     /// else in docs/tracking.md changed).
     pub max_gate_deg: f64,
-    /// A track silent for longer than this (seconds) ends its stretch of activity.
+    /// A track silent for longer than this (seconds) ends its stretch of activity (with
+    /// [`ConfirmBy::Evidence`], one silent for longer than the stretch so far, at least
+    /// 0.3 s and at most this).
     pub end_s: f64,
     /// A silent track is forgotten after this many seconds (its id is never reused).
     pub forget_s: f64,
