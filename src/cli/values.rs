@@ -61,11 +61,14 @@ pub(super) fn speed_of_sound(s: &str) -> std::result::Result<f64, String> {
 /// A tracker's window or delay: positive, at most [`MAX_DELAY_S`] (rows wait that long
 /// in memory).
 pub(super) fn tracker_seconds(s: &str) -> std::result::Result<f64, String> {
+    positive_at_most(s, MAX_DELAY_S, " s (rows wait that long in memory)")
+}
+
+/// A positive number at most `max`; `why` follows `max` in the error.
+fn positive_at_most(s: &str, max: f64, why: &str) -> std::result::Result<f64, String> {
     let v = positive(s)?;
-    if v > MAX_DELAY_S {
-        return Err(format!(
-            "{v} is over {MAX_DELAY_S} s (rows wait that long in memory)"
-        ));
+    if v > max {
+        return Err(format!("{v} is over {max}{why}"));
     }
     Ok(v)
 }
@@ -73,13 +76,11 @@ pub(super) fn tracker_seconds(s: &str) -> std::result::Result<f64, String> {
 /// The false sources an hour (`--false-per-hour`): over 0, at most the candidates an
 /// hour ([`CANDIDATES_PER_HOUR`]).
 pub(super) fn false_per_hour(s: &str) -> std::result::Result<f64, String> {
-    let v = positive(s)?;
-    if v > CANDIDATES_PER_HOUR {
-        return Err(format!(
-            "{v} is over {CANDIDATES_PER_HOUR}, the candidates an hour it is a share of"
-        ));
-    }
-    Ok(v)
+    positive_at_most(
+        s,
+        CANDIDATES_PER_HOUR,
+        ", the candidates an hour it is a share of",
+    )
 }
 
 /// The smoothing window (`--smooth-s`): 0 to [`MAX_SMOOTH_S`].

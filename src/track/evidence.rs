@@ -153,9 +153,9 @@ impl Test {
     }
 
     /// Closes the looks before `look`: the open one by its best detection (or as a
-    /// miss), those in between as misses; `muted(l)` says whether look `l` tells
-    /// nothing.
-    pub fn close_to(&mut self, look: i64, e: &Evidence, mut muted: impl FnMut(i64) -> bool) {
+    /// miss), those in between as misses, or as nothing when `muted` (a track was
+    /// heard beside the candidate meanwhile).
+    pub fn close_to(&mut self, look: i64, e: &Evidence, muted: bool) {
         while self.look < look {
             if !self.mute {
                 self.nats += self.open.unwrap_or_else(|| e.miss_nats());
@@ -163,18 +163,22 @@ impl Test {
             self.hit_looks += u32::from(self.open.is_some());
             self.look += 1;
             self.open = None;
-            self.mute = muted(self.look);
+            self.mute = muted;
             if self.nats <= REJECT_NATS {
                 return;
             }
         }
     }
 
-    /// A detection worth `nats` in look `look` (at or after the last; earlier looks are
-    /// closed first with `muted`).
-    pub fn hit(&mut self, look: i64, nats: f64, e: &Evidence, muted: impl FnMut(i64) -> bool) {
-        self.close_to(look, e, muted);
-        self.open = Some(self.open.map_or(nats, |o: f64| o.max(nats)));
+    /// A detection worth `nats` in look `look` (at or after the last; looks before it
+    /// are closed first, those between as misses), or `None` when it tells nothing,
+    /// which mutes its look.
+    pub fn hit(&mut self, look: i64, nats: Option<f64>, e: &Evidence) {
+        self.close_to(look, e, false);
+        match nats {
+            Some(nats) => self.open = Some(self.open.map_or(nats, |o: f64| o.max(nats))),
+            None => self.mute = true,
+        }
     }
 
     /// Marks the open look as telling nothing.
@@ -229,15 +233,17 @@ mod tests {
     fn a_look_counts_once_by_its_best_detection_and_a_silent_look_counts_against() {
         let e = e();
         let mut t = Test::new(0);
-        t.hit(0, 2.0, &e, |_| false);
-        t.hit(0, 3.0, &e, |_| false);
-        t.hit(0, 1.0, &e, |_| false);
+        t.hit(0, Some(2.0), &e);
+        t.hit(0, Some(3.0), &e);
+        t.hit(0, Some(1.0), &e);
         assert_eq!(t.total(), 3.0);
-        t.hit(3, 1.0, &e, |_| false);
+        t.hit(3, Some(1.0), &e);
         assert!((t.nats - (3.0 + 2.0 * e.miss_nats())).abs() < 1e-12);
         assert!((t.total() - (4.0 + 2.0 * e.miss_nats())).abs() < 1e-12);
-        // Looks beside a heard track count nothing.
-        t.hit(6, 0.5, &e, |_| true);
+        // Looks beside a heard track count nothing: those gone by (as the tracker closes
+        // them every frame) and the one a detection beside it falls in.
+        t.close_to(6, &e, true);
+        t.hit(6, None, &e);
         assert!((t.nats - (4.0 + 2.0 * e.miss_nats())).abs() < 1e-12);
         assert_eq!(t.total(), t.nats);
     }
@@ -246,8 +252,8 @@ mod tests {
     fn a_candidate_never_heard_again_is_rejected() {
         let e = e();
         let mut t = Test::new(0);
-        t.hit(0, 1.0, &e, |_| false);
-        t.close_to(100, &e, |_| false);
+        t.hit(0, Some(1.0), &e);
+        t.close_to(100, &e, false);
         assert!(t.rejected());
     }
 }

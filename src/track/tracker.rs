@@ -416,7 +416,8 @@ impl Tracker {
             }
             Slot::Dropped => slot,
             Slot::Candidate(key, _) => {
-                let nats = self.hit_nats(d, frame);
+                let weighed = (self.params.confirm_by == ConfirmBy::Evidence)
+                    .then(|| self.hit_nats(d, frame));
                 let row = self.next_row;
                 self.next_row += 1;
                 let i = self
@@ -436,10 +437,7 @@ impl Tracker {
                     ConfirmBy::Evidence => {
                         let e = &self.evidence;
                         let look = e.look(d.time_s);
-                        c.test.hit(look, nats.unwrap_or(0.0), e, |_| false);
-                        if nats.is_none() {
-                            c.test.mute();
-                        }
+                        c.test.hit(look, weighed.flatten(), e);
                         c.test.total() >= e.confirm_nats
                     }
                 };
@@ -608,7 +606,7 @@ impl Tracker {
         while i < self.candidates.len() {
             let near = self.beside(&self.candidates[i].direction, now).0 || now < self.warmup_s;
             let c = &mut self.candidates[i];
-            c.test.close_to(look, &e, |_| near);
+            c.test.close_to(look, &e, near);
             if near {
                 c.test.mute();
             }
