@@ -9,6 +9,7 @@ use super::paper::direction::{angles_deg, DirectionSolver};
 use super::paper::pairs::pair_count;
 use super::paper::search::Solution;
 use super::state::FrameState;
+use super::uncertainty::uncertainty_deg;
 use std::collections::HashMap;
 
 /// What the direction stage makes of a consistent set.
@@ -46,12 +47,21 @@ pub(crate) fn direction(
     let Some(u) = solver.solve(&solution.lags) else {
         return Direction::None;
     };
+    let residual = solver.residual_m(&solution.lags, &u);
     if let Some(gate) = setup.params.residual_gate_us {
-        if solver.residual_m(&solution.lags, &u) / setup.speed * 1e6 > gate {
+        if residual / setup.speed * 1e6 > gate {
             return Direction::Gated;
         }
     }
-    Direction::Found(detection(setup, state, index, u, solution.score))
+    let uncertainty = uncertainty_deg(solver, &u, Some(residual), setup.speed);
+    Direction::Found(detection(
+        setup,
+        state,
+        index,
+        u,
+        solution.score,
+        uncertainty,
+    ))
 }
 
 /// The detection of direction `u` with `score` in frame `index`.
@@ -61,6 +71,7 @@ pub(crate) fn detection(
     index: u64,
     u: nalgebra::Vector3<f64>,
     score: f64,
+    uncertainty_deg: f64,
 ) -> Detection {
     let (azimuth_deg, elevation_deg) = angles_deg(&u);
     let threshold = state.threshold * pair_count(state.live.len()) as f64;
@@ -79,6 +90,7 @@ pub(crate) fn detection(
         mics: state.live.len(),
         margin,
         peak_margin: margin,
+        uncertainty_deg,
         rider: false,
     }
 }

@@ -39,6 +39,7 @@ mod outcome;
 pub mod paper;
 mod params;
 mod state;
+mod uncertainty;
 
 pub use paper::{correlation, direction, frames, pairs, peaks, search, spectrum, weighting};
 

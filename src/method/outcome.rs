@@ -35,6 +35,10 @@ pub struct Detection {
     /// knock fills one frame of the average, and passes the threshold only in its own.
     /// What a tracker weighs as evidence.
     pub peak_margin: f64,
+    /// The half-angle (degrees) of the cone around [`Detection::direction`] that holds
+    /// the true direction with 95% probability, from the fit and the geometry
+    /// (docs/interface.md, "Detections"; docs/method.md, "Uncertainty").
+    pub uncertainty_deg: f64,
     /// A rider: from a frame that gave nothing down to
     /// [`Params::candidates`](crate::Params::candidates), found in its own correlations
     /// down to [`Params::riders`](crate::Params::riders); a tracker only lets it add a row to a

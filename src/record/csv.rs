@@ -334,13 +334,14 @@ mod tests {
             frame: Some(9),
             mics: None,
             source: Some(3),
+            uncertainty_deg: Some(4.5),
         };
         csv.row(&record).unwrap();
         let text = String::from_utf8(csv.out.into_inner().unwrap()).unwrap();
         assert_eq!(
             text,
-            "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics,source\n\
-             0.106667,-0.0000001,10,1,0,0.000001,58.6523,\"a, b.wav\",9,,3\n"
+            "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics,source,uncertainty_deg\n\
+             0.106667,-0.0000001,10,1,0,0.000001,58.6523,\"a, b.wav\",9,,3,4.5\n"
         );
     }
 }

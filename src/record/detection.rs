@@ -37,6 +37,11 @@ pub struct DetectionRecord {
     /// `None` with tracking off.
     #[serde(default)]
     pub source: Option<u64>,
+    /// The half-angle (degrees) of the cone around the direction that holds the true
+    /// direction with 95% probability (docs/interface.md, "Detections"); `None` in a
+    /// result written before 0.3.0.
+    #[serde(default)]
+    pub uncertainty_deg: Option<f64>,
 }
 
 impl DetectionRecord {
@@ -60,6 +65,7 @@ impl DetectionRecord {
             frame: Some(d.frame),
             mics: Some(d.mics),
             source,
+            uncertainty_deg: Some(fixed(d.uncertainty_deg, 2)),
         };
         match record.non_finite() {
             Some(field) => Err(OutputError::NonFinite {
@@ -82,6 +88,7 @@ impl DetectionRecord {
             ("y", self.y),
             ("z", self.z),
             ("score", self.score),
+            ("uncertainty_deg", self.uncertainty_deg.unwrap_or(0.0)),
         ])
     }
 }

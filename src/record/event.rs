@@ -45,6 +45,11 @@ pub struct EventRecord {
     /// Elevation of the last detection (degrees).
     #[serde(default)]
     pub end_elevation_deg: f64,
+    /// The half-angle (degrees) of the cone around the mean direction that holds the
+    /// true direction with 95% probability (see [`Event::uncertainty_deg`]); `None` in a
+    /// result written before 0.3.0.
+    #[serde(default)]
+    pub uncertainty_deg: Option<f64>,
 }
 
 impl EventRecord {
@@ -70,6 +75,7 @@ impl EventRecord {
             start_elevation_deg: fixed(start_elevation, 3),
             end_azimuth_deg: fixed(end_azimuth, 3),
             end_elevation_deg: fixed(end_elevation, 3),
+            uncertainty_deg: Some(fixed(e.uncertainty_deg, 2)),
         };
         match record.non_finite() {
             Some(field) => Err(OutputError::NonFiniteEvent {
@@ -98,6 +104,7 @@ impl EventRecord {
             ("start_elevation_deg", self.start_elevation_deg),
             ("end_azimuth_deg", self.end_azimuth_deg),
             ("end_elevation_deg", self.end_elevation_deg),
+            ("uncertainty_deg", self.uncertainty_deg.unwrap_or(0.0)),
         ])
     }
 }

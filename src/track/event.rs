@@ -27,6 +27,12 @@ pub struct Event {
     pub start_direction: Vector3<f64>,
     /// The direction of its last detection: where a moving source ended.
     pub end_direction: Vector3<f64>,
+    /// The half-angle (degrees) of the cone around [`Event::direction`] that holds the
+    /// true direction with 95% probability: the mean of its detections'
+    /// [`Detection::uncertainty_deg`]. Their errors are mostly shared (the room biases
+    /// every frame alike), so the mean of many is not much nearer than one
+    /// (docs/method.md, "Uncertainty").
+    pub uncertainty_deg: f64,
 }
 
 /// An event being accumulated: sums only, so memory does not grow with its length.
@@ -39,6 +45,7 @@ pub(crate) struct Accumulator {
     last: Vector3<f64>,
     sum: Vector3<f64>,
     score: f64,
+    uncertainty: f64,
     count: u64,
 }
 
@@ -51,6 +58,7 @@ impl Accumulator {
             last: d.direction,
             sum: d.direction,
             score: d.score,
+            uncertainty: d.uncertainty_deg,
             count: 1,
         }
     }
@@ -72,6 +80,7 @@ impl Accumulator {
         self.end_s = self.end_s.max(d.time_s);
         self.sum += d.direction;
         self.score += d.score;
+        self.uncertainty += d.uncertainty_deg;
         self.count += 1;
     }
 
@@ -93,6 +102,7 @@ impl Accumulator {
             score: self.score / n,
             start_direction: self.first,
             end_direction: self.last,
+            uncertainty_deg: self.uncertainty / n,
         }
     }
 }

@@ -184,6 +184,7 @@ mod tests {
                 mics: 8,
                 margin: 1.0,
                 peak_margin: 1.0,
+                uncertainty_deg: 2.0,
                 rider: false,
             },
             source,

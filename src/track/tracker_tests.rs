@@ -19,6 +19,7 @@ fn detection(frame: u64, azimuth: f64) -> Detection {
         mics: 8,
         margin: 2.0,
         peak_margin: 2.0,
+        uncertainty_deg: 2.0,
         rider: false,
     }
 }

@@ -24,3 +24,4 @@ mod simulate;
 mod talkers_at_once;
 mod testdata;
 mod tracking;
+mod uncertainty;

@@ -133,7 +133,7 @@ fn two_talkers_taking_turns_are_two_tracks_and_three_events() {
     let text = csv(&["--events"]);
     assert!(text.starts_with(
         "file,source,start_s,end_s,azimuth_deg,elevation_deg,x,y,z,spread_deg,detections,score,\
-         start_azimuth_deg,start_elevation_deg,end_azimuth_deg,end_elevation_deg\n"
+         start_azimuth_deg,start_elevation_deg,end_azimuth_deg,end_elevation_deg,uncertainty_deg\n"
     ));
     assert_eq!(text.lines().count(), 4);
     // Talkers who stay put start and end where they are heard on average.

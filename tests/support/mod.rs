@@ -310,7 +310,7 @@ pub struct Row {
 pub fn parse_csv(text: &str) -> Vec<Row> {
     assert_eq!(
         text.lines().next().unwrap(),
-        "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics,source"
+        "time_s,azimuth_deg,elevation_deg,x,y,z,score,file,frame,mics,source,uncertainty_deg"
     );
     ssl::record::parse_detections(text)
         .unwrap()

@@ -51,6 +51,7 @@ use crate::method::outcome::{Detections, Outcome};
 use crate::method::paper::direction::DirectionSolver;
 use crate::method::paper::pairs::{pair_count, pair_index};
 use crate::method::state::{Correlated, FrameState};
+use crate::method::uncertainty::uncertainty_deg;
 use nalgebra::Vector3;
 use std::collections::HashMap;
 
@@ -447,6 +448,12 @@ impl Patterns {
             return;
         }
         let (u, score) = (steer.direction, steer.score);
+        let uncertainty = uncertainty_deg(
+            solver,
+            &u,
+            Some(self.steered.residual_m(&steer, solver)),
+            setup.speed,
+        );
         // A source that has stopped stays in the longer average a while: the source
         // must be heard in the frame's own span too.
         let now = self.score_now(setup, span, &u);
@@ -467,7 +474,7 @@ impl Patterns {
                     || apart(&u, &s.direction, IMAGE_ELEVATION_DEG)
             })
         {
-            found.push(detection(setup, state, index, u, score));
+            found.push(detection(setup, state, index, u, score, uncertainty));
         }
     }
 }

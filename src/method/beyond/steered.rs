@@ -194,9 +194,16 @@ impl Steered {
     ) -> bool {
         steer.score >= floor
             && steer.agreeing >= pairs.div_ceil(2)
-            && setup.params.residual_gate_us.is_none_or(|gate| {
-                solver.residual_m(&self.best_lags, &steer.direction) / setup.speed * 1e6 <= gate
-            })
+            && setup
+                .params
+                .residual_gate_us
+                .is_none_or(|gate| self.residual_m(steer, solver) / setup.speed * 1e6 <= gate)
+    }
+
+    /// The far-field fit's residual (metres, [`DirectionSolver::residual_m`]) of `steer`,
+    /// the last search's result, at the delays it read.
+    pub fn residual_m(&self, steer: &Steer, solver: &DirectionSolver) -> f64 {
+        solver.residual_m(&self.best_lags, &steer.direction)
     }
 
     /// The best direction of the summed correlations `windows` (laid out as a frame's,

@@ -38,11 +38,12 @@ use crate::geometry::{Geometry, Shape};
 use crate::method::detect::detection;
 use crate::method::layout::Layout;
 use crate::method::outcome::Detections;
-use crate::method::paper::direction::plane_basis;
+use crate::method::paper::direction::{plane_basis, DirectionSolver};
 use crate::method::paper::pairs::pair_index;
 use crate::method::paper::weighting::MAX_SNR_RATIO;
 use crate::method::params::MAX_SOURCES;
 use crate::method::state::{Correlated, FrameState, Vote};
+use crate::method::uncertainty::uncertainty_deg;
 use nalgebra::{DMatrix, Vector3};
 
 /// Lowest bin frequency that votes (Hz): below it a delay is a small share of a cycle
@@ -360,6 +361,7 @@ impl Band {
 /// their peaks.
 pub(crate) fn add_riders(
     setup: &Layout,
+    solver: &DirectionSolver,
     bins: &BinVotes,
     span: &[FrameState],
     index: u64,
@@ -399,7 +401,14 @@ pub(crate) fn add_riders(
         else {
             continue;
         };
-        let mut d = detection(setup, state, index, u, score);
+        let mut d = detection(
+            setup,
+            state,
+            index,
+            u,
+            score,
+            uncertainty_deg(solver, &u, None, setup.speed),
+        );
         d.rider = true;
         found.push(d);
     }

@@ -23,6 +23,7 @@ use crate::method::paper::spectrum::{frame_spectra, ForwardFft};
 use crate::method::paper::weighting::enhanced_weights;
 use crate::method::state::Vote;
 use crate::method::state::{span_ceiling, Correlated, FrameState};
+use crate::method::uncertainty::uncertainty_deg;
 use realfft::num_complex::Complex32;
 use std::collections::HashMap;
 
@@ -253,8 +254,11 @@ impl Worker {
         // Riders from the bins' votes beside what the frame gave (`crate::method::beyond::votes`).
         match (&setup.votes, outcome) {
             (Some(votes), Outcome::Detected(mut found, budget)) => {
-                let scratch = (&mut self.votes, &mut self.vote_peaks);
-                add_riders(setup, votes, span, index, &mut found, scratch);
+                let state = span.last().expect("a frame");
+                if let Some(solver) = solver(&mut self.solvers, setup, state) {
+                    let scratch = (&mut self.votes, &mut self.vote_peaks);
+                    add_riders(setup, solver, votes, span, index, &mut found, scratch);
+                }
                 Outcome::Detected(found, budget)
             }
             (_, outcome) => outcome,
@@ -487,7 +491,13 @@ impl Worker {
                 break;
             }
             let u = steer.direction;
-            found.push(detection(setup, state, index, u, steer.score));
+            let uncertainty = uncertainty_deg(
+                solver,
+                &u,
+                Some(steered.residual_m(&steer, solver)),
+                setup.speed,
+            );
+            found.push(detection(setup, state, index, u, steer.score, uncertainty));
             directions.push(u);
         }
         self.directions = directions;

@@ -19,7 +19,7 @@
 
 use super::pairs::{pair_count, pair_index};
 use crate::geometry::{Geometry, Shape};
-use nalgebra::{DMatrix, Vector2, Vector3};
+use nalgebra::{DMatrix, Matrix2, Matrix3, Vector2, Vector3};
 
 enum Solver {
     /// Rows of the pseudo-inverse (3 x P) stored per pair: `u = sum_p col_p * b_p`.
@@ -46,6 +46,45 @@ pub struct DirectionSolver {
     diffs: Vec<Vector3<f64>>,
     /// Per pair, `(p_a, p_b)` from the array centre (metres).
     ends: Vec<(Vector3<f64>, Vector3<f64>)>,
+    /// How the least-squares solution errs when every microphone's timing errs
+    /// independently by one second (standard deviation): see [`Spread`].
+    spread: Spread,
+}
+
+/// The covariance of the least-squares solution of eq. (13), before normalisation, when
+/// every live microphone's time of arrival errs independently by one second (standard
+/// deviation): `c^2 S^-1`, `S` the sum of the outer products of the live microphones'
+/// positions about their mean, in the coordinates the array resolves (the least
+/// squares over every pair of such lags is the least squares over the microphones).
+/// Scaled by a timing variance, it says how far the true direction may lie from the
+/// reported one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Spread {
+    /// A 3-D array: the covariance of the solution vector (of about unit length, before
+    /// normalisation).
+    Volumetric(Matrix3<f64>),
+    /// A planar array: the covariance of the in-plane part, in the basis `(e1, e2)`;
+    /// the out-of-plane part follows from the unit norm on the side of `normal`.
+    Planar {
+        /// The in-plane part's covariance in the basis `(e1, e2)`.
+        cov: Matrix2<f64>,
+        /// The plane's first basis vector.
+        e1: Vector3<f64>,
+        /// Its second (`e1 x e2 = normal`).
+        e2: Vector3<f64>,
+        /// The unit normal on the reported side.
+        normal: Vector3<f64>,
+    },
+    /// A linear array: the variance of the cosine of the angle to `axis`; the angle
+    /// around the axis is not measured (the direction is reported toward `perp`).
+    Linear {
+        /// The variance of the cosine of the angle to the axis.
+        var: f64,
+        /// The array's unit axis.
+        axis: Vector3<f64>,
+        /// The unit vector across the axis toward the reported side.
+        perp: Vector3<f64>,
+    },
 }
 
 /// Source distances (metres) at which a spherical wave is fitted too, so that the fit's
@@ -86,14 +125,29 @@ impl DirectionSolver {
             }
         }
         let shape = geometry.subset_shape(mask).ok()?;
-        let solver = match shape {
+        let s2 = speed * speed;
+        let mean = live
+            .iter()
+            .map(|&i| geometry.mics[i].position)
+            .sum::<Vector3<f64>>()
+            / k as f64;
+        let scatter: Matrix3<f64> = live
+            .iter()
+            .map(|&i| {
+                let q = geometry.mics[i].position - mean;
+                q * q.transpose()
+            })
+            .sum();
+        let (solver, spread) = match shape {
             Shape::Volumetric => {
+                let inv = scatter.try_inverse()?;
                 let pinv = d.pseudo_inverse(1e-12).ok()?;
-                Solver::Volumetric {
+                let solver = Solver::Volumetric {
                     cols: (0..p)
                         .map(|r| Vector3::new(pinv[(0, r)], pinv[(1, r)], pinv[(2, r)]))
                         .collect(),
-                }
+                };
+                (solver, Spread::Volumetric(inv * s2))
             }
             Shape::Planar { normal } => {
                 let (e1, e2) = plane_basis(&normal);
@@ -103,15 +157,24 @@ impl DirectionSolver {
                     dp[(r, 0)] = row.dot(&e1);
                     dp[(r, 1)] = row.dot(&e2);
                 }
+                let basis = nalgebra::Matrix3x2::from_columns(&[e1, e2]);
+                let inv = (basis.transpose() * scatter * basis).try_inverse()?;
                 let pinv = dp.pseudo_inverse(1e-12).ok()?;
-                Solver::Planar {
+                let solver = Solver::Planar {
                     cols: (0..p)
                         .map(|r| Vector2::new(pinv[(0, r)], pinv[(1, r)]))
                         .collect(),
                     e1,
                     e2,
                     normal,
-                }
+                };
+                let spread = Spread::Planar {
+                    cov: inv * s2,
+                    e1,
+                    e2,
+                    normal,
+                };
+                (solver, spread)
             }
             Shape::Linear { axis } => {
                 let proj: Vec<f64> = (0..p)
@@ -120,11 +183,13 @@ impl DirectionSolver {
                 let norm2: f64 = proj.iter().map(|v| v * v).sum();
                 let side = geometry.side;
                 let perp = (side - axis * axis.dot(&side)).normalize();
-                Solver::Linear {
+                let solver = Solver::Linear {
                     weights: proj.iter().map(|v| v / norm2).collect(),
                     axis,
                     perp,
-                }
+                };
+                let var = s2 / axis.dot(&(scatter * axis));
+                (solver, Spread::Linear { var, axis, perp })
             }
         };
         Some(DirectionSolver {
@@ -132,7 +197,37 @@ impl DirectionSolver {
             metres_per_sample: speed / sample_rate,
             diffs,
             ends,
+            spread,
         })
+    }
+
+    /// How the solution errs per sample of lag error (see [`Spread`]).
+    pub fn spread(&self) -> &Spread {
+        &self.spread
+    }
+
+    /// How many numbers the far-field fit determines: 3, 2 or 1 (3-D, planar, linear).
+    pub fn unknowns(&self) -> usize {
+        match self.solver {
+            Solver::Volumetric { .. } => 3,
+            Solver::Planar { .. } => 2,
+            Solver::Linear { .. } => 1,
+        }
+    }
+
+    /// How many pairs the fit stacks.
+    pub fn pairs(&self) -> usize {
+        self.diffs.len()
+    }
+
+    /// The largest spacing of the live microphones (metres).
+    pub fn aperture_m(&self) -> f64 {
+        self.diffs.iter().map(|x| x.norm()).fold(0.0, f64::max)
+    }
+
+    /// Lags (samples) to metres of path difference: `c / fs`.
+    pub fn metres_per_sample(&self) -> f64 {
+        self.metres_per_sample
     }
 
     /// The unit direction from pair lags in samples (`lags[pair_index(a, b, k)]` is the
