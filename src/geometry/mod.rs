@@ -9,6 +9,7 @@
 //! `side`.
 
 mod shape;
+pub mod units;
 
 pub use shape::Shape;
 use shape::{classify, orient};
@@ -284,10 +285,22 @@ impl Geometry {
             }
         }
         if aperture > MAX_APERTURE_M {
+            let hint = units::advice(aperture)
+                .map(|a| format!(": {a}"))
+                .unwrap_or_default();
             fail!(
                 GeometryError::Invalid,
-                "microphones are up to {aperture:.3e} m apart, but positions are in metres and arrays up to {MAX_APERTURE_M} m wide are supported: did you mean millimetres? (divide the positions by 1000)"
+                "microphones are up to {} apart, but positions are in metres and arrays up to {MAX_APERTURE_M} m wide are supported{hint}",
+                units::shown_length(aperture)
             );
+        }
+        if aperture > units::WIDE_APERTURE_M {
+            if let Some(a) = units::advice(aperture) {
+                warnings.push(format!(
+                    "microphones are up to {} apart, an unusually wide array: positions are in metres, and {a}",
+                    units::shown_length(aperture)
+                ));
+            }
         }
         let positions: Vec<Vector3<f64>> = mics.iter().map(|m| m.position).collect();
         let centre = positions.iter().sum::<Vector3<f64>>() / positions.len() as f64;

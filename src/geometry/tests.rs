@@ -110,8 +110,42 @@ fn millimetres_as_metres_and_absurd_sizes_are_errors() {
         ])
         .unwrap_err()
         .to_string();
-        assert!(err.contains("did you mean millimetres?"), "{err}");
+        if scale == 1000.0 {
+            assert!(err.contains("up to 504.876 m apart"), "{err}");
+            assert!(err.contains("they look like millimetres (divide them by 1000: the array is then 50.5 cm across)"), "{err}");
+        } else {
+            assert!(!err.contains("look like"), "{err}");
+        }
+        assert!(!err.contains("e0 m") && !err.contains("e2 m"), "{err}");
     }
+}
+
+/// A 3 cm square written in centimetres is a valid 4.24 m array, but the warning says
+/// which unit it likely is and by what to divide.
+#[test]
+fn a_centimetre_geometry_is_warned_about() {
+    let g = Geometry::from_positions(&[
+        [1.5, 1.5, 0.0],
+        [-1.5, 1.5, 0.0],
+        [-1.5, -1.5, 0.0],
+        [1.5, -1.5, 0.0],
+    ])
+    .unwrap();
+    assert_eq!(g.warnings.len(), 1, "{:?}", g.warnings);
+    assert!(
+        g.warnings[0].contains("4.243 m apart")
+            && g.warnings[0]
+                .contains("centimetres (divide them by 100: the array is then 4.2 cm across)"),
+        "{:?}",
+        g.warnings
+    );
+    let metres = Geometry::from_positions(&[
+        [0.015, 0.015, 0.0],
+        [-0.015, 0.015, 0.0],
+        [0.0, -0.015, 0.0],
+    ])
+    .unwrap();
+    assert!(metres.warnings.is_empty());
 }
 
 /// Against the closed forms: a pair `d` apart moves by `c / (fs d)` radians; for

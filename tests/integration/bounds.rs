@@ -107,16 +107,30 @@ fn endless_and_absurd_inputs_are_refused_promptly() {
     refused(
         d,
         &["analyze", s(&wav), "-g", s(&far)],
-        "did you mean millimetres?",
+        "arrays up to 5 m wide are supported",
     );
     let mm: Vec<_> = prism().iter().map(|p| p * 1000.0).collect();
     let mm = write(d, "mm.toml", geometry_toml(&mm, ""));
-    refused(
+    let advice =
+        "they look like millimetres (divide them by 1000: the array is then 73.5 cm across)";
+    refused(d, &["analyze", s(&wav), "-g", s(&mm)], advice);
+    refused(d, &["geometry", s(&mm)], advice);
+    // A 3 cm square in centimetres is a 4.2 m array: it runs, but a warning names the
+    // unit first.
+    let cm = write(
         d,
-        &["analyze", s(&wav), "-g", s(&mm)],
-        "did you mean millimetres?",
+        "cm.toml",
+        "[[mic]]\nposition = [1.5, 1.5, 0]\n[[mic]]\nposition = [-1.5, 1.5, 0]\n\
+         [[mic]]\nposition = [-1.5, -1.5, 0]\n[[mic]]\nposition = [1.5, -1.5, 0]\n",
     );
-    refused(d, &["geometry", s(&mm)], "did you mean millimetres?");
+    let out = run(&["geometry", s(&cm)]);
+    assert!(
+        stderr(&out).contains(
+            "they look like centimetres (divide them by 100: the array is then 4.2 cm across)"
+        ),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]
