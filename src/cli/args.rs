@@ -331,8 +331,8 @@ pub struct PlotArgs {
 
 #[derive(Debug, Args)]
 pub struct EvaluateArgs {
-    /// Truth JSON written by `ssl simulate`
-    #[arg(long, value_name = "JSON")]
+    /// The truth: what `ssl simulate` writes, or a hand-written JSON or CSV (docs/interface.md, "Ground truth of a measured setup")
+    #[arg(long, value_name = "FILE")]
     pub truth: PathBuf,
 
     /// Detections from `ssl analyze` (CSV, JSON or NDJSON)
@@ -343,9 +343,29 @@ pub struct EvaluateArgs {
     #[arg(long, value_name = "S", value_parser = non_negative)]
     pub tail: Option<f32>,
 
+    /// What an error measures: the 3-D angle, the azimuth (about a planar array's normal), or the angle to a linear array's axis [default: what the array observes, from --geometry or a JSON result's metadata; 3d when neither tells]
+    #[arg(long, value_enum)]
+    pub metric: Option<MetricArg>,
+
+    /// The array's geometry file, for what it observes (a JSON result carries it already)
+    #[arg(long, short = 'g', value_name = "TOML")]
+    pub geometry: Option<PathBuf>,
+
     /// Print the report as JSON
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--metric`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MetricArg {
+    /// The angle between the directions
+    #[value(name = "3d")]
+    ThreeD,
+    /// The azimuth: the angle between their projections onto the array's plane (the horizontal without a planar geometry)
+    Azimuth,
+    /// The difference of their angles to a linear array's axis
+    Axis,
 }
 
 impl AnalyzeArgs {

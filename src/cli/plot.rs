@@ -49,7 +49,7 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     }
     let truth = match &args.truth {
         Some(path) => Some(
-            Truth::from_json(&text(path, ssl::record::MAX_TRUTH_BYTES)?)
+            Truth::from_text(&text(path, ssl::record::MAX_TRUTH_BYTES)?)
                 .with_context(|| shown(path))?,
         ),
         None => None,

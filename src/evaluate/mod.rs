@@ -3,9 +3,10 @@
 //! Frames are those of the analysis: frame `f` is centred at `(f + 1) * hop` seconds and
 //! spans one hop either side, the hop being read off the detections (`time_s / (frame +
 //! 1)`). For each source:
-//! - errors: the angle between each detection in a frame lying wholly inside one of the
-//!   source's active intervals and the source's direction (when several sources are
-//!   active, a detection counts for the nearest of them);
+//! - errors: by the [`Metric`] chosen (the 3-D angle, or what the array observes), between
+//!   each detection in a frame lying wholly inside one of the source's active intervals
+//!   and the source's direction (when several sources are active, a detection counts for
+//!   the nearest of them);
 //! - frame detection rate: the share of those frames with a detection within
 //!   [`HIT_DEG`] of the source;
 //! - event detection rate: the share of active intervals (events) with at least one
@@ -15,13 +16,15 @@
 //! - when the rows carry a `source` (tracking on): tracks and events (the `tracks`
 //!   module).
 
+mod metric;
 mod report;
 mod tracks;
 
+pub use metric::Metric;
 pub use tracks::{SourceTracks, TrackReport, OVERLAP_WINDOW_S};
 
 use crate::method::default_frame_size;
-use crate::method::direction::{angle_between_deg, angles_deg};
+use crate::method::direction::angles_deg;
 use crate::record::truth::turned;
 use crate::record::{DetectionRecord, Truth};
 use nalgebra::Vector3;
@@ -59,7 +62,8 @@ fn unit(x: f64, y: f64, z: f64) -> Option<Vector3<f64>> {
 /// Refuses truth values that cannot be meant.
 fn check_truth(truth: &Truth) -> Result<(), EvaluateError> {
     let bad = |m: String| Err(EvaluateError::Truth(m));
-    if !(1000..=768_000).contains(&truth.sample_rate) {
+    // 0: a hand-written truth, which does not know it.
+    if truth.sample_rate != 0 && !(1000..=768_000).contains(&truth.sample_rate) {
         return bad(format!(
             "sample_rate {} Hz is outside 1000-768000",
             truth.sample_rate
@@ -165,6 +169,8 @@ pub struct Report {
     pub tail_s: f64,
     /// Tracks and events, when the rows carry a `source`.
     pub tracking: Option<TrackReport>,
+    /// What the errors measure ([`Metric::name`]).
+    pub metric: String,
 }
 
 /// Scores `dets` against `truth`. `tail_s` extends each active interval when counting
@@ -173,6 +179,16 @@ pub fn evaluate(
     truth: &Truth,
     records: &[DetectionRecord],
     tail_s: f64,
+) -> Result<Report, EvaluateError> {
+    evaluate_by(truth, records, tail_s, &Metric::ThreeD)
+}
+
+/// As [`evaluate`], with errors measured by `metric`.
+pub fn evaluate_by(
+    truth: &Truth,
+    records: &[DetectionRecord],
+    tail_s: f64,
+    metric: &Metric,
 ) -> Result<Report, EvaluateError> {
     let files: std::collections::BTreeSet<&str> = records
         .iter()
@@ -218,7 +234,14 @@ pub fn evaluate(
             intervals: s.active.iter().map(|&[a, b]| (a, b)).collect(),
         })
         .collect();
-    Ok(score(truth, &sources, &dets, tail_s))
+    // A hand-written truth may not say how long the recording is: at least as long as
+    // its last detection.
+    let mut truth = truth.clone();
+    if truth.sample_rate == 0 {
+        let last = dets.iter().map(|d| d.time_s).fold(0.0, f64::max);
+        truth.duration_s = truth.duration_s.max(last);
+    }
+    Ok(score(&truth, &sources, &dets, tail_s, metric))
 }
 
 /// A true source as scored: its direction (a moving one's when it starts turning), its
@@ -236,12 +259,19 @@ impl Source {
     }
 }
 
-fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report {
+fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &Metric) -> Report {
     let hop = dets
         .iter()
         .find_map(|d| d.frame.map(|f| d.time_s / (f as f64 + 1.0)))
         .unwrap_or_else(|| {
-            default_frame_size(truth.sample_rate) as f64 / 2.0 / truth.sample_rate as f64
+            // Rows without frame indices: the default frame at the truth's rate (48 kHz
+            // when a hand-written truth does not give it).
+            let rate = if truth.sample_rate == 0 {
+                48_000
+            } else {
+                truth.sample_rate
+            };
+            default_frame_size(rate) as f64 / 2.0 / rate as f64
         });
     let frames = if truth.duration_s >= 2.0 * hop {
         ((truth.duration_s - 2.0 * hop) / hop + 1e-9).floor() as u64 + 1
@@ -268,14 +298,14 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             .iter()
             .filter(|d| s.intervals.iter().any(|&iv| inside(d.time_s, iv)))
             .filter(|d| {
-                let own = angle_between_deg(&d.direction, &s.at(d.time_s));
+                let own = metric.error_deg(&d.direction, &s.at(d.time_s));
                 sources.iter().enumerate().all(|(oi, o)| {
                     oi == si
                         || !o.intervals.iter().any(|&iv| inside(d.time_s, iv))
-                        || angle_between_deg(&d.direction, &o.at(d.time_s)) > own
+                        || metric.error_deg(&d.direction, &o.at(d.time_s)) > own
                 })
             })
-            .map(|d| (d, angle_between_deg(&d.direction, &s.at(d.time_s))))
+            .map(|d| (d, metric.error_deg(&d.direction, &s.at(d.time_s))))
             .collect();
         let mut errors: Vec<f64> = mine.iter().map(|(_, e)| *e).collect();
         all_errors.extend_from_slice(&errors);
@@ -304,7 +334,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             .filter(|&&iv| {
                 dets.iter().any(|d| {
                     overlaps(d.time_s, iv, 0.0)
-                        && angle_between_deg(&d.direction, &s.at(d.time_s)) < HIT_DEG
+                        && metric.error_deg(&d.direction, &s.at(d.time_s)) < HIT_DEG
                 })
             })
             .count();
@@ -360,6 +390,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
             .then(|| false_detections as f64 / (background_s / 60.0)),
         hop_s: hop,
         tail_s,
+        metric: metric.name().to_string(),
         tracking: dets.iter().any(|d| d.source.is_some()).then(|| {
             let tracked: Vec<Det> = dets
                 .iter()
@@ -367,7 +398,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64) -> Report
                 .copied()
                 .collect();
             let ids: Vec<u64> = tracked.iter().filter_map(|d| d.source).collect();
-            tracks::score_tracks(sources, &tracked, &ids, truth.duration_s, tail_s)
+            tracks::score_tracks(sources, &tracked, &ids, truth.duration_s, tail_s, metric)
         }),
     }
 }

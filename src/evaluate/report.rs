@@ -14,6 +14,9 @@ impl Report {
             }
         };
         let mut s = String::new();
+        if !self.metric.is_empty() {
+            s += &format!("errors: {}\n", self.metric);
+        }
         s += "source  signal   azimuth  elevation  distance  detections  mean_err  median_err  frames_detected  events_detected\n";
         for r in &self.sources {
             s += &format!(

@@ -17,7 +17,6 @@
 //!   in the window.
 
 use super::{Det, Source, HIT_DEG};
-use crate::method::direction::angle_between_deg;
 use crate::track::TrackParams;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
@@ -86,6 +85,7 @@ pub(super) fn score_tracks(
     tracks: &[u64],
     duration_s: f64,
     tail_s: f64,
+    metric: &super::Metric,
 ) -> TrackReport {
     let active = |s: &Source, t: f64| s.intervals.iter().any(|&(a, b)| t >= a && t <= b + tail_s);
     // The true source of each row, if any.
@@ -96,7 +96,7 @@ pub(super) fn score_tracks(
                 .iter()
                 .enumerate()
                 .filter(|(_, s)| active(s, d.time_s))
-                .map(|(i, s)| (i, angle_between_deg(&d.direction, &s.at(d.time_s))))
+                .map(|(i, s)| (i, metric.error_deg(&d.direction, &s.at(d.time_s))))
                 .filter(|(_, e)| *e < HIT_DEG)
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(i, _)| i)
@@ -154,7 +154,7 @@ pub(super) fn score_tracks(
     // source's events are long only when it moves little).
     let middle = |e: &Stretch, s: &Source| s.at((e.start + e.end) / 2.0);
     let matches = |e: &Stretch, s: &Source, (a, b): (f64, f64)| {
-        e.start <= b + tail_s && e.end >= a && angle_between_deg(&e.sum, &middle(e, s)) < HIT_DEG
+        e.start <= b + tail_s && e.end >= a && metric.error_deg(&e.sum, &middle(e, s)) < HIT_DEG
     };
     let (mut true_events, mut recalled) = (0, 0);
     let (mut errors, mut onsets, mut offsets) = (Vec::new(), Vec::new(), Vec::new());
@@ -168,7 +168,7 @@ pub(super) fn score_tracks(
                 .max_by(|x, y| overlap(x).total_cmp(&overlap(y)))
             {
                 recalled += 1;
-                errors.push(angle_between_deg(&e.sum, &middle(e, s)));
+                errors.push(metric.error_deg(&e.sum, &middle(e, s)));
                 onsets.push((e.start - a).abs());
                 offsets.push((e.end - b).abs());
             }
@@ -295,7 +295,14 @@ mod tests {
         rows.push((det(4.6, -160.0), 4));
         rows.sort_by(|a, b| a.0.time_s.total_cmp(&b.0.time_s));
         let (dets, ids): (Vec<Det>, Vec<u64>) = rows.into_iter().unzip();
-        let r = score_tracks(&sources, &dets, &ids, 10.0, 0.0);
+        let r = score_tracks(
+            &sources,
+            &dets,
+            &ids,
+            10.0,
+            0.0,
+            &super::super::Metric::ThreeD,
+        );
         assert_eq!(r.tracks, 4);
         let s0 = &r.sources[0];
         assert_eq!((s0.rows, s0.dominant_track, s0.tracks), (15, Some(1), 1));

@@ -14,6 +14,7 @@ mod json;
 mod metadata;
 mod read;
 pub(crate) mod truth;
+mod truth_forms;
 
 pub use self::csv::CsvExporter;
 pub use self::json::{JsonExporter, NdjsonExporter};
@@ -23,10 +24,11 @@ pub use metadata::{
     ambiguity_note, FileEntry, GeometryInfo, MicInfo, ParametersInfo, RunMetadata, Tool,
 };
 pub use read::{
-    parse_detections, read_detections, read_result, read_result_file, ReadError, ResultInfo,
-    ResultRecord, MAX_RESULT_BYTES, MAX_TRUTH_BYTES,
+    parse_detections, read_detections, read_detections_with_info, read_result, read_result_file,
+    ReadError, ResultInfo, ResultRecord, MAX_RESULT_BYTES, MAX_TRUTH_BYTES,
 };
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
+pub use truth_forms::CSV_HEADER as TRUTH_CSV_HEADER;
 
 pub(crate) use crate::text::fixed;
 use crate::Named;

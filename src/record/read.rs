@@ -145,13 +145,21 @@ pub fn read_result_file(
 /// Reads the detections of a CSV, NDJSON or JSON result of `ssl analyze` (`-` is
 /// standard input). Events are left out; a result that holds only events is an error.
 pub fn read_detections(path: &Path) -> Result<Vec<DetectionRecord>, ReadError> {
+    read_detections_with_info(path).map(|(rows, _)| rows)
+}
+
+/// As [`read_detections`], with what the result says besides its records (a JSON
+/// document's geometry and parameters).
+pub fn read_detections_with_info(
+    path: &Path,
+) -> Result<(Vec<DetectionRecord>, ResultInfo), ReadError> {
     detections(|each| read_result_file(path, each)).map_err(|e| in_file(path, e))
 }
 
 /// Parses detections from the text of a CSV, NDJSON or JSON result (see
 /// [`read_detections`]).
 pub fn parse_detections(text: &str) -> Result<Vec<DetectionRecord>, ReadError> {
-    detections(|each| read_result(text.as_bytes(), each))
+    detections(|each| read_result(text.as_bytes(), each)).map(|(rows, _)| rows)
 }
 
 /// The detections `read` hands over; a result of events only is an error.
@@ -159,7 +167,7 @@ fn detections(
     read: impl FnOnce(
         &mut dyn FnMut(ResultRecord) -> Result<(), String>,
     ) -> Result<ResultInfo, ReadError>,
-) -> Result<Vec<DetectionRecord>, ReadError> {
+) -> Result<(Vec<DetectionRecord>, ResultInfo), ReadError> {
     let mut rows = Vec::new();
     let info = read(&mut |r| {
         if let ResultRecord::Detection(d) = r {
@@ -172,7 +180,7 @@ fn detections(
             "holds events (--events) but no detections: analyse without --events to score or read its rows".into(),
         ));
     }
-    Ok(rows)
+    Ok((rows, info))
 }
 
 /// A reader that fails past [`MAX_RESULT_BYTES`] instead of reading on.
@@ -439,13 +447,20 @@ impl<'de, F: FnMut(ResultRecord) -> Result<(), String>> serde::de::Visitor<'de>
 }
 
 impl Truth {
-    /// Reads a truth file written by `ssl simulate`.
+    /// Reads a truth file: what `ssl simulate` writes, or a hand-written one (the
+    /// minimal JSON or the CSV form of docs/interface.md).
     pub fn from_file(path: &Path) -> Result<Self, ReadError> {
-        Self::from_json(&read_file(path, MAX_TRUTH_BYTES)?).map_err(|e| in_file(path, e))
+        Self::from_text(&read_file(path, MAX_TRUTH_BYTES)?).map_err(|e| in_file(path, e))
     }
 
-    /// Parses a truth file's text.
+    /// Parses a truth file's text, in any of the forms [`Truth::from_file`] reads; a
+    /// hand-written one's problems are listed all at once.
+    pub fn from_text(text: &str) -> Result<Self, ReadError> {
+        super::truth_forms::parse(text).map_err(format_error)
+    }
+
+    /// Parses a truth in JSON (either JSON form of [`Truth::from_text`]).
     pub fn from_json(text: &str) -> Result<Self, ReadError> {
-        serde_json::from_str(text).map_err(|e| format_error(format!("not a truth file: {e}")))
+        Self::from_text(text)
     }
 }

@@ -602,12 +602,20 @@ fn evaluate_and_plot_read_results_with_one_reader() {
     let score = |f: &str| {
         ssl()
             .current_dir(d)
-            .args(["evaluate", "--truth", "sim.truth.json", f])
+            .args([
+                "evaluate",
+                "--truth",
+                "sim.truth.json",
+                f,
+                "-g",
+                "array.toml",
+            ])
             .output()
             .unwrap()
             .stdout
     };
     assert_eq!(score("bom.csv"), score("r.csv"));
+    // A JSON result carries its geometry, which a CSV result is given here.
     assert_eq!(score("r.json"), score("r.csv"));
 }
 

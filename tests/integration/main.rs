@@ -14,6 +14,7 @@ mod entry_points;
 mod formats;
 mod fuzz;
 mod inputs;
+mod lab_truth;
 mod live;
 mod man;
 mod moving;
