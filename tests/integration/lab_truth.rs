@@ -18,18 +18,23 @@ fn report(truth: &std::path::Path, result: &std::path::Path, extra: &[&str]) -> 
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
-#[test]
-fn a_hand_written_truth_in_json_or_csv_scores_as_the_simulated_one() {
-    let dir = tempdir();
-    let d = dir.path();
+/// The shipped example's rows, as CSV in `d`.
+fn example_rows(d: &std::path::Path) -> std::path::PathBuf {
     let out = run(&[
         "analyze",
         s(&testdata("example.wav")),
         "-g",
         s(&testdata("prism.toml")),
     ]);
-    assert!(out.status.success());
-    let result = write(d, "rows.csv", &out.stdout);
+    assert!(out.status.success(), "{}", stderr(&out));
+    write(d, "rows.csv", &out.stdout)
+}
+
+#[test]
+fn a_hand_written_truth_in_json_or_csv_scores_as_the_simulated_one() {
+    let dir = tempdir();
+    let d = dir.path();
+    let result = example_rows(d);
     let truth = ssl::Truth::from_file(&testdata("example.truth.json")).unwrap();
     let mut json = Vec::new();
     let mut csv = String::from("source,start_s,end_s,azimuth_deg,elevation_deg\n");
@@ -75,13 +80,7 @@ fn a_hand_written_truth_in_json_or_csv_scores_as_the_simulated_one() {
 fn a_hand_written_truth_lists_every_problem_at_once() {
     let dir = tempdir();
     let d = dir.path();
-    let out = run(&[
-        "analyze",
-        s(&testdata("example.wav")),
-        "-g",
-        s(&testdata("prism.toml")),
-    ]);
-    let result = write(d, "rows.csv", &out.stdout);
+    let result = example_rows(d);
     let truth = write(
         d,
         "truth.json",
