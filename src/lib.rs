@@ -103,6 +103,7 @@ macro_rules! fail {
     };
 }
 
+pub mod check;
 pub mod evaluate;
 pub mod geometry;
 pub mod localize;

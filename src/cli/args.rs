@@ -61,6 +61,22 @@ pub enum Command {
     /// Show what ssl understood of an array geometry file
     Geometry(GeometryArgs),
     #[command(
+        about = "Check that a recording fits its geometry and channel order",
+        long_about = "Check that a recording fits its geometry and channel order.\n\n\
+        From a recording with some clear sound (hand claps or speech near the array; the first 600 s are \
+        read), checks each channel (dead, clipped, duplicated, polarity-inverted, gain mismatch) and how \
+        well the geometry explains the delays of the clearest frames: delays longer than the microphones' \
+        spacing allows, or much shorter (a unit), a channel order that fits much better (every order of up \
+        to 8 microphones is tried, every swap of two beyond), or one microphone that does not fit its \
+        position. Each misfit is named with what to do.\n\n\
+        Exit status: 0 the recording fits, 1 a misfit was found (or nothing clear enough to check), \
+        2 a usage error or an unreadable recording or geometry.",
+        after_help = "Examples:\n  \
+        ssl check claps.wav -g array.toml\n  \
+        ssl check claps.wav -g array.toml --format json"
+    )]
+    Check(CheckArgs),
+    #[command(
         about = "Simulate a recording with known truth from a scene file",
         long_about = "Simulate a recording with known truth from a scene file.\n\n\
         The scene (TOML) gives a shoebox room (dimensions, rt60 or absorption; omit it for free \
@@ -275,6 +291,30 @@ pub struct AnalyzeArgs {
 /// The most threads `--threads` takes: more than the cores of any machine this runs on;
 /// each thread costs memory and start-up time, and thousands only fail to start.
 pub const MAX_THREADS: u16 = 1024;
+
+#[derive(Debug, Args)]
+pub struct CheckArgs {
+    /// WAV recording (`-` for standard input)
+    #[arg(value_name = "WAV")]
+    pub recording: String,
+
+    /// Array geometry file (TOML)
+    #[arg(short, long, value_name = "TOML")]
+    pub geometry: PathBuf,
+
+    /// Report format
+    #[arg(short, long, value_enum, default_value_t = CheckFormat::Text)]
+    pub format: CheckFormat,
+}
+
+/// `ssl check --format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CheckFormat {
+    /// Lines for people
+    Text,
+    /// One JSON document
+    Json,
+}
 
 #[derive(Debug, Args)]
 pub struct GeometryArgs {

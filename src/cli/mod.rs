@@ -4,6 +4,7 @@
 
 mod analyze;
 pub mod args;
+mod check;
 mod evaluate;
 mod geometry;
 mod plot;
@@ -29,6 +30,18 @@ pub fn main() -> i32 {
         }
     };
     sink::remove_temporaries_on_signal();
+    // `ssl check`: 1 is a misfit, so a file it cannot read is 2.
+    if let Command::Check(args) = &cli.command {
+        return match check::run(args) {
+            Ok(true) => 0,
+            Ok(false) => 1,
+            Err(e) if is_broken_pipe(&e) => 0,
+            Err(e) => {
+                error(&one_line(&e));
+                2
+            }
+        };
+    }
     let result = match cli.command {
         Command::Analyze(args) => rayon::ThreadPoolBuilder::new()
             .num_threads(args.threads as usize)
@@ -36,6 +49,7 @@ pub fn main() -> i32 {
             .map_err(anyhow::Error::from)
             .and_then(|pool| pool.install(|| analyze::run(&args))),
         Command::Geometry(args) => geometry::run(&args).map(|()| true),
+        Command::Check(_) => unreachable!("handled above"),
         Command::Simulate(args) => simulate::run(&args).map(|()| true),
         Command::Evaluate(args) => evaluate::run(&args).map(|()| true),
         Command::Plot(args) => plot::run(&args).map(|()| true),

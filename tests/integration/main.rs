@@ -9,6 +9,7 @@ mod support;
 mod accuracy;
 mod benchmark;
 mod bounds;
+mod check;
 mod cli;
 mod entry_points;
 mod formats;
