@@ -1,9 +1,9 @@
 //! `ssl check`: does a recording fit its geometry and channel order? (docs/interface.md,
 //! "Checking an array"; docs/guide.md, "Checking an array".)
 //!
-//! One pass over the recording ([`scan`]) measures each channel and, for the frames where
+//! One pass over the recording (`scan.rs`) measures each channel and, for the frames where
 //! one sound is clearest, every pair's delay; the far-field least squares of eq. (13)
-//! ([`fit`]) then says how well the geometry explains them. What it reports, each a
+//! (`fit.rs`) then says how well the geometry explains them. What it reports, each a
 //! [`Finding`]:
 //!
 //! - a channel that is dead (constant or silent), clips, duplicates another, has its
