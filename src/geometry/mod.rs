@@ -19,6 +19,25 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+/// What kind of audio file `path` starts like (`WAV`, `FLAC`), if it does: a recording
+/// given where a geometry was expected.
+fn audio_kind(path: &Path) -> Option<&'static str> {
+    use std::io::Read;
+    let mut head = [0u8; 12];
+    let mut file = std::fs::File::open(path).ok()?;
+    let n = file.read(&mut head).ok()?;
+    let head = &head[..n];
+    if (head.starts_with(b"RIFF") || head.starts_with(b"RF64") || head.starts_with(b"BW64"))
+        && head.get(8..12) == Some(b"WAVE")
+    {
+        Some("WAV")
+    } else if head.starts_with(b"fLaC") {
+        Some("FLAC")
+    } else {
+        None
+    }
+}
+
 /// The 1-based line a TOML parse error points at, when it points at one.
 pub(crate) fn toml_line(text: &str, e: &toml::de::Error) -> Option<usize> {
     e.span()
@@ -136,6 +155,14 @@ pub struct Geometry {
 impl Geometry {
     /// Reads and validates a geometry TOML file. Errors name the file.
     pub fn from_file(path: &Path) -> Result<Self> {
+        if let Some(kind) = audio_kind(path) {
+            return Err(GeometryError::File {
+                path: path.to_path_buf(),
+                error: Box::new(GeometryError::Invalid(format!(
+                    "this is a {kind} file, not a geometry (TOML): are the recording and --geometry swapped?"
+                ))),
+            });
+        }
         let text = read_text(path, MAX_FILE_BYTES).map_err(|error| GeometryError::Read {
             path: path.to_path_buf(),
             error,

@@ -159,4 +159,17 @@ fn a_silent_file_is_said_to_be_and_an_unreadable_one_is_exit_2() {
         "missing.toml",
     ]);
     assert_eq!(out.status.code(), Some(2));
+    // The recording and the geometry the wrong way round: said so, here and in analyze.
+    let wav = dir.path().join("rec.wav");
+    for cmd in ["check", "analyze"] {
+        let out = run(&[cmd, s(&geometry), "-g", s(&wav)]);
+        assert_ne!(out.status.code(), Some(0));
+        assert!(
+            stderr(&out).contains(
+                "this is a WAV file, not a geometry (TOML): are the recording and --geometry swapped?"
+            ),
+            "{}",
+            stderr(&out)
+        );
+    }
 }
