@@ -111,16 +111,19 @@ pub(crate) fn cone_deg(spread: &Spread, u: &Vector3<f64>, sigma: f64, shrink: f6
                     inplane + normal * (1.0 - r2).sqrt()
                 }
             };
-            (0..ELLIPSE_POINTS)
+            // Both unit vectors: the farthest point has the least dot product.
+            let (a, b) = (
+                eigen.eigenvectors.column(0) * (K2 * eigen.eigenvalues[0].max(0.0).sqrt()),
+                eigen.eigenvectors.column(1) * (K2 * eigen.eigenvalues[1].max(0.0).sqrt()),
+            );
+            let nearest = (0..ELLIPSE_POINTS)
                 .map(|i| {
-                    let phi = std::f64::consts::TAU * i as f64 / ELLIPSE_POINTS as f64;
-                    let step = eigen.eigenvectors.column(0)
-                        * (K2 * eigen.eigenvalues[0].max(0.0).sqrt() * phi.cos())
-                        + eigen.eigenvectors.column(1)
-                            * (K2 * eigen.eigenvalues[1].max(0.0).sqrt() * phi.sin());
-                    onto(v + step).angle(u).to_degrees()
+                    let (sin, cos) =
+                        (std::f64::consts::TAU * i as f64 / ELLIPSE_POINTS as f64).sin_cos();
+                    onto(v + a * cos + b * sin).dot(u)
                 })
-                .fold(0.0, f64::max)
+                .fold(1.0, f64::min);
+            nearest.clamp(-1.0, 1.0).acos().to_degrees()
         }
         Spread::Linear {
             var: unit, axis, ..

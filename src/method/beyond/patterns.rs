@@ -441,19 +441,14 @@ impl Patterns {
         ) else {
             return;
         };
-        if !self
+        let Some(residual) = self
             .steered
             .accepts(&steer, floor, pair_count(k), setup, solver)
-        {
+        else {
             return;
-        }
+        };
         let (u, score) = (steer.direction, steer.score);
-        let uncertainty = uncertainty_deg(
-            solver,
-            &u,
-            Some(self.steered.residual_m(&steer, solver)),
-            setup.speed,
-        );
+        let uncertainty = uncertainty_deg(solver, &u, Some(residual), setup.speed);
         // A source that has stopped stays in the longer average a while: the source
         // must be heard in the frame's own span too.
         let now = self.score_now(setup, span, &u);

@@ -183,7 +183,9 @@ impl Steered {
     /// Whether `steer`, the last search's result, is a direction: it scores `floor` or
     /// more with at least half the `pairs` agreeing, and (with the residual gate) a
     /// single source explains its delays (a source's mixed with a reflection's are no
-    /// more a direction here than in the consistency search).
+    /// more a direction here than in the consistency search). When it is, its fit's
+    /// residual ([`Steered::residual_m`], metres), computed once for the gate and the
+    /// detection's uncertainty.
     pub fn accepts(
         &self,
         steer: &Steer,
@@ -191,13 +193,16 @@ impl Steered {
         pairs: usize,
         setup: &crate::method::layout::Layout,
         solver: &DirectionSolver,
-    ) -> bool {
-        steer.score >= floor
-            && steer.agreeing >= pairs.div_ceil(2)
-            && setup
-                .params
-                .residual_gate_us
-                .is_none_or(|gate| self.residual_m(steer, solver) / setup.speed * 1e6 <= gate)
+    ) -> Option<f64> {
+        if steer.score < floor || steer.agreeing < pairs.div_ceil(2) {
+            return None;
+        }
+        let residual = self.residual_m(steer, solver);
+        setup
+            .params
+            .residual_gate_us
+            .is_none_or(|gate| residual / setup.speed * 1e6 <= gate)
+            .then_some(residual)
     }
 
     /// The far-field fit's residual (metres, [`DirectionSolver::residual_m`]) of `steer`,

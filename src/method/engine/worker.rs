@@ -487,16 +487,12 @@ impl Worker {
             ) else {
                 break;
             };
-            if !steered.accepts(&steer, floor, pair_count(k), setup, solver) {
+            let Some(residual) = steered.accepts(&steer, floor, pair_count(k), setup, solver)
+            else {
                 break;
-            }
+            };
             let u = steer.direction;
-            let uncertainty = uncertainty_deg(
-                solver,
-                &u,
-                Some(steered.residual_m(&steer, solver)),
-                setup.speed,
-            );
+            let uncertainty = uncertainty_deg(solver, &u, Some(residual), setup.speed);
             found.push(detection(setup, state, index, u, steer.score, uncertainty));
             directions.push(u);
         }
