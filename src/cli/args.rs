@@ -57,7 +57,7 @@ pub enum Command {
         sox in.flac -t wav - | ssl analyze - -g array.toml    from a pipe\n  \
         ssl analyze *.wav -g array.toml --min-score 0.3      a lower threshold per microphone pair"
     )]
-    Analyze(AnalyzeArgs),
+    Analyze(Box<AnalyzeArgs>),
     /// Show what ssl understood of an array geometry file
     Geometry(GeometryArgs),
     #[command(
@@ -226,6 +226,14 @@ pub struct AnalyzeArgs {
     /// Dereverberate the input before analysis (multichannel linear prediction, WPE, below 4 kHz): more of a reverberant room's speech is found (two talkers 2 m from the prism at RT60 0.45 s: 74% of the 0.1 s windows instead of 68%), at about 15 times the time
     #[arg(long)]
     pub wpe: bool,
+
+    /// Analyse from this time on (seconds from the start of each file; rounded down to a hop, so times and frames stay the file's)
+    #[arg(long, value_name = "S", value_parser = non_negative_f64)]
+    pub start: Option<f64>,
+
+    /// Analyse up to this time (seconds from the start of each file)
+    #[arg(long, value_name = "S", value_parser = non_negative_f64)]
+    pub end: Option<f64>,
 
     /// No riders from single frequency bins: on arrays a few centimetres across, each bin's own direction finds a talker that a louder one hides in the correlations, and adds its rows to that talker's track (two talkers on a 6-mic circle at 16 kHz: 60-70% of the 0.1 s windows instead of 56-66%)
     #[arg(long, conflicts_with_all = ["no_track", "paper"])]
@@ -434,6 +442,8 @@ impl AnalyzeArgs {
         o.interpolation = self.interpolation;
         o.dereverb = self.dereverb;
         o.wpe = self.wpe;
+        o.start_s = self.start.unwrap_or(0.0);
+        o.end_s = self.end;
         o.bin_votes = !self.no_bin_votes;
         o.max_sources = self.max_sources as usize;
         o.candidates = self.candidates;

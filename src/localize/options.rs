@@ -68,6 +68,10 @@ pub struct Options {
     pub dereverb: Dereverb,
     /// Dereverberate the input first (WPE; about 24 times the time).
     pub wpe: bool,
+    /// Where to start (seconds from the start of the recording).
+    pub start_s: f64,
+    /// Where to end (`None`: the end of the recording).
+    pub end_s: Option<f64>,
     /// Riders from single frequency bins on small arrays (with a tracker).
     pub bin_votes: bool,
     /// The most sources one frame gives (1 to 4; 1 with the paper's method, a fixed
@@ -122,6 +126,8 @@ impl Default for Options {
             interpolation: None,
             dereverb: Dereverb::Auto,
             wpe: false,
+            start_s: 0.0,
+            end_s: None,
             bin_votes: true,
             max_sources: DEFAULT_MAX_SOURCES,
             candidates: None,
@@ -229,6 +235,8 @@ impl Options {
             candidates: self.tracker_share(self.candidates, DEFAULT_CANDIDATES),
             riders: self.tracker_share(self.riders, DEFAULT_RIDERS),
             wpe: self.wpe,
+            start_s: self.start_s,
+            end_s: self.end_s,
             bin_votes: calibrated && self.bin_votes,
             ..Params::default()
         };

@@ -112,6 +112,13 @@ pub struct Params {
     /// frames are cut ([`crate::stream::wpe`], beyond the paper; `--wpe`). Default off:
     /// it costs about 15 times the rest of the analysis.
     pub wpe: bool,
+    /// Where the analysis starts (seconds from the start of the recording; `--start`),
+    /// rounded down to a whole hop so that frame `i` still starts at sample `i * N / 2`
+    /// of the recording and times stay the recording's. Default 0.
+    pub start_s: f64,
+    /// Where it ends (seconds from the start of the recording; `--end`): no sample from
+    /// this time on is read. Default `None`: the end of the recording.
+    pub end_s: Option<f64>,
     /// Riders from the directions of single frequency bins (`method/beyond/votes.rs`, beyond the
     /// paper), on arrays small enough that their pairs are shorter than half a
     /// wavelength over part of the band, with a tracker only (`candidates` under 1).
@@ -156,6 +163,16 @@ impl Params {
         }
         if let Some(g) = self.residual_gate_us.filter(|g| g.is_nan() || *g <= 0.0) {
             return Err(ParamsError::ResidualGate(g));
+        }
+        if !(self.start_s.is_finite() && self.start_s >= 0.0)
+            || self
+                .end_s
+                .is_some_and(|e| !(e.is_finite() && e > self.start_s))
+        {
+            return Err(ParamsError::Span {
+                start_s: self.start_s,
+                end_s: self.end_s,
+            });
         }
         if let Some(z) = self
             .threshold_sigmas
@@ -219,6 +236,8 @@ impl Default for Params {
             riders: 1.0,
             dereverb: Dereverb::Auto,
             wpe: false,
+            start_s: 0.0,
+            end_s: None,
             bin_votes: true,
         }
     }
@@ -375,6 +394,14 @@ pub enum ParamsError {
         ms: f64,
         /// The recording's sample rate (Hz).
         sample_rate: u32,
+    },
+    /// `--start` and `--end` do not give a span of the recording.
+    #[error("--start must be 0 s or more and --end after it (got {start_s} s and {})", end_s.map_or("the end".to_string(), |e| format!("{e} s")))]
+    Span {
+        /// The start (seconds).
+        start_s: f64,
+        /// The end (seconds), if given.
+        end_s: Option<f64>,
     },
     /// The frame cannot hold the array's largest delay on both sides of lag 0.
     #[error("the array's largest delay ({delay} samples at {sample_rate} Hz) does not fit in a frame of {frame_size} samples: a frame of {needed} samples or more is needed")]

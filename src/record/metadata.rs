@@ -144,6 +144,12 @@ pub struct ParametersInfo {
     /// a document written before it has none: false).
     #[serde(default)]
     pub wpe: bool,
+    /// Where the analysis started (seconds; `--start`, rounded down to a hop).
+    #[serde(default)]
+    pub start_s: f64,
+    /// Where it ended (seconds; `--end`), or `None` at the end of the recording.
+    #[serde(default)]
+    pub end_s: Option<f64>,
     /// Whether the directions of single frequency bins give riders (`--no-bin-votes`
     /// turns them off; a document written before them has none: false).
     #[serde(default)]
@@ -195,6 +201,8 @@ impl RunMetadata {
                 riders: params.riders,
                 dereverb: params.dereverb.applies(&geometry.shape),
                 wpe: params.wpe,
+                start_s: params.start_s,
+                end_s: params.end_s,
                 bin_votes: params.bin_votes_on(),
                 track: None,
             },

@@ -53,6 +53,22 @@ pub enum ErrorKind {
     /// The parameters do not suit the array at this sample rate.
     #[error(transparent)]
     Params(#[from] ParamsError),
+    /// `--start` and `--end` leave less than one frame of the recording.
+    #[error("--start {start_s} s{} leaves {:.1} ms of this {:.3} s recording, less than one analysis frame of {frame_size} samples", end_s.map_or(String::new(), |e| format!(" and --end {e} s")), *samples as f64 * 1000.0 / *sample_rate as f64, *total as f64 / *sample_rate as f64)]
+    SpanTooShort {
+        /// The start asked for (seconds).
+        start_s: f64,
+        /// The end asked for (seconds).
+        end_s: Option<f64>,
+        /// Sample frames in the span.
+        samples: u64,
+        /// Sample frames in the recording.
+        total: u64,
+        /// The frame size N.
+        frame_size: usize,
+        /// The sample rate (Hz).
+        sample_rate: u32,
+    },
     /// Without `channel` keys, the recording must have one channel per microphone.
     #[error("the file has {channels} channel(s) but the geometry has {mics} microphones; {}", if channels > mics { "add a `channel = N` key to each [[mic]] to say which channels to use" } else { "is this the right geometry for this recording?" })]
     ChannelCount {
@@ -272,7 +288,29 @@ impl<S: SampleSource> Analysis<S> {
             }
         }
         let n = analyzer.frame_size();
-        if let Some(samples) = source.frames().filter(|&f| f < n as u64) {
+        // `--start` and `--end`: the first frame and the sample frames read from it.
+        let hop = analyzer.hop() as u64;
+        let first = (params.start_s * sample_rate as f64 / hop as f64).floor() as u64;
+        let limit = params
+            .end_s
+            .map(|e| ((e * sample_rate as f64).round() as u64).saturating_sub(first * hop));
+        let span = |total: u64| {
+            let after = total.saturating_sub(first * hop);
+            limit.map_or(after, |l| after.min(l))
+        };
+        let spanned = params.start_s > 0.0 || params.end_s.is_some();
+        if let Some(total) = source.frames().filter(|&f| spanned && span(f) < n as u64) {
+            let kind = ErrorKind::SpanTooShort {
+                start_s: params.start_s,
+                end_s: params.end_s,
+                samples: span(total),
+                total,
+                frame_size: n,
+                sample_rate,
+            };
+            return Err(fail(&name, kind));
+        }
+        if let Some(samples) = source.frames().map(span).filter(|&f| f < n as u64) {
             let kind = ErrorKind::TooShort {
                 samples,
                 frame_size: n,
@@ -285,7 +323,8 @@ impl<S: SampleSource> Analysis<S> {
             geometry.mics.iter().map(|m| m.channel).collect(),
             channels,
             analyzer.priming_frames(),
-        );
+        )
+        .span(first, limit);
         let wpe = params.wpe.then(|| {
             let mics = geometry.mics.iter().map(|m| m.channel).collect();
             Wpe::new(channels, mics, sample_rate)
@@ -331,6 +370,7 @@ impl<S: SampleSource> Analysis<S> {
         let hop = self.analyzer.hop() as u64;
         self.source
             .frames()
+            .map(|f| self.framer.spanned(f))
             .map(|f| if f < n { 0 } else { (f - n) / hop + 1 })
     }
 

@@ -132,6 +132,12 @@ pub(crate) struct Framer {
     pub samples_read: u64,
     /// Frames the first block of a live source waits for.
     first_frames: usize,
+    /// Sample frames still to be read and dropped before the first frame (`--start`).
+    skip: u64,
+    /// Sample frames to read after those, at most (`--end`).
+    limit: Option<u64>,
+    /// The sample frame the span starts at.
+    start: u64,
 }
 
 /// Samples (of all channels) read at a time: 4096 sample frames of 8 channels, fewer
@@ -160,7 +166,26 @@ impl Framer {
             started: false,
             samples_read: 0,
             first_frames,
+            skip: 0,
+            limit: None,
+            start: 0,
         }
+    }
+
+    /// Starts at frame `first` of the source (the sample frames before it are read and
+    /// dropped) and reads at most `limit` sample frames from there.
+    pub fn span(mut self, first: u64, limit: Option<u64>) -> Self {
+        self.next_index = first;
+        self.skip = first * self.hop as u64;
+        self.start = self.skip;
+        self.limit = limit;
+        self
+    }
+
+    /// Of a source of `total` sample frames, those the span reads.
+    pub fn spanned(&self, total: u64) -> u64 {
+        let after = total.saturating_sub(self.start);
+        self.limit.map_or(after, |l| after.min(l))
     }
 
     /// The source channel of mic `m`.
@@ -188,8 +213,25 @@ impl Framer {
                 .copy_from_slice(&carry[..filled_before]);
         }
         let mut filled = filled_before;
+        while self.skip > 0 {
+            let want = (self.skip as usize).min(self.interleaved.len() / ch);
+            match source.read(&mut self.interleaved[..want * ch]) {
+                Ok(0) => {
+                    self.skip = 0;
+                    break;
+                }
+                Ok(got) => self.skip -= got as u64,
+                Err(e) => return Some(e),
+            }
+        }
         while filled < stride {
-            let want = (stride - filled).min(self.interleaved.len() / ch);
+            let left = self
+                .limit
+                .map_or(usize::MAX, |l| l.saturating_sub(self.samples_read) as usize);
+            let want = (stride - filled).min(self.interleaved.len() / ch).min(left);
+            if want == 0 {
+                break;
+            }
             let got = match source.read(&mut self.interleaved[..want * ch]) {
                 Ok(0) => break,
                 Ok(got) => got,

@@ -20,6 +20,7 @@ mod live;
 mod man;
 mod moving;
 mod outputs;
+mod part_of_a_file;
 mod plot;
 mod rooms;
 mod simulate;
