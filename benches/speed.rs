@@ -85,7 +85,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let timed_run = |params: &Params| -> Result<(f64, StageTimes, Duration), Box<dyn Error>> {
         let mut analysis = Analysis::open(wav.to_str().unwrap(), &g, params)?;
         analysis.enable_stage_timing();
-        let mut csv = Format::Csv.exporter(std::io::sink(), false);
+        let mut csv = Format::Csv.exporter(std::io::sink(), ssl::record::Records::Detections);
         csv.begin(&RunMetadata::new(&g, "prism.toml", params))?;
         let mut output = Duration::ZERO;
         let t = Instant::now();

@@ -39,7 +39,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Any slices of one length will do: one per channel, in geometry order.
     let slices = channels.iter().map(|c| &c[..]).collect();
     let localizer = Localizer::new(geometry, &Options::default())?;
-    let mut out = Format::Ndjson.exporter(std::io::stdout().lock(), false);
+    let mut out =
+        Format::Ndjson.exporter(std::io::stdout().lock(), ssl::record::Records::Detections);
     out.begin(&localizer.metadata("tetrahedron"))?;
     let recording = localizer.from_channels("memory", slices, 48000)?;
     let (_, result) = recording.run(|found| match found {

@@ -41,7 +41,7 @@ impl Output<'_> {
             let mut exporter = self
                 .args
                 .format
-                .exporter(BufWriter::with_capacity(1 << 16, sink), self.args.events);
+                .exporter(BufWriter::with_capacity(1 << 16, sink), self.args.records());
             // Records go out as they are made to a reader of standard output that waits
             // for them: always as NDJSON, in every format when the input is live.
             let live_input = self
@@ -111,6 +111,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
                 match found {
                     Found::Row(row) => exporter.detection(&row),
                     Found::Event(event) => exporter.event(&event),
+                    Found::Source(source) => exporter.source(&source),
                     _ => Ok(()),
                 }
             },

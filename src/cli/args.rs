@@ -247,6 +247,10 @@ pub struct AnalyzeArgs {
     #[arg(long, conflicts_with = "no_track")]
     pub events: bool,
 
+    /// Write sources instead of detections: one record per tracked source of each file, with the time its events cover and its mean direction (JSON: detections, events and sources)
+    #[arg(long, conflicts_with_all = ["no_track", "events"])]
+    pub sources: bool,
+
     /// Also report candidates down to this share of the detection threshold, for the tracker to confirm (a track starts from 2 detections above the threshold, 4 of which 1 is above it, or 12 candidates within --confirm-s) or drop [default: 0.4 with the calibrated threshold, 1 (none) with --min-score]
     #[arg(long, value_name = "SHARE", value_parser = candidate_share, conflicts_with_all = ["no_track", "paper"])]
     pub candidates: Option<f64>,
@@ -417,6 +421,18 @@ pub enum MetricArg {
 }
 
 impl AnalyzeArgs {
+    /// What the output holds.
+    pub fn records(&self) -> ssl::record::Records {
+        use ssl::record::Records;
+        if self.sources {
+            Records::Sources
+        } else if self.events {
+            Records::Events
+        } else {
+            Records::Detections
+        }
+    }
+
     /// The options the flags ask for, one field each; the library resolves them
     /// ([`Options::settings`]).
     pub fn options(&self) -> Options {

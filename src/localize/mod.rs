@@ -33,7 +33,9 @@ pub use options::{Options, Settings, SettingsError};
 
 use crate::geometry::Geometry;
 use crate::method::{Detection, Params};
-use crate::record::{DetectionRecord, EventRecord, OutputError, RunMetadata};
+use crate::record::{
+    DetectionRecord, EventRecord, OutputError, RunMetadata, SourceRecord, Sources,
+};
 use crate::stream::{Analysis, AnalysisError, Channels, SampleSource, Summary, WavStream};
 use crate::track::{TrackParams, TrackStats, Tracker};
 use std::io::Read;
@@ -142,6 +144,8 @@ pub enum Output {
     Row(DetectionRecord),
     /// An event of `ssl analyze --events`.
     Event(EventRecord),
+    /// A source of `ssl analyze --sources`: one per track, after the file's last event.
+    Source(SourceRecord),
 }
 
 /// What a finished (or failed) recording reports.
@@ -221,6 +225,14 @@ impl<S: SampleSource> Recording<'_, S> {
             )
         });
         let mut failure = None;
+        // The tracks' events, summed per track for the sources.
+        let sources = std::cell::RefCell::new(Sources::default());
+        let mut sink = |out: Output| {
+            if let Output::Event(e) = &out {
+                sources.borrow_mut().add(e);
+            }
+            sink(out)
+        };
         let (summary, result) = self.analysis.run(|index, detections| {
             if let Some(t) = tracker.as_mut() {
                 t.push((index as f64 + 1.0) * hop, detections);
@@ -239,6 +251,14 @@ impl<S: SampleSource> Recording<'_, S> {
             t.finish();
             if failure.is_none() && summary.stats.frames > 0 {
                 failure = emit(&name, Some(t), &[], &mut sink).err();
+            }
+            // Each track over the whole file, from its events.
+            if failure.is_none() {
+                failure = sources
+                    .borrow()
+                    .records(&name)
+                    .and_then(|all| all.into_iter().try_for_each(|s| sink(Output::Source(s))))
+                    .err();
             }
         }
         let report = Report {

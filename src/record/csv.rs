@@ -4,7 +4,10 @@
 //! record type itself. Numbers are written in Rust's shortest round-trip decimal form
 //! (`0.5`, `1`, `-12.25`), never in exponent form, which every CSV reader parses.
 
-use super::{DetectionRecord, EventRecord, Exporter, FileEntry, OutputError, RunMetadata};
+use super::{
+    DetectionRecord, EventRecord, Exporter, FileEntry, OutputError, Records, RunMetadata,
+    SourceRecord,
+};
 use serde::ser::{self, Impossible, Serialize, SerializeStruct, Serializer};
 use std::fmt::Write as _;
 use std::io::Write;
@@ -14,18 +17,30 @@ pub struct CsvExporter<W: Write> {
     out: csv::Writer<W>,
     buf: String,
     flush_each: bool,
-    events: bool,
+    records: Records,
 }
 
 impl<W: Write> CsvExporter<W> {
-    /// A CSV writer to `out`, of detections or (`events`) of events.
-    pub fn new(out: W, events: bool) -> Self {
+    /// A CSV writer to `out` of `records`.
+    pub fn new(out: W, records: Records) -> Self {
         CsvExporter {
             out: csv::WriterBuilder::new().from_writer(out),
             buf: String::new(),
             flush_each: false,
-            events,
+            records,
         }
+    }
+
+    /// Writes `record` when this writer is for `kind`.
+    fn write<T: Serialize>(&mut self, kind: Records, record: &T) -> Result<(), OutputError> {
+        if self.records != kind {
+            return Ok(());
+        }
+        self.row(record)?;
+        if self.flush_each {
+            self.out.flush()?;
+        }
+        Ok(())
     }
 
     /// Writes the header of `T`'s columns (its field names, in order).
@@ -49,33 +64,24 @@ impl<W: Write> CsvExporter<W> {
 
 impl<W: Write> Exporter<W> for CsvExporter<W> {
     fn begin(&mut self, _meta: &RunMetadata) -> Result<(), OutputError> {
-        if self.events {
-            Ok(self.header::<EventRecord>()?)
-        } else {
-            Ok(self.header::<DetectionRecord>()?)
+        match self.records {
+            Records::Detections => self.header::<DetectionRecord>()?,
+            Records::Events => self.header::<EventRecord>()?,
+            Records::Sources => self.header::<SourceRecord>()?,
         }
+        Ok(())
     }
 
     fn detection(&mut self, record: &DetectionRecord) -> Result<(), OutputError> {
-        if self.events {
-            return Ok(());
-        }
-        self.row(record)?;
-        if self.flush_each {
-            self.out.flush()?;
-        }
-        Ok(())
+        self.write(Records::Detections, record)
     }
 
     fn event(&mut self, record: &EventRecord) -> Result<(), OutputError> {
-        if !self.events {
-            return Ok(());
-        }
-        self.row(record)?;
-        if self.flush_each {
-            self.out.flush()?;
-        }
-        Ok(())
+        self.write(Records::Events, record)
+    }
+
+    fn source(&mut self, record: &SourceRecord) -> Result<(), OutputError> {
+        self.write(Records::Sources, record)
     }
 
     fn flush_each_record(&mut self) {
@@ -320,7 +326,7 @@ mod tests {
     /// them (no exponents, integers without a decimal point), `None` as an empty field.
     #[test]
     fn rows_follow_the_record_type() {
-        let mut csv = CsvExporter::new(Vec::new(), false);
+        let mut csv = CsvExporter::new(Vec::new(), Records::Detections);
         csv.header::<DetectionRecord>().unwrap();
         let record = DetectionRecord {
             time_s: 0.106667,

@@ -1,7 +1,10 @@
 //! JSON: one document with the run's metadata, a streamed `detections` array and the
 //! per-file entries; NDJSON: one detection object per line.
 
-use super::{DetectionRecord, EventRecord, Exporter, FileEntry, OutputError, RunMetadata};
+use super::{
+    DetectionRecord, EventRecord, Exporter, FileEntry, OutputError, Records, RunMetadata,
+    SourceRecord,
+};
 use serde_json::Value;
 use std::io::Write;
 
@@ -10,20 +13,23 @@ pub struct JsonExporter<W: Write> {
     out: W,
     first: bool,
     flush_each: bool,
-    /// With `events`: the events, written after the detections (a few hundred bytes
-    /// each, one per stretch of activity).
+    /// With events or sources: the events, written after the detections (a few hundred
+    /// bytes each, one per stretch of activity).
     events: Option<Vec<EventRecord>>,
+    /// With sources: the sources, written after the events (one per track).
+    sources: Option<Vec<SourceRecord>>,
 }
 
 impl<W: Write> JsonExporter<W> {
-    /// A JSON document writer to `out`; with `events`, the document has an `events`
-    /// array too.
-    pub fn new(out: W, events: bool) -> Self {
+    /// A JSON document writer to `out`: its `detections` array, and an `events` array
+    /// with `Records::Events`, `events` and `sources` with `Records::Sources`.
+    pub fn new(out: W, records: Records) -> Self {
         JsonExporter {
             out,
             first: true,
             flush_each: false,
-            events: events.then(Vec::new),
+            events: (records != Records::Detections).then(Vec::new),
+            sources: (records == Records::Sources).then(Vec::new),
         }
     }
 }
@@ -59,6 +65,13 @@ impl<W: Write> Exporter<W> for JsonExporter<W> {
         Ok(())
     }
 
+    fn source(&mut self, record: &SourceRecord) -> Result<(), OutputError> {
+        if let Some(sources) = self.sources.as_mut() {
+            sources.push(record.clone());
+        }
+        Ok(())
+    }
+
     fn flush_each_record(&mut self) {
         self.flush_each = true;
     }
@@ -73,6 +86,14 @@ impl<W: Write> Exporter<W> for JsonExporter<W> {
             }
             self.out.write_all(b"\n],\n")?;
         }
+        if let Some(sources) = &self.sources {
+            self.out.write_all(b"\"sources\":[")?;
+            for (i, s) in sources.iter().enumerate() {
+                self.out.write_all(if i == 0 { b"\n" } else { b",\n" })?;
+                serde_json::to_writer(&mut self.out, s)?;
+            }
+            self.out.write_all(b"\n],\n")?;
+        }
         writeln!(self.out, "\"files\":{}}}", serde_json::to_string(files)?)?;
         self.out.flush()?;
         Ok(self.out)
@@ -83,16 +104,16 @@ impl<W: Write> Exporter<W> for JsonExporter<W> {
 pub struct NdjsonExporter<W: Write> {
     out: W,
     flush_each: bool,
-    events: bool,
+    records: Records,
 }
 
 impl<W: Write> NdjsonExporter<W> {
-    /// An NDJSON writer to `out`, of detections or (`events`) of events.
-    pub fn new(out: W, events: bool) -> Self {
+    /// An NDJSON writer to `out` of `records`.
+    pub fn new(out: W, records: Records) -> Self {
         NdjsonExporter {
             out,
             flush_each: false,
-            events,
+            records,
         }
     }
 
@@ -112,14 +133,21 @@ impl<W: Write> Exporter<W> for NdjsonExporter<W> {
     }
 
     fn detection(&mut self, record: &DetectionRecord) -> Result<(), OutputError> {
-        if self.events {
+        if self.records != Records::Detections {
             return Ok(());
         }
         self.line(record)
     }
 
     fn event(&mut self, record: &EventRecord) -> Result<(), OutputError> {
-        if !self.events {
+        if self.records != Records::Events {
+            return Ok(());
+        }
+        self.line(record)
+    }
+
+    fn source(&mut self, record: &SourceRecord) -> Result<(), OutputError> {
+        if self.records != Records::Sources {
             return Ok(());
         }
         self.line(record)

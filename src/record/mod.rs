@@ -13,6 +13,7 @@ mod event;
 mod json;
 mod metadata;
 mod read;
+mod source;
 pub(crate) mod truth;
 mod truth_forms;
 
@@ -27,6 +28,7 @@ pub use read::{
     parse_detections, read_detections, read_detections_with_info, read_result, read_result_file,
     ReadError, ResultInfo, ResultRecord, MAX_RESULT_BYTES, MAX_TRUTH_BYTES,
 };
+pub use source::{SourceRecord, Sources};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 pub use truth_forms::CSV_HEADER as TRUTH_CSV_HEADER;
 
@@ -66,15 +68,27 @@ impl Named for Format {
 }
 
 impl Format {
-    /// A writer of this format to `out`: of detections, or with `events` of events
-    /// (CSV and NDJSON: events only; JSON: both, the events in an `events` array).
-    pub fn exporter<W: Write + 'static>(self, out: W, events: bool) -> Box<dyn Exporter<W>> {
+    /// A writer of this format to `out` of `records` (CSV and NDJSON: those only; JSON:
+    /// the detections, and the events and sources asked for in their own arrays).
+    pub fn exporter<W: Write + 'static>(self, out: W, records: Records) -> Box<dyn Exporter<W>> {
         match self {
-            Format::Csv => Box::new(CsvExporter::new(out, events)),
-            Format::Json => Box::new(JsonExporter::new(out, events)),
-            Format::Ndjson => Box::new(NdjsonExporter::new(out, events)),
+            Format::Csv => Box::new(CsvExporter::new(out, records)),
+            Format::Json => Box::new(JsonExporter::new(out, records)),
+            Format::Ndjson => Box::new(NdjsonExporter::new(out, records)),
         }
     }
+}
+
+/// What an output holds: CSV and NDJSON hold one kind of record; a JSON document holds
+/// the detections always, the events with `Events`, events and sources with `Sources`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Records {
+    /// The rows (`ssl analyze`).
+    Detections,
+    /// The events (`--events`).
+    Events,
+    /// The sources (`--sources`).
+    Sources,
 }
 
 /// Writes detections in one format, as they are analysed: memory does not grow with
@@ -87,6 +101,9 @@ pub trait Exporter<W: Write> {
     /// Writes one event (nothing unless the writer was made for events; JSON keeps them
     /// for the end of the document).
     fn event(&mut self, record: &EventRecord) -> Result<(), OutputError>;
+    /// Writes one source (nothing unless the writer was made for sources; JSON keeps
+    /// them for the end of the document).
+    fn source(&mut self, record: &SourceRecord) -> Result<(), OutputError>;
     /// Flush after every record from now on (a live consumer at the other end of a pipe).
     fn flush_each_record(&mut self);
     /// Ends the output (the JSON document closes with the per-file entries) and returns

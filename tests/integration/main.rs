@@ -24,6 +24,7 @@ mod part_of_a_file;
 mod plot;
 mod rooms;
 mod simulate;
+mod sources;
 mod talkers_at_once;
 mod testdata;
 mod tracking;
