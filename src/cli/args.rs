@@ -47,8 +47,11 @@ pub enum Command {
         time_s (frame centre), azimuth_deg, elevation_deg, x, y, z (unit vector from the array centre), \
         score (summed weighted correlation of the chosen delays, one term per microphone pair: at most 1 each \
         with --no-weighting, several for a source that stands out of the noise with the weighting), then \
-        file, frame and mics. Frames with no consistent set of delays, or scoring under --min-score per pair, \
-        give no record. Files are analysed in argument order; a file that fails is reported on stderr and the \
+        file, frame, mics, source (the tracked source; empty with --no-track) and uncertainty_deg (the cone \
+        around the direction that holds the true one with 95% probability). Frames with no consistent set of \
+        delays, or scoring under the detection threshold (calibrated against each file's background; a fixed \
+        score per pair with --min-score), give no record. --events writes one record per stretch of activity \
+        of a source instead, --sources one per source. Files are analysed in argument order; a file that fails is reported on stderr and the \
         others still run (exit status 1). When every file fails, nothing is written.\n\n\
         Exit status: 0 success, 1 a file or the geometry could not be analysed, 2 a usage error.",
         after_help = "Examples:\n  \
@@ -58,7 +61,24 @@ pub enum Command {
         ssl analyze *.wav -g array.toml --min-score 0.3      a lower threshold per microphone pair"
     )]
     Analyze(Box<AnalyzeArgs>),
-    /// Show what ssl understood of an array geometry file
+    #[command(
+        about = "Show what ssl understood of an array geometry file",
+        long_about = "Show what ssl understood of an array geometry file: each microphone and its channel, \
+        the shape (3-D, planar or linear) and what it cannot tell, the aperture, and every pair's largest delay \
+        at --rate.\n\n\
+        The file (TOML), positions in metres in the array's frame: x forward, y left, z up:\n\n  \
+        name = \"my-circle\"            # optional\n  \
+        speed_of_sound = 343.0        # optional, m/s\n  \
+        side = [0.0, 0.0, 1.0]        # optional: the side a planar array reports (default up)\n  \
+        [[mic]]\n  \
+        position = [0.0463, 0.0, 0.0]\n  \
+        channel = 0                   # optional 0-based WAV channel (all mics or none)\n  \
+        [[mic]]\n  \
+        position = [0.0232, 0.0401, 0.0]\n  \
+        channel = 1\n\n\
+        Without channel keys, the mics are the WAV's channels in order. Unknown keys are errors. \
+        docs/interface.md gives the whole contract."
+    )]
     Geometry(GeometryArgs),
     #[command(
         about = "Check that a recording fits its geometry and channel order",

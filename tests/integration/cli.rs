@@ -494,3 +494,29 @@ fn a_file_whose_detections_no_track_confirms_says_so() {
         stderr(&kept)
     );
 }
+
+/// The help says what a row holds (`source`, `uncertainty_deg`, the calibrated threshold)
+/// and `ssl geometry --help` shows the file format with an example that parses.
+#[test]
+fn the_help_names_every_field_and_shows_the_geometry_format() {
+    let help = String::from_utf8(run(&["analyze", "--help"]).stdout).unwrap();
+    for needle in [
+        "source (the tracked source",
+        "uncertainty_deg",
+        "calibrated against each file's background",
+    ] {
+        assert!(help.contains(needle), "{needle}");
+    }
+    let help = String::from_utf8(run(&["geometry", "--help"]).stdout).unwrap();
+    assert!(help.contains("x forward, y left, z up"));
+    let example: String = help
+        .lines()
+        .skip_while(|l| !l.starts_with("The file (TOML)"))
+        .skip(1)
+        .take_while(|l| !l.starts_with("Without channel keys"))
+        .map(|l| l.split('#').next().unwrap().trim().to_string() + "\n")
+        .collect();
+    let g = ssl::Geometry::from_toml_str(&example).unwrap_or_else(|e| panic!("{e}: {example}"));
+    assert_eq!(g.mics.len(), 2);
+    assert_eq!(g.name.as_deref(), Some("my-circle"));
+}
