@@ -12,7 +12,7 @@ use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use ssl::localize::{Output as Found, RunError};
 use ssl::record::FileEntry;
-use ssl::stream::SampleSource;
+use ssl::stream::{SampleSource, Warning};
 use ssl::{Analysis, Exporter, Format, Geometry, Localizer, OutputError, RunMetadata};
 use std::cell::RefCell;
 use std::io::{self, BufWriter, IsTerminal};
@@ -86,6 +86,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let show_progress = !args.quiet && io::stderr().is_terminal();
     let mut all_ok = true;
     let mut files = Vec::new();
+    let mut coarse_said = std::collections::HashSet::new();
     for path in &args.files {
         let recording = match localizer.open(path) {
             Ok(r) => r,
@@ -124,7 +125,19 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
             Ok(()) => Ok(()),
         };
         let summary = &report.summary;
+        // A file's own error first, then its remarks.
+        let message = result.err().map(|e| with_hint(&e));
+        if let Some(e) = &message {
+            error(e);
+            all_ok = false;
+        }
         for w in &summary.warnings {
+            // The array's coarse delays are the same for every file at a rate: said once.
+            if let Warning::CoarseDelays { sample_rate, .. } = w {
+                if !coarse_said.insert(*sample_rate) {
+                    continue;
+                }
+            }
             warn(args.quiet, &warning_with_hint(&summary.name, w));
         }
         let unconfirmed = report
@@ -134,11 +147,6 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
             .map(|note| format!("{}: {note}", summary.name));
         if let Some(note) = &unconfirmed {
             warn(args.quiet, note);
-        }
-        let message = result.err().map(|e| with_hint(&e));
-        if let Some(e) = &message {
-            error(e);
-            all_ok = false;
         }
         files.push(
             FileEntry::new(path, Some(summary), message)

@@ -400,6 +400,15 @@ fn an_array_whose_delays_are_a_few_samples_draws_a_warning() {
         "{}",
         stderr(&out)
     );
+    // Said once for a run of several files at that rate; a file's own error comes
+    // before its remarks.
+    let bytes = std::fs::read(&wav).unwrap();
+    let cut = write(dir.path(), "cut.wav", &bytes[..bytes.len() / 2]);
+    let out = run(&["analyze", s(&wav), s(&wav), s(&cut), "-g", s(&geo)]);
+    let err = stderr(&out);
+    assert_eq!(err.matches("largest delay is only").count(), 1, "{err}");
+    let lines: Vec<&str> = err.lines().filter(|l| l.contains("cut.wav")).collect();
+    assert!(lines[0].starts_with("ssl: error:"), "{err}");
     // The prism at 48 kHz (107 samples) draws none.
     let out = example(&[]);
     assert!(!stderr(&out).contains("largest delay"), "{}", stderr(&out));
