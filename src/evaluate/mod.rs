@@ -236,11 +236,15 @@ pub fn evaluate_by(
         .collect();
     // A hand-written truth may not say how long the recording is: at least as long as
     // its last detection.
-    let mut truth = truth.clone();
-    if truth.sample_rate == 0 {
-        let last = dets.iter().map(|d| d.time_s).fold(0.0, f64::max);
-        truth.duration_s = truth.duration_s.max(last);
-    }
+    let last = dets.iter().map(|d| d.time_s).fold(0.0, f64::max);
+    let truth = if truth.sample_rate == 0 && last > truth.duration_s {
+        std::borrow::Cow::Owned(Truth {
+            duration_s: last,
+            ..truth.clone()
+        })
+    } else {
+        std::borrow::Cow::Borrowed(truth)
+    };
     Ok(score(&truth, &sources, &dets, tail_s, metric))
 }
 

@@ -12,7 +12,7 @@ use nalgebra::Vector3;
 use serde_json::{Map, Value};
 
 /// The keys of a hand-written source.
-const SOURCE_KEYS: [&str; 8] = [
+const SOURCE_KEYS: [&str; 7] = [
     "name",
     "azimuth_deg",
     "elevation_deg",
@@ -20,7 +20,6 @@ const SOURCE_KEYS: [&str; 8] = [
     "y",
     "z",
     "intervals",
-    "duration_s",
 ];
 
 /// The CSV form's header.
@@ -334,7 +333,7 @@ mod tests {
     #[test]
     fn every_problem_is_listed_at_once() {
         let err = parse(
-            r#"{"sources": [{"azimuth_deg": 30}, {"elevation_deg": 5, "azimuth_deg": 1, "intervals": [[2, 1]]}, {"x": 1, "intervals": [[0, 1]], "colour": 3}], "seed": 1}"#,
+            r#"{"sources": [{"azimuth_deg": 30}, {"elevation_deg": 5, "azimuth_deg": 1, "intervals": [[2, 1]], "duration_s": 3}, {"x": 1, "intervals": [[0, 1]], "colour": 3}], "seed": 1}"#,
         )
         .unwrap_err();
         for needle in [
@@ -342,6 +341,7 @@ mod tests {
             "source 1: give azimuth_deg and elevation_deg",
             "source 1: missing intervals",
             "source 2: intervals must be",
+            "source 2: unknown key `duration_s`",
             "source 3: unknown key `colour`",
             "source 3: give azimuth_deg",
         ] {

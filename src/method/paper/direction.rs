@@ -225,11 +225,6 @@ impl DirectionSolver {
         self.diffs.iter().map(|x| x.norm()).fold(0.0, f64::max)
     }
 
-    /// Lags (samples) to metres of path difference: `c / fs`.
-    pub fn metres_per_sample(&self) -> f64 {
-        self.metres_per_sample
-    }
-
     /// The unit direction from pair lags in samples (`lags[pair_index(a, b, k)]` is the
     /// lag of the peak of `R_ab`). `None` when the system gives no direction (zero vector).
     pub fn solve(&self, lags: &[f64]) -> Option<Vector3<f64>> {
