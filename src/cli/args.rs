@@ -70,13 +70,19 @@ pub enum Command {
         name = \"my-circle\"            # optional\n  \
         speed_of_sound = 343.0        # optional, m/s\n  \
         side = [0.0, 0.0, 1.0]        # optional: the side a planar array reports (default up)\n  \
+        [orientation]                 # optional: the array's pose in the room\n  \
+        yaw_deg = 0.0                 # turns x toward y (about z)\n  \
+        pitch_deg = 0.0               # lifts x toward z\n  \
+        roll_deg = 0.0                # lifts y toward z\n  \
         [[mic]]\n  \
         position = [0.0463, 0.0, 0.0]\n  \
         channel = 0                   # optional 0-based WAV channel (all mics or none)\n  \
         [[mic]]\n  \
         position = [0.0232, 0.0401, 0.0]\n  \
         channel = 1\n\n\
-        Without channel keys, the mics are the WAV's channels in order. Unknown keys are errors. \
+        Without channel keys, the mics are the WAV's channels in order. With [orientation], the array is \
+        rolled, then pitched, then turned by yaw (or `matrix = [[..], [..], [..]]`, whose columns are the \
+        array's axes in the room), and directions are reported in the room's frame. Unknown keys are errors. \
         docs/interface.md gives the whole contract."
     )]
     Geometry(GeometryArgs),

@@ -28,7 +28,11 @@ pub fn run(args: &EvaluateArgs) -> Result<()> {
             .and_then(|g| serde_json::from_value::<GeometryInfo>(g).ok())
             .and_then(|g| {
                 let positions: Vec<[f64; 3]> = g.mics.iter().map(|m| m.position).collect();
-                Geometry::from_positions(&positions).ok()
+                let geometry = Geometry::from_positions(&positions).ok()?;
+                Some(match g.orientation {
+                    Some(rows) => geometry.oriented(nalgebra::Matrix3::from_fn(|i, j| rows[i][j])),
+                    None => geometry,
+                })
             }),
     };
     let metric = metric(args.metric, geometry.as_ref())?;

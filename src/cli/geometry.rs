@@ -54,6 +54,18 @@ fn report(g: &Geometry, path: &str, rate: u32, c: f64) -> String {
                 g.centre.z + 0.0
             ),
         ),
+        (
+            "orientation",
+            match g.orientation {
+                None => "none: directions in the array frame".to_string(),
+                Some(r) => format!(
+                    "directions and positions below in the room frame; the array's x, y, z axes point to {}, {}, {}",
+                    axis(&r.column(0).into_owned()),
+                    axis(&r.column(1).into_owned()),
+                    axis(&r.column(2).into_owned())
+                ),
+            },
+        ),
         ("speed of sound", format!("{c} m/s")),
         (
             "sample rate",
@@ -69,7 +81,7 @@ fn report(g: &Geometry, path: &str, rate: u32, c: f64) -> String {
     }
     let _ = writeln!(s, "\n mic  channel         x         y         z");
     for (k, m) in g.mics.iter().enumerate() {
-        let p = m.position.map(|v| v + 0.0);
+        let p = m.position.map(|v| (v * 1e9).round() / 1e9 + 0.0);
         let _ = writeln!(
             s,
             "{:>4}  {:>7}  {:>8.4}  {:>8.4}  {:>8.4}",
@@ -96,4 +108,9 @@ fn report(g: &Geometry, path: &str, rate: u32, c: f64) -> String {
         }
     }
     s
+}
+
+/// A room-frame unit vector as `[x, y, z]` with 3 decimals.
+fn axis(v: &nalgebra::Vector3<f64>) -> String {
+    format!("[{:.3}, {:.3}, {:.3}]", v.x + 0.0, v.y + 0.0, v.z + 0.0)
 }

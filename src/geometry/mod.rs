@@ -8,8 +8,11 @@
 //! the angle to its axis; the direction is reported in the plane spanned by the axis and
 //! `side`.
 
+mod orientation;
 mod shape;
 pub mod units;
+
+pub use orientation::from_angles as rotation_from_angles;
 
 pub use shape::Shape;
 use shape::{classify, orient};
@@ -108,6 +111,7 @@ struct GeometryFile {
     speed_of_sound: Option<f64>,
     #[serde(default, deserialize_with = "crate::text::numbers_opt")]
     side: Option<[f64; 3]>,
+    orientation: Option<orientation::OrientationEntry>,
     #[serde(default)]
     mic: Vec<MicEntry>,
 }
@@ -120,10 +124,11 @@ struct MicEntry {
     channel: Option<usize>,
 }
 
-/// One microphone: its position in the array frame (metres) and its 0-based WAV channel.
+/// One microphone: its position (metres) and its 0-based WAV channel.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mic {
-    /// Position in the array frame (metres).
+    /// Position in the frame directions are reported in: the array frame, or the room
+    /// frame when the geometry has an orientation (metres).
     pub position: Vector3<f64>,
     /// 0-based channel in the recording.
     pub channel: usize,
@@ -150,6 +155,10 @@ pub struct Geometry {
     pub explicit_channels: bool,
     /// Non-fatal remarks about the geometry (shown to the user as warnings).
     pub warnings: Vec<String>,
+    /// The rotation from the array frame (the file's positions) to the room frame (the
+    /// reported directions), when the file gives an `[orientation]`: every position,
+    /// `centre`, `side` and `shape` here is already in the room frame.
+    pub orientation: Option<nalgebra::Matrix3<f64>>,
 }
 
 impl Geometry {
@@ -200,13 +209,45 @@ impl Geometry {
                 channel: m.channel.unwrap_or(i),
             })
             .collect();
-        Self::new(
+        let rotation = file
+            .orientation
+            .as_ref()
+            .map(orientation::OrientationEntry::rotation)
+            .transpose()?;
+        let geometry = Self::new(
             file.name,
             mics,
             file.speed_of_sound,
             file.side.map(Vector3::from),
             explicit != 0,
-        )
+        )?;
+        Ok(match rotation {
+            Some(r) => geometry.oriented(r),
+            None => geometry,
+        })
+    }
+
+    /// The same array turned by `rotation` (array frame to room frame, a proper
+    /// rotation): its positions, centre, side and shape move into the room frame, in
+    /// which directions are then reported. The side's default is the array frame's.
+    pub fn oriented(mut self, rotation: nalgebra::Matrix3<f64>) -> Self {
+        let total = self.orientation.map_or(rotation, |r| rotation * r);
+        for m in &mut self.mics {
+            m.position = rotation * m.position;
+        }
+        self.centre = rotation * self.centre;
+        self.side = rotation * self.side;
+        self.shape = self.shape.rotated(&rotation);
+        self.orientation = Some(total);
+        self
+    }
+
+    /// Microphone `i`'s position in the array frame, as the file gives it.
+    pub fn array_position(&self, i: usize) -> Vector3<f64> {
+        match self.orientation {
+            Some(r) => r.transpose() * self.mics[i].position,
+            None => self.mics[i].position,
+        }
     }
 
     /// Builds a geometry from microphone positions with channels in order of appearance.
@@ -356,6 +397,7 @@ impl Geometry {
             shape,
             explicit_channels,
             warnings,
+            orientation: None,
         })
     }
 
@@ -419,19 +461,27 @@ impl Geometry {
     /// The shape (and orientation) of a subset of the microphones, given as a bit mask.
     /// Used when dead channels leave fewer microphones in a frame.
     pub fn subset_shape(&self, mask: u64) -> Result<Shape> {
+        // In the array frame, where the side's default is defined.
+        let back = self
+            .orientation
+            .map_or(nalgebra::Matrix3::identity(), |r| r.transpose());
         let pos: Vec<Vector3<f64>> = (0..self.mics.len())
             .filter(|i| mask & (1u64 << i) != 0)
-            .map(|i| self.mics[i].position)
+            .map(|i| back * self.mics[i].position)
             .collect();
         if pos.len() < 2 {
             fail!(GeometryError::Invalid, "fewer than 2 microphones");
         }
         let side = if self.side_given {
-            Some(self.side)
+            Some(back * self.side)
         } else {
             None
         };
-        Ok(orient(classify(&pos), side)?.0)
+        let shape = orient(classify(&pos), side)?.0;
+        Ok(match self.orientation {
+            Some(r) => shape.rotated(&r),
+            None => shape,
+        })
     }
 }
 

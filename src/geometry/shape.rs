@@ -26,6 +26,19 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// The same shape seen through `rotation` (array frame to room frame).
+    pub fn rotated(&self, rotation: &nalgebra::Matrix3<f64>) -> Shape {
+        match *self {
+            Shape::Linear { axis } => Shape::Linear {
+                axis: rotation * axis,
+            },
+            Shape::Planar { normal } => Shape::Planar {
+                normal: rotation * normal,
+            },
+            Shape::Volumetric => Shape::Volumetric,
+        }
+    }
+
     /// `3-D`, `planar` or `linear`.
     pub fn label(&self) -> &'static str {
         match self {

@@ -186,3 +186,27 @@ fn explicit_channels_are_kept() {
     assert_eq!(g.mics[0].channel, 3);
     assert_eq!(g.mics[1].channel, 0);
 }
+
+#[test]
+fn an_oriented_planar_array_keeps_its_side_in_its_own_frame() {
+    // A horizontal square hung on a wall: pitched up 90 deg, its x axis points up and its
+    // normal (+z in its frame, the default side) points backward (-x in the room).
+    let square = "[orientation]\npitch_deg = 90\n[[mic]]\nposition = [0.05, 0, 0]\n[[mic]]\nposition = [0, 0.05, 0]\n[[mic]]\nposition = [-0.05, 0, 0]\n[[mic]]\nposition = [0, -0.05, 0]\n";
+    let g = Geometry::from_toml_str(square).unwrap();
+    let close = |a: Vector3<f64>, b: Vector3<f64>| (a - b).norm() < 1e-12;
+    let Shape::Planar { normal } = g.shape else {
+        panic!("{:?}", g.shape)
+    };
+    assert!(close(normal, -Vector3::x()), "{normal:?}");
+    assert!(close(g.side, -Vector3::x()));
+    assert!(close(g.mics[0].position, Vector3::new(0.0, 0.0, 0.05)));
+    assert!(close(g.array_position(0), Vector3::new(0.05, 0.0, 0.0)));
+    // Three of its microphones are still that plane, on the same side.
+    assert_eq!(g.subset_shape(0b0111).unwrap(), g.shape);
+    // Two of them: a line, whose reporting plane holds the default side turned with it
+    // (the array's +x is now up: +z).
+    let Shape::Linear { axis } = g.subset_shape(0b0101).unwrap() else {
+        panic!()
+    };
+    assert!(axis.x.abs() < 1e-12 && axis.y.abs() < 1e-12, "{axis:?}");
+}

@@ -49,8 +49,14 @@ pub struct GeometryInfo {
     pub microphones: usize,
     /// The geometry's speed of sound (m/s).
     pub speed_of_sound: f64,
-    /// The array centre (mean of the positions), metres.
+    /// The array centre (mean of the positions) in the array frame, metres.
     pub centre: [f64; 3],
+    /// The rotation from the array frame to the room frame, as rows (`v_room = R
+    /// v_array`), when the geometry gives an `[orientation]`: directions, `side` and the
+    /// note's axes are then in the room frame; `mics` and `centre` stay as the file
+    /// gives them.
+    #[serde(default)]
+    pub orientation: Option<[[f64; 3]; 3]>,
     /// `3-D`, `planar` or `linear`.
     pub shape: String,
     /// The side directions are reported on (planar and linear arrays).
@@ -64,7 +70,7 @@ pub struct GeometryInfo {
 /// One microphone of [`GeometryInfo`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MicInfo {
-    /// Position in the array frame (metres).
+    /// Position in the array frame, as the file gives it (metres).
     pub position: [f64; 3],
     /// 0-based channel in the recording.
     pub channel: usize,
@@ -224,7 +230,13 @@ impl GeometryInfo {
             name: g.name.clone(),
             microphones: g.mics.len(),
             speed_of_sound: g.speed_of_sound,
-            centre: [g.centre.x, g.centre.y, g.centre.z].map(|v| fixed(v, 9)),
+            centre: {
+                let c = g.orientation.map_or(g.centre, |r| r.transpose() * g.centre);
+                [c.x, c.y, c.z].map(|v| fixed(v, 9))
+            },
+            orientation: g
+                .orientation
+                .map(|r| [0, 1, 2].map(|i| [0, 1, 2].map(|j| fixed(r[(i, j)], 12)))),
             shape: g.shape.label().to_string(),
             side: match g.shape {
                 Shape::Volumetric => None,
@@ -234,9 +246,18 @@ impl GeometryInfo {
             mics: g
                 .mics
                 .iter()
-                .map(|m| MicInfo {
-                    position: [m.position.x, m.position.y, m.position.z],
-                    channel: m.channel,
+                .enumerate()
+                .map(|(i, m)| {
+                    let p = g.array_position(i);
+                    let p = [p.x, p.y, p.z];
+                    MicInfo {
+                        // Back from the room frame: round off the rotation's last bits.
+                        position: match g.orientation {
+                            Some(_) => p.map(|v| fixed(v, 12)),
+                            None => p,
+                        },
+                        channel: m.channel,
+                    }
                 })
                 .collect(),
         }

@@ -19,6 +19,7 @@ mod lab_truth;
 mod live;
 mod man;
 mod moving;
+mod orientation;
 mod outputs;
 mod part_of_a_file;
 mod plot;
