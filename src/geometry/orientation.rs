@@ -149,6 +149,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::approx_constant)] // A matrix as a person writes it, with 4 decimals.
     fn matrices_are_checked_and_cleaned() {
         let entry = |m: [[f64; 3]; 3]| OrientationEntry {
             yaw_deg: None,
