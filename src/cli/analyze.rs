@@ -133,8 +133,11 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         }
         for w in &summary.warnings {
             // The array's coarse delays are the same for every file at a rate: said once.
-            if let Warning::CoarseDelays { sample_rate, .. } = w {
-                if !coarse_said.insert(*sample_rate) {
+            // So is a band's narrowness.
+            if let Warning::CoarseDelays { sample_rate, .. }
+            | Warning::NarrowBand { sample_rate, .. } = w
+            {
+                if !coarse_said.insert((std::mem::discriminant(w), *sample_rate)) {
                     continue;
                 }
             }

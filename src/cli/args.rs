@@ -1,8 +1,8 @@
 //! The command line's arguments (clap). `man/` is generated from these definitions.
 
 use super::values::{
-    candidate_share, choice, false_per_hour, non_negative, non_negative_f64, parse_f64, positive,
-    smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
+    band, candidate_share, choice, false_per_hour, non_negative, non_negative_f64, parse_f64,
+    positive, smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
 };
 use clap::{Args, Parser, Subcommand};
 use ssl::method::{
@@ -261,6 +261,10 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "S", value_parser = non_negative_f64)]
     pub end: Option<f64>,
 
+    /// Analyse only these frequencies, LOW-HIGH in Hz (300-3400 for a talker, 2k-8k for birds, 200-20k above mains hum); HIGH beyond half the sample rate is taken as it
+    #[arg(long, value_name = "LOW-HIGH", value_parser = band, allow_hyphen_values = true)]
+    pub band: Option<(f64, f64)>,
+
     /// No riders from single frequency bins: on arrays a few centimetres across, each bin's own direction finds a talker that a louder one hides in the correlations, and adds its rows to that talker's track (two talkers on a 6-mic circle at 16 kHz: 60-70% of the 0.1 s windows instead of 56-66%)
     #[arg(long, conflicts_with_all = ["no_track", "paper"])]
     pub no_bin_votes: bool,
@@ -486,6 +490,7 @@ impl AnalyzeArgs {
         o.wpe = self.wpe;
         o.start_s = self.start.unwrap_or(0.0);
         o.end_s = self.end;
+        o.band_hz = self.band;
         o.bin_votes = !self.no_bin_votes;
         o.max_sources = self.max_sources as usize;
         o.candidates = self.candidates;

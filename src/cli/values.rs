@@ -46,6 +46,25 @@ pub(super) fn positive(s: &str) -> std::result::Result<f64, String> {
     Ok(v)
 }
 
+/// A band of frequencies `LOW-HIGH` in Hz (`--band 300-3400`; a `k` suffix is kHz:
+/// `2k-8k`).
+pub(super) fn band(s: &str) -> std::result::Result<(f64, f64), String> {
+    let Some((low, high)) = s.split_once('-') else {
+        return Err(format!("`{s}` is not LOW-HIGH in Hz (like 300-3400)"));
+    };
+    let hz = |t: &str| match t.trim().strip_suffix(['k', 'K']) {
+        Some(k) => parse_f64(k).map(|v| v * 1000.0),
+        None => parse_f64(t.trim()),
+    };
+    let (low, high) = (hz(low)?, hz(high)?);
+    if low < 0.0 || high <= low {
+        return Err(format!(
+            "{low}-{high} Hz is not a band: LOW must be 0 or more and under HIGH"
+        ));
+    }
+    Ok((low, high))
+}
+
 /// A speed of sound in m/s, within the range every input accepts.
 pub(super) fn speed_of_sound(s: &str) -> std::result::Result<f64, String> {
     let v = parse_f64(s)?;

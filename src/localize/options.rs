@@ -72,6 +72,8 @@ pub struct Options {
     pub start_s: f64,
     /// Where to end (`None`: the end of the recording).
     pub end_s: Option<f64>,
+    /// The frequencies analysed, `(low, high)` in Hz (`None`: all).
+    pub band_hz: Option<(f64, f64)>,
     /// Riders from single frequency bins on small arrays (with a tracker).
     pub bin_votes: bool,
     /// The most sources one frame gives (1 to 4; 1 with the paper's method, a fixed
@@ -128,6 +130,7 @@ impl Default for Options {
             wpe: false,
             start_s: 0.0,
             end_s: None,
+            band_hz: None,
             bin_votes: true,
             max_sources: DEFAULT_MAX_SOURCES,
             candidates: None,
@@ -237,6 +240,7 @@ impl Options {
             wpe: self.wpe,
             start_s: self.start_s,
             end_s: self.end_s,
+            band_hz: self.band_hz,
             bin_votes: calibrated && self.bin_votes,
             ..Params::default()
         };

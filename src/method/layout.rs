@@ -5,7 +5,9 @@
 //! stages; the engine's [`Setup`](super::engine::setup::Setup) holds them beside this.
 
 use super::paper::pairs::{pair_count, pair_index};
-use super::params::{default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_FRAME_SIZE};
+use super::params::{
+    default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_FRAME_SIZE, MIN_BAND_BINS,
+};
 use crate::geometry::Geometry;
 
 /// The frame layout of a run (see the module).
@@ -29,6 +31,8 @@ pub(crate) struct Layout {
     /// their two neighbours, `2 max_lag + 3` values), and their total length.
     pub window_starts: Vec<usize>,
     pub windows_len: usize,
+    /// The bins analysed, `first..=last` (`--band`; all of `0..=N/2` without one).
+    pub band: (usize, usize),
 }
 
 impl Layout {
@@ -75,6 +79,25 @@ impl Layout {
                 needed: ((widest + 2) * 2).next_power_of_two(),
             });
         }
+        let band = match params.band_hz {
+            None => (0, n / 2),
+            Some((low, high)) => {
+                let per_bin = rate / n as f64;
+                let first = (low / per_bin).ceil().min((n / 2 + 1) as f64) as usize;
+                let last = ((high / per_bin).floor() as usize).min(n / 2);
+                let bins = (last + 1).saturating_sub(first);
+                if bins < MIN_BAND_BINS {
+                    return Err(ParamsError::BandTooNarrow {
+                        low,
+                        high,
+                        bins,
+                        sample_rate,
+                        frame_size: n,
+                    });
+                }
+                (first, last)
+            }
+        };
         let mut windows_len = 0;
         let window_starts = max_lag
             .iter()
@@ -94,12 +117,28 @@ impl Layout {
             max_lag,
             window_starts,
             windows_len,
+            band,
         })
     }
 
     /// Bins of a real spectrum, `N/2 + 1`.
     pub fn bins(&self) -> usize {
         self.n / 2 + 1
+    }
+
+    /// The share of eq. (6)'s energy `E = (1/N) sum_k w_e(k)^2` that a flat spectrum
+    /// keeps in the band: 1 without one. Levels set for the whole band (the steady
+    /// frame, the background's gate, the diffuse floor) scale with it.
+    pub fn band_share(&self) -> f64 {
+        let (first, last) = self.band;
+        let nyquist = self.n / 2;
+        // Bins 0 and N/2 count once in eq. (6)'s N bins, the others twice.
+        let once = [0, nyquist]
+            .iter()
+            .filter(|&&k| (first..=last).contains(&k))
+            .count();
+        let all = last + 1 - first;
+        (2 * all - once) as f64 / self.n as f64
     }
 
     /// Number of microphones.

@@ -124,6 +124,11 @@ pub struct Params {
     /// wavelength over part of the band, with a tracker only (`candidates` under 1).
     /// Default on; `--paper` and `--min-score`: off.
     pub bin_votes: bool,
+    /// The frequencies analysed, `(low, high)` in Hz (`--band`): every bin outside gets
+    /// the weight 0 in eq. (6), and the threshold's background terms shrink with the
+    /// share of the spectrum kept. `high` beyond the recording's Nyquist frequency is
+    /// taken as it. Default `None`: every bin.
+    pub band_hz: Option<(f64, f64)>,
 }
 
 impl Params {
@@ -173,6 +178,12 @@ impl Params {
                 start_s: self.start_s,
                 end_s: self.end_s,
             });
+        }
+        if let Some((low, high)) = self
+            .band_hz
+            .filter(|&(l, h)| !(l.is_finite() && h.is_finite() && l >= 0.0 && h > l))
+        {
+            return Err(ParamsError::Band { low, high });
         }
         if let Some(z) = self
             .threshold_sigmas
@@ -239,6 +250,7 @@ impl Default for Params {
             start_s: 0.0,
             end_s: None,
             bin_votes: true,
+            band_hz: None,
         }
     }
 }
@@ -315,6 +327,10 @@ pub const DEFAULT_RIDERS: f64 = 0.3;
 /// (seconds, at most one block of frames; see the `analyzer` module).
 pub const PRIMING_S: f64 = 0.25;
 
+/// The fewest frequency bins a `--band` may hold: a correlation of K bins has peaks
+/// about N/K lags wide, and with fewer than 8 the M = 8 peaks of a pair are ripples of
+/// one broad hump.
+pub const MIN_BAND_BINS: usize = 8;
 /// The largest frame size (samples): 1.4 s at 48 kHz, 0.34 s at 192 kHz.
 pub const MAX_FRAME_SIZE: usize = 1 << 16;
 
@@ -402,6 +418,28 @@ pub enum ParamsError {
         start_s: f64,
         /// The end (seconds), if given.
         end_s: Option<f64>,
+    },
+    /// `--band` is not a range of frequencies.
+    #[error("the band must be LOW-HIGH in Hz with 0 <= LOW < HIGH, got {}-{}", crate::text::Shown(*low), crate::text::Shown(*high))]
+    Band {
+        /// Its lower edge (Hz).
+        low: f64,
+        /// Its upper edge (Hz).
+        high: f64,
+    },
+    /// `--band` holds too few of the frame's frequency bins at the recording's rate.
+    #[error("the band {}-{} Hz holds {bins} frequency bin(s) of a {frame_size}-sample frame at {sample_rate} Hz (one every {} Hz, up to {} Hz); at least {MIN_BAND_BINS} are needed: widen the band or lengthen the frame (--frame-size)", crate::text::Shown(*low), crate::text::Shown(*high), crate::text::Shown(crate::text::fixed(*sample_rate as f64 / *frame_size as f64, 2)), sample_rate / 2)]
+    BandTooNarrow {
+        /// Its lower edge (Hz).
+        low: f64,
+        /// Its upper edge (Hz).
+        high: f64,
+        /// The bins it holds.
+        bins: usize,
+        /// The recording's rate (Hz).
+        sample_rate: u32,
+        /// The frame size.
+        frame_size: usize,
     },
     /// The frame cannot hold the array's largest delay on both sides of lag 0.
     #[error("the array's largest delay ({delay} samples at {sample_rate} Hz) does not fit in a frame of {frame_size} samples: a frame of {needed} samples or more is needed")]

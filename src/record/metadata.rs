@@ -156,6 +156,9 @@ pub struct ParametersInfo {
     /// Where it ended (seconds; `--end`), or `None` at the end of the recording.
     #[serde(default)]
     pub end_s: Option<f64>,
+    /// The frequencies analysed, `[low, high]` in Hz (`--band`), or `None`: all.
+    #[serde(default)]
+    pub band_hz: Option<[f64; 2]>,
     /// Whether the directions of single frequency bins give riders (`--no-bin-votes`
     /// turns them off; a document written before them has none: false).
     #[serde(default)]
@@ -209,6 +212,7 @@ impl RunMetadata {
                 wpe: params.wpe,
                 start_s: params.start_s,
                 end_s: params.end_s,
+                band_hz: params.band_hz.map(|(l, h)| [l, h]),
                 bin_votes: params.bin_votes_on(),
                 track: None,
             },

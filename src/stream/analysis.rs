@@ -13,6 +13,10 @@ use std::fmt;
 use std::io::Read;
 use std::ops::ControlFlow;
 
+/// A band whose bins let a perfectly coherent source stand less than this many times the
+/// calibrated threshold's chance allowance above chance is called narrow: real sources,
+/// with reverberation and noise, are half as coherent or less.
+const NARROW_BAND_MARGIN: f64 = 2.0;
 /// Below this largest delay (samples), the array's delays are called coarse.
 pub const COARSE_DELAY_SAMPLES: f64 = 10.0;
 
@@ -123,6 +127,18 @@ pub enum Warning {
         /// The sample rate (Hz).
         sample_rate: u32,
     },
+    /// `--band` holds so few frequency bins that even a perfectly coherent source
+    /// stands little above the calibrated threshold's allowance for chance.
+    NarrowBand {
+        /// The bins in the band.
+        bins: usize,
+        /// The chance deviations the threshold allows for.
+        sigmas: f64,
+        /// The frame size.
+        frame_size: usize,
+        /// The sample rate (Hz).
+        sample_rate: u32,
+    },
     /// Hardly any frame (under 1%) gave a detection: why, as far as the run can tell.
     FewDetections {
         /// Frames with a detection.
@@ -153,6 +169,14 @@ impl fmt::Display for Warning {
             Warning::CoarseDelays { samples, sample_rate } => write!(
                 f,
                 "the array's largest delay is only {samples:.1} samples at {sample_rate} Hz: delays, and so directions, are coarse (a higher sample rate or a wider array helps)"
+            ),
+            Warning::NarrowBand { bins, sigmas, frame_size, sample_rate } => write!(
+                f,
+                "the band holds {bins} frequency bins of a {frame_size}-sample frame at {sample_rate} Hz: a source's correlation stands at most about sqrt(2 x {bins}) = {:.1} chance deviations high, and the threshold asks for {}, so only clear, coherent sources are found (a longer frame, --frame-size {}, has about {} bins)",
+                (2.0 * *bins as f64).sqrt(),
+                crate::text::Shown(*sigmas),
+                frame_size * 4,
+                bins * 4
             ),
             Warning::Silence => write!(f, "every channel is constant (digital silence): no detections"),
             Warning::DeadMic { mic, channel, frames, of } => write!(
@@ -475,6 +499,17 @@ impl<S: SampleSource> Analysis<S> {
             });
         }
         let params = self.analyzer.params();
+        let bins = self.analyzer.band_bins();
+        let sigmas = params.threshold_sigmas.filter(|_| params.band_hz.is_some());
+        if let Some(sigmas) = sigmas.filter(|z| (2.0 * bins as f64).sqrt() < NARROW_BAND_MARGIN * z)
+        {
+            warnings.push(Warning::NarrowBand {
+                bins,
+                sigmas,
+                frame_size: self.frame_size(),
+                sample_rate: self.source.sample_rate(),
+            });
+        }
         if stats.frames >= 10
             && stats.silent_frames < stats.frames
             && stats.detections * 100 < stats.frames

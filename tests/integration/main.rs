@@ -7,6 +7,7 @@
 mod support;
 
 mod accuracy;
+mod band;
 mod benchmark;
 mod bounds;
 mod check;

@@ -59,9 +59,20 @@ impl Threshold {
         let w = steady_weight(params.alpha, params.reverb_level);
         Threshold {
             diffuse_floor: DIFFUSE_MARGIN
-                * diffuse_coherence(&layout.geometry, layout.n, layout.rate, layout.speed),
-            // E times the interpolation's overshoot.
-            steady_ceiling: STEADY_FRAME * w * w * params.interpolation.overshoot() * (1.0 + 1e-3),
+                * diffuse_coherence(
+                    &layout.geometry,
+                    layout.n,
+                    layout.rate,
+                    layout.speed,
+                    layout.band,
+                ),
+            // E times the interpolation's overshoot (E of the band's bins).
+            steady_ceiling: STEADY_FRAME
+                * w
+                * w
+                * layout.band_share()
+                * params.interpolation.overshoot()
+                * (1.0 + 1e-3),
             sigmas: params.threshold_sigmas,
             fixed: params.min_score_per_pair,
             n: layout.n,
@@ -105,17 +116,27 @@ pub fn steady_weight(alpha: f32, reverb_level: f32) -> f64 {
 pub const STEADY_FRAME: f64 = 1.5;
 
 /// The mean over the array's pairs and the bins `1..N/2` of the magnitude of the
-/// diffuse-field coherence, `|sinc(2 pi f d / c)|`.
-pub fn diffuse_coherence(geometry: &Geometry, n: usize, rate: f64, speed: f64) -> f64 {
+/// diffuse-field coherence, `|sinc(2 pi f d / c)|`, with the bins outside `band`
+/// (`first..=last`) counted as 0: their weight in eq. (6) is 0.
+pub fn diffuse_coherence(
+    geometry: &Geometry,
+    n: usize,
+    rate: f64,
+    speed: f64,
+    band: (usize, usize),
+) -> f64 {
     let mics = &geometry.mics;
     let (mut sum, mut count) = (0.0, 0.0);
     for (a, first) in mics.iter().enumerate() {
         for second in &mics[a + 1..] {
             let d = (second.position - first.position).norm();
             for k in 1..n / 2 {
+                count += 1.0;
+                if !(band.0..=band.1).contains(&k) {
+                    continue;
+                }
                 let x = std::f64::consts::TAU * (k as f64 * rate / n as f64) * d / speed;
                 sum += if x > 0.0 { (x.sin() / x).abs() } else { 1.0 };
-                count += 1.0;
             }
         }
     }
@@ -176,7 +197,7 @@ mod tests {
         };
         let at = |d: f64| {
             let g = Geometry::from_toml_str(&toml(d)).unwrap();
-            diffuse_coherence(&g, 256, 16000.0, 343.0)
+            diffuse_coherence(&g, 256, 16000.0, 343.0, (0, 128))
         };
         let (near, small, wide) = (at(0.001), at(0.05), at(0.5));
         assert!(near > 0.99, "{near}");

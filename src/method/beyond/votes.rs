@@ -180,6 +180,10 @@ impl BinVotes {
         let mut paths = [0.0f64; MAX_PAIRS];
         for (i, &band) in self.band_of.iter().enumerate() {
             let k = self.first + i;
+            if state.weights[k] == 0.0 {
+                // Outside `--band`: not analysed.
+                continue;
+            }
             // Capped as eq. (5)'s ratio is (a noise estimate of 0 after digital silence).
             let ratio = (state.power[k] / state.noise[k]).min(MAX_SNR_RATIO);
             if ratio.is_nan() || ratio < SNR_FLOOR {

@@ -110,6 +110,12 @@ impl Analyzer {
         s.geometry.aperture().0 * s.rate / s.speed
     }
 
+    /// How many frequency bins the analysis reads (`--band`; `N/2 + 1` without one).
+    pub fn band_bins(&self) -> usize {
+        let (first, last) = self.setup.band;
+        last + 1 - first
+    }
+
     /// The parameters, as checked.
     pub fn params(&self) -> &Params {
         &self.setup.params

@@ -54,7 +54,7 @@ impl Setup {
             .flatten();
         Ok(Setup {
             threshold: Threshold::new(&layout),
-            background_gate: background::gate(params),
+            background_gate: background::gate(params) * layout.band_share(),
             dereverb,
             votes,
             layout,

@@ -138,6 +138,12 @@ impl Worker {
                 &mut state.weights,
             );
         }
+        let (first, last) = setup.band;
+        if (first, last) != (0, setup.n / 2) {
+            // Outside `--band`, nothing: eq. (6) sums the band's bins alone.
+            state.weights[..first].fill(0.0);
+            state.weights[last + 1..].fill(0.0);
+        }
         state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.interpolation);
         state.reach = state.ceiling;
         state.threshold = setup.threshold.per_pair(&state.weights);
