@@ -22,7 +22,7 @@ mod fit;
 mod scan;
 
 use crate::geometry::{units, Geometry};
-use crate::stream::{InputError, SampleSource, WavStream};
+use crate::stream::{AudioStream, InputError, SampleSource};
 use fit::{orderings, Fit};
 use serde::Serialize;
 
@@ -131,7 +131,7 @@ fn finding(kind: &str, message: String) -> Finding {
 /// Checks the WAV file at `path` (`-` for standard input) against `geometry`.
 pub fn check(path: &str, geometry: &Geometry) -> Result<CheckReport, CheckError> {
     let name = if path == "-" { "<stdin>" } else { path }.to_string();
-    let mut stream = WavStream::open(path).map_err(|error| CheckError::Input {
+    let mut stream = AudioStream::open(path).map_err(|error| CheckError::Input {
         name: name.clone(),
         error,
     })?;

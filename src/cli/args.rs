@@ -41,8 +41,8 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     #[command(
-        about = "Localize sound sources in WAV recordings",
-        long_about = "Localize sound sources in WAV recordings.\n\n\
+        about = "Localize sound sources in WAV or FLAC recordings",
+        long_about = "Localize sound sources in WAV or FLAC recordings.\n\n\
         Writes one record per detected source per analysis frame (frames of N samples, hop N/2): \
         time_s (frame centre), azimuth_deg, elevation_deg, x, y, z (unit vector from the array centre), \
         score (summed weighted correlation of the chosen delays, one term per microphone pair: at most 1 each \
@@ -57,7 +57,7 @@ pub enum Command {
         after_help = "Examples:\n  \
         ssl analyze rec.wav -g array.toml                     CSV on standard output\n  \
         ssl analyze rec.wav -g array.toml -f json -o rec.json  one JSON document\n  \
-        sox in.flac -t wav - | ssl analyze - -g array.toml    from a pipe\n  \
+        sox in.mp3 -t wav - | ssl analyze - -g array.toml     from a pipe\n  \
         ssl analyze *.wav -g array.toml --min-score 0.3      a lower threshold per microphone pair"
     )]
     Analyze(Box<AnalyzeArgs>),
@@ -157,7 +157,7 @@ pub struct CompletionsArgs {
 
 #[derive(Debug, Args)]
 pub struct AnalyzeArgs {
-    /// WAV recordings (8/16/24/32-bit PCM or 32-bit float); `-` reads standard input
+    /// WAV (8/16/24/32-bit PCM or 32-bit float) or FLAC recordings; `-` reads standard input
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<String>,
 
@@ -336,7 +336,7 @@ pub const MAX_THREADS: u16 = 1024;
 
 #[derive(Debug, Args)]
 pub struct CheckArgs {
-    /// WAV recording (`-` for standard input)
+    /// WAV or FLAC recording (`-` for standard input)
     #[arg(value_name = "WAV")]
     pub recording: String,
 

@@ -36,7 +36,7 @@ use crate::method::{Detection, Params};
 use crate::record::{
     DetectionRecord, EventRecord, OutputError, RunMetadata, SourceRecord, Sources,
 };
-use crate::stream::{Analysis, AnalysisError, Channels, SampleSource, Summary, WavStream};
+use crate::stream::{Analysis, AnalysisError, AudioStream, Channels, SampleSource, Summary};
 use crate::track::{TrackParams, TrackStats, Tracker};
 use std::io::Read;
 use std::ops::ControlFlow;
@@ -85,17 +85,17 @@ impl Localizer {
             .with_tracking(self.settings.track.clone())
     }
 
-    /// Opens the WAV file at `path` (`-` for standard input).
-    pub fn open(&self, path: &str) -> Result<Recording<'_, WavStream>, AnalysisError> {
+    /// Opens the WAV or FLAC file at `path` (`-` for standard input).
+    pub fn open(&self, path: &str) -> Result<Recording<'_, AudioStream>, AnalysisError> {
         self.recording(Analysis::open(path, &self.geometry, &self.settings.method)?)
     }
 
-    /// Reads WAV bytes from `reader`, named `name` in messages and rows.
+    /// Reads WAV or FLAC bytes from `reader`, named `name` in messages and rows.
     pub fn from_reader(
         &self,
         name: &str,
         reader: impl Read + 'static,
-    ) -> Result<Recording<'_, WavStream>, AnalysisError> {
+    ) -> Result<Recording<'_, AudioStream>, AnalysisError> {
         let analysis = Analysis::from_reader(name, reader, &self.geometry, &self.settings.method);
         self.recording(analysis?)
     }

@@ -2,8 +2,8 @@
 //! stream its frames through the method's analyzer, reading the next block while the thread
 //! pool analyses the current one.
 
+use super::audio::AudioStream;
 use super::source::{Channels, Framer, SampleSource};
-use super::wav::WavStream;
 use super::wpe::{Filtered, Wpe};
 use super::InputError;
 use crate::geometry::Geometry;
@@ -246,23 +246,24 @@ pub struct Summary {
     pub warnings: Vec<Warning>,
 }
 
-impl Analysis<WavStream> {
-    /// Opens the WAV file at `path` (`-` for standard input) and checks it against
-    /// `geometry`.
+impl Analysis<AudioStream> {
+    /// Opens the WAV or FLAC file at `path` (`-` for standard input) and checks it
+    /// against `geometry`.
     pub fn open(path: &str, geometry: &Geometry, params: &Params) -> Result<Self, AnalysisError> {
         let name = if path == "-" { "<stdin>" } else { path };
-        let stream = WavStream::open(path).map_err(|e| fail(name, e.into()))?;
+        let stream = AudioStream::open(path).map_err(|e| fail(name, e.into()))?;
         Self::new(stream, geometry, params)
     }
 
-    /// Reads WAV bytes from `reader` (a pipe, a socket, a buffer), named `name` in messages.
+    /// Reads WAV or FLAC bytes from `reader` (a pipe, a socket, a buffer), named `name`
+    /// in messages.
     pub fn from_reader(
         name: &str,
         reader: impl Read + 'static,
         geometry: &Geometry,
         params: &Params,
     ) -> Result<Self, AnalysisError> {
-        let stream = WavStream::from_reader(name, Box::new(reader), None)
+        let stream = AudioStream::from_reader(name, Box::new(reader), None)
             .map_err(|e| fail(name, e.into()))?;
         Self::new(stream, geometry, params)
     }

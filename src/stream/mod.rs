@@ -2,13 +2,15 @@
 //! recording.
 //!
 //! - [`wav`]: WAV files and WAV bytes from any reader (pipes included), decoded a block
-//!   at a time.
+//!   at a time; [`flac`]: FLAC the same way; [`audio`]: either, told by its first bytes.
 //! - [`source`]: the [`SampleSource`] every input is, channels already in memory, and the
 //!   framer that cuts any source into blocks of overlapping frames.
 //! - [`analysis`]: one recording through the method, whatever its source, on the threads
 //!   of the current rayon pool.
 
 pub mod analysis;
+pub mod audio;
+pub mod flac;
 mod header;
 pub mod source;
 pub mod wav;
@@ -16,6 +18,8 @@ pub mod wpe;
 
 pub use crate::text::{io_reason, read_text, read_text_from};
 pub use analysis::{Analysis, AnalysisError, ErrorKind, Summary, Warning};
+pub use audio::AudioStream;
+pub use flac::FlacStream;
 pub use source::{Channels, SampleSource};
 pub use wav::{WavFormat, WavStream};
 
@@ -28,7 +32,7 @@ pub enum InputError {
     #[error("cannot open: {}", io_reason(.0))]
     Open(io::Error),
     /// The path is a directory.
-    #[error("is a directory, not a WAV file")]
+    #[error("is a directory, not a recording")]
     Directory,
     /// Reading failed (the reason is the operating system's).
     #[error("{}", io_reason(.0))]
@@ -36,7 +40,7 @@ pub enum InputError {
     /// Reading the samples failed.
     #[error("read error: {}", io_reason(.0))]
     Read(io::Error),
-    /// Not a WAV file; the message names what it is when that is recognised.
+    /// Not a WAV or FLAC file; the message names what it is when that is recognised.
     #[error("{0}")]
     NotWav(String),
     /// A WAV encoding this tool does not decode; the message says how to convert it.

@@ -15,7 +15,7 @@ use crate::support;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use ssl::localize::Output;
-use ssl::stream::WavStream;
+use ssl::stream::{AudioStream, WavStream};
 use ssl::{Geometry, Localizer, Options};
 use std::io::Cursor;
 use std::panic::AssertUnwindSafe;
@@ -298,6 +298,29 @@ fn fuzz_the_wav_reader_from_a_file_and_from_a_stream() {
         };
         // A header's placeholder length reads a file to its end, and a stream too.
         assert_eq!(file, stream, "the same bytes from a file and from a stream");
+    });
+}
+
+#[test]
+fn fuzz_the_flac_reader_from_a_file_and_from_a_stream() {
+    let pair = Geometry::from_file(&corpus_dir("geometry").join("pair.toml")).unwrap();
+    let localizer = Localizer::new(pair, &Options::default()).unwrap();
+    fuzz("flac", "flac", false, &|bytes: &[u8]| {
+        let open = |size: Option<u64>| {
+            AudioStream::from_reader("in", Box::new(Cursor::new(bytes.to_vec())), size)
+        };
+        match (open(Some(bytes.len() as u64)), open(None)) {
+            (Ok(f), Ok(s)) => {
+                // A live stream hands on each block as it comes: the same records.
+                assert_eq!(outputs(&localizer, f), outputs(&localizer, s));
+            }
+            (Err(f), Err(s)) => assert_eq!(f.to_string(), s.to_string()),
+            (f, s) => panic!(
+                "a file: {:?}; a stream: {:?}",
+                f.err().map(|e| e.to_string()),
+                s.err().map(|e| e.to_string())
+            ),
+        }
     });
 }
 

@@ -13,6 +13,7 @@ mod bounds;
 mod check;
 mod cli;
 mod entry_points;
+mod flac;
 mod formats;
 mod fuzz;
 mod inputs;
