@@ -83,7 +83,13 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         exporter: None,
     };
 
-    let show_progress = !args.quiet && io::stderr().is_terminal();
+    // Rows written to the terminal would be torn by a bar redrawn between them: no bar.
+    let rows_on_terminal = args
+        .output
+        .as_deref()
+        .is_none_or(|o| o == std::path::Path::new("-"))
+        && io::stdout().is_terminal();
+    let show_progress = !args.quiet && io::stderr().is_terminal() && !rows_on_terminal;
     let mut all_ok = true;
     let mut files = Vec::new();
     let mut coarse_said = std::collections::HashSet::new();
@@ -117,7 +123,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
                 }
             },
         );
-        progress.finish(&report.summary);
+        progress.finish(&report.summary, report.rows);
         let result = match result {
             Err(RunError::Output(e)) => return Err(out.failed(e)),
             Err(RunError::Input(e)) => Err(e),
@@ -153,6 +159,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         }
         files.push(
             FileEntry::new(path, Some(summary), message)
+                .with_rows(report.rows)
                 .with_tracking(report.tracking)
                 .with_warning(unconfirmed),
         );
@@ -291,7 +298,7 @@ impl Progress {
     }
 
     /// Clears the bar and, on a terminal, prints what the file gave.
-    fn finish(self, summary: &ssl::Summary) {
+    fn finish(self, summary: &ssl::Summary, rows: u64) {
         self.bar.finish_and_clear();
         if self.show {
             let frames = summary.stats.frames;
@@ -302,7 +309,7 @@ impl Progress {
             };
             let wall = self.started.elapsed().as_secs_f64().max(1e-6);
             eprintln!(
-                "{}: {} of audio in {:.1} s ({:.0}x real time), {} detections",
+                "{}: {} of audio in {:.1} s ({:.0}x real time), {rows} rows ({} frames with a detection)",
                 self.name,
                 clock(audio),
                 wall,

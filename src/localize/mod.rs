@@ -36,7 +36,9 @@ use crate::method::{Detection, Params};
 use crate::record::{
     DetectionRecord, EventRecord, OutputError, RunMetadata, SourceRecord, Sources,
 };
-use crate::stream::{Analysis, AnalysisError, AudioStream, Channels, SampleSource, Summary};
+use crate::stream::{
+    Analysis, AnalysisError, AudioStream, Channels, ClockOrigin, SampleSource, Summary,
+};
 use crate::track::{TrackParams, TrackStats, Tracker};
 use std::io::Read;
 use std::ops::ControlFlow;
@@ -47,12 +49,21 @@ use std::ops::ControlFlow;
 pub struct Localizer {
     geometry: Geometry,
     settings: Settings,
+    /// Rows and events carry wall-clock times (`--clock`).
+    clock: bool,
 }
 
 impl Localizer {
     /// A localizer of `geometry` with `options` (resolved and checked once, here).
     pub fn new(geometry: Geometry, options: &Options) -> Result<Self, SettingsError> {
-        Self::with_settings(geometry, options.settings()?)
+        Ok(Self::with_settings(geometry, options.settings()?)?.with_clock(options.clock))
+    }
+
+    /// The same, with rows and events carrying wall-clock times from each recording's
+    /// Broadcast WAV time reference (`--clock`): a recording without one is an error.
+    pub fn with_clock(mut self, clock: bool) -> Self {
+        self.clock = clock;
+        self
     }
 
     /// A localizer of `geometry` with settings already resolved (for tuning what
@@ -60,7 +71,11 @@ impl Localizer {
     /// [`Settings::new`].
     pub fn with_settings(geometry: Geometry, settings: Settings) -> Result<Self, SettingsError> {
         let settings = Settings::new(settings.method, settings.track)?;
-        Ok(Localizer { geometry, settings })
+        Ok(Localizer {
+            geometry,
+            settings,
+            clock: false,
+        })
     }
 
     /// The array.
@@ -83,6 +98,7 @@ impl Localizer {
     pub fn metadata(&self, geometry_file: &str) -> RunMetadata {
         RunMetadata::new(&self.geometry, geometry_file, &self.settings.method)
             .with_tracking(self.settings.track.clone())
+            .with_clock(self.clock)
     }
 
     /// Opens the WAV or FLAC file at `path` (`-` for standard input).
@@ -128,9 +144,14 @@ impl Localizer {
         &self,
         analysis: Analysis<S>,
     ) -> Result<Recording<'_, S>, AnalysisError> {
+        let clock = match self.clock {
+            true => Some(analysis.clock_origin()?),
+            false => None,
+        };
         Ok(Recording {
             localizer: self,
             analysis,
+            clock,
         })
     }
 }
@@ -156,6 +177,8 @@ pub struct Report {
     pub summary: Summary,
     /// What the tracker made of the detections (`None` untracked).
     pub tracking: Option<TrackStats>,
+    /// Rows given to the sink.
+    pub rows: u64,
 }
 
 /// Why a recording's run stopped early.
@@ -174,6 +197,8 @@ pub enum RunError {
 pub struct Recording<'a, S: SampleSource> {
     localizer: &'a Localizer,
     analysis: Analysis<S>,
+    /// When its first sample was recorded, with `--clock`.
+    clock: Option<ClockOrigin>,
 }
 
 impl<S: SampleSource> Recording<'_, S> {
@@ -208,6 +233,7 @@ impl<S: SampleSource> Recording<'_, S> {
         let geometry = &self.localizer.geometry;
         let name = self.analysis.name().to_string();
         let rate = self.analysis.sample_rate() as f64;
+        let clock = self.clock;
         let speed = settings
             .method
             .speed_of_sound
@@ -227,9 +253,22 @@ impl<S: SampleSource> Recording<'_, S> {
         let mut failure = None;
         // The tracks' events, summed per track for the sources.
         let sources = std::cell::RefCell::new(Sources::default());
-        let mut sink = |out: Output| {
-            if let Output::Event(e) = &out {
-                sources.borrow_mut().add(e);
+        let rows = std::cell::Cell::new(0u64);
+        let mut sink = |mut out: Output| {
+            match &out {
+                Output::Event(e) => sources.borrow_mut().add(e),
+                Output::Row(_) => rows.set(rows.get() + 1),
+                Output::Source(_) => {}
+            }
+            if let Some(origin) = &clock {
+                match &mut out {
+                    Output::Row(r) => r.clock = Some(origin.at(r.time_s)),
+                    Output::Event(e) => {
+                        e.start_clock = Some(origin.at(e.start_s));
+                        e.end_clock = Some(origin.at(e.end_s));
+                    }
+                    Output::Source(_) => {}
+                }
             }
             sink(out)
         };
@@ -264,6 +303,7 @@ impl<S: SampleSource> Recording<'_, S> {
         let report = Report {
             summary,
             tracking: tracker.as_ref().map(Tracker::stats),
+            rows: rows.get(),
         };
         let result = match failure {
             Some(e) => Err(RunError::Output(e)),

@@ -74,6 +74,9 @@ pub struct Options {
     pub end_s: Option<f64>,
     /// The frequencies analysed, `(low, high)` in Hz (`None`: all).
     pub band_hz: Option<(f64, f64)>,
+    /// Rows and events carry wall-clock times from each recording's Broadcast WAV time
+    /// reference (`--clock`; see [`Localizer::with_clock`](super::Localizer::with_clock)).
+    pub clock: bool,
     /// Riders from single frequency bins on small arrays (with a tracker).
     pub bin_votes: bool,
     /// The most sources one frame gives (1 to 4; 1 with the paper's method, a fixed
@@ -131,6 +134,7 @@ impl Default for Options {
             start_s: 0.0,
             end_s: None,
             band_hz: None,
+            clock: false,
             bin_votes: true,
             max_sources: DEFAULT_MAX_SOURCES,
             candidates: None,

@@ -43,9 +43,9 @@ impl<W: Write> CsvExporter<W> {
         Ok(())
     }
 
-    /// Writes the header of `T`'s columns (its field names, in order).
-    fn header<T: Serialize + Default>(&mut self) -> Result<(), csv::Error> {
-        T::default().serialize(&mut Row {
+    /// Writes the header of `template`'s columns (its field names, in order).
+    fn header<T: Serialize>(&mut self, template: &T) -> Result<(), csv::Error> {
+        template.serialize(&mut Row {
             out: &mut self.out,
             buf: &mut self.buf,
             header: true,
@@ -63,11 +63,20 @@ impl<W: Write> CsvExporter<W> {
 }
 
 impl<W: Write> Exporter<W> for CsvExporter<W> {
-    fn begin(&mut self, _meta: &RunMetadata) -> Result<(), OutputError> {
+    fn begin(&mut self, meta: &RunMetadata) -> Result<(), OutputError> {
+        // With --clock, the fields that are otherwise absent.
+        let clock = meta.parameters.clock.then(String::new);
         match self.records {
-            Records::Detections => self.header::<DetectionRecord>()?,
-            Records::Events => self.header::<EventRecord>()?,
-            Records::Sources => self.header::<SourceRecord>()?,
+            Records::Detections => self.header(&DetectionRecord {
+                clock,
+                ..Default::default()
+            })?,
+            Records::Events => self.header(&EventRecord {
+                start_clock: clock.clone(),
+                end_clock: clock,
+                ..Default::default()
+            })?,
+            Records::Sources => self.header(&SourceRecord::default())?,
         }
         Ok(())
     }
@@ -327,7 +336,7 @@ mod tests {
     #[test]
     fn rows_follow_the_record_type() {
         let mut csv = CsvExporter::new(Vec::new(), Records::Detections);
-        csv.header::<DetectionRecord>().unwrap();
+        csv.header(&DetectionRecord::default()).unwrap();
         let record = DetectionRecord {
             time_s: 0.106667,
             azimuth_deg: -0.0000001,
@@ -341,6 +350,7 @@ mod tests {
             mics: None,
             source: Some(3),
             uncertainty_deg: Some(4.5),
+            clock: None,
         };
         csv.row(&record).unwrap();
         let text = String::from_utf8(csv.out.into_inner().unwrap()).unwrap();

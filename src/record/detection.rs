@@ -42,6 +42,10 @@ pub struct DetectionRecord {
     /// result written before 0.3.0.
     #[serde(default)]
     pub uncertainty_deg: Option<f64>,
+    /// The frame centre's wall-clock time on the recorder's clock, ISO 8601 to the
+    /// microsecond, with `--clock` only (the field is absent without it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock: Option<String>,
 }
 
 impl DetectionRecord {
@@ -66,6 +70,7 @@ impl DetectionRecord {
             mics: Some(d.mics),
             source,
             uncertainty_deg: Some(fixed(d.uncertainty_deg, 2)),
+            clock: None,
         };
         match record.non_finite() {
             Some(field) => Err(OutputError::NonFinite {

@@ -50,6 +50,13 @@ pub struct EventRecord {
     /// result written before 0.3.0.
     #[serde(default)]
     pub uncertainty_deg: Option<f64>,
+    /// The wall-clock times of `start_s` and `end_s` on the recorder's clock, ISO 8601
+    /// to the microsecond, with `--clock` only (the fields are absent without it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_clock: Option<String>,
+    /// See `start_clock`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_clock: Option<String>,
 }
 
 impl EventRecord {
@@ -76,6 +83,8 @@ impl EventRecord {
             end_azimuth_deg: fixed(end_azimuth, 3),
             end_elevation_deg: fixed(end_elevation, 3),
             uncertainty_deg: Some(fixed(e.uncertainty_deg, 2)),
+            start_clock: None,
+            end_clock: None,
         };
         match record.non_finite() {
             Some(field) => Err(OutputError::NonFiniteEvent {

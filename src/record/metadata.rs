@@ -165,6 +165,9 @@ pub struct ParametersInfo {
     pub bin_votes: bool,
     /// The tracker's parameters, or null with tracking off.
     pub track: Option<TrackParams>,
+    /// Whether rows and events carry wall-clock times (`--clock`).
+    #[serde(default)]
+    pub clock: bool,
 }
 
 /// A single-precision parameter as it was written (`0.4`), not as its nearest double.
@@ -215,6 +218,7 @@ impl RunMetadata {
                 band_hz: params.band_hz.map(|(l, h)| [l, h]),
                 bin_votes: params.bin_votes_on(),
                 track: None,
+                clock: false,
             },
         }
     }
@@ -222,6 +226,12 @@ impl RunMetadata {
     /// The same, with tracking by `track` (or off).
     pub fn with_tracking(mut self, track: Option<TrackParams>) -> Self {
         self.parameters.track = track;
+        self
+    }
+
+    /// The same, with wall-clock times on rows and events (`--clock`) or not.
+    pub fn with_clock(mut self, clock: bool) -> Self {
+        self.parameters.clock = clock;
         self
     }
 }
@@ -309,6 +319,9 @@ pub struct FileEntry {
     /// Frames with a detection.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub detections: Option<u64>,
+    /// Rows written for the file (docs/interface.md, "Detections").
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub rows: Option<u64>,
     /// Warnings about the recording.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub warnings: Option<Vec<String>>,
@@ -329,6 +342,7 @@ impl FileEntry {
             frame_size: summary.map(|s| s.frame_size),
             frames: summary.map(|s| s.stats.frames),
             detections: summary.map(|s| s.stats.detections),
+            rows: None,
             warnings: summary.map(|s| {
                 s.warnings
                     .iter()
@@ -336,6 +350,14 @@ impl FileEntry {
                     .collect()
             }),
             tracking: None,
+        }
+    }
+
+    /// The entry with the rows written for the file.
+    pub fn with_rows(self, rows: u64) -> Self {
+        FileEntry {
+            rows: Some(rows),
+            ..self
         }
     }
 

@@ -3,6 +3,7 @@
 //! pool analyses the current one.
 
 use super::audio::AudioStream;
+use super::clock::ClockOrigin;
 use super::source::{Channels, Framer, SampleSource};
 use super::wpe::{Filtered, Wpe};
 use super::InputError;
@@ -89,6 +90,9 @@ pub enum ErrorKind {
         /// Channels in the recording.
         channels: usize,
     },
+    /// `--clock` asks for wall-clock times the recording does not give.
+    #[error("--clock needs the recording's start time, and {0}")]
+    NoClock(String),
     /// The recording holds no complete frame.
     #[error("the recording is {samples} samples ({:.1} ms) long, shorter than one analysis frame of {frame_size} samples ({:.1} ms)", *samples as f64 * 1000.0 / *sample_rate as f64, *frame_size as f64 * 1000.0 / *sample_rate as f64)]
     TooShort {
@@ -375,6 +379,17 @@ impl<S: SampleSource> Analysis<S> {
     /// The recording's sample rate (Hz).
     pub fn sample_rate(&self) -> u32 {
         self.source.sample_rate()
+    }
+
+    /// When the first sample was recorded, on the recorder's clock, or why that is not
+    /// known (a Broadcast WAV `bext` chunk's dated time reference; `--clock`).
+    pub fn clock_origin(&self) -> Result<ClockOrigin, AnalysisError> {
+        let why = match (self.source.clock_origin(), self.source.time_reference()) {
+            (Some(origin), _) => return Ok(origin),
+            (None, Some(_)) => "its bext chunk's origination date is not a date (yyyy-mm-dd)",
+            (None, None) => "it has no Broadcast WAV bext chunk before its data (one is written by field recorders and by `bwfmetaedit --Timereference`)",
+        };
+        Err(fail(self.name(), ErrorKind::NoClock(why.into())))
     }
 
     /// The recording's length in seconds, when known in advance.

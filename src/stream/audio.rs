@@ -109,4 +109,12 @@ impl SampleSource for AudioStream {
     fn describe(&self) -> String {
         self.inner().describe()
     }
+
+    fn clock_origin(&self) -> Option<super::clock::ClockOrigin> {
+        self.inner().clock_origin()
+    }
+
+    fn time_reference(&self) -> Option<super::clock::TimeReference> {
+        self.inner().time_reference()
+    }
 }

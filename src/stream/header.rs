@@ -24,6 +24,9 @@ pub struct WavFormat {
     pub float: bool,
     /// Sample frames the header promises (`None`: placeholder length, read to the end).
     pub frames: Option<u64>,
+    /// The Broadcast WAV `bext` chunk's time reference, when a `bext` chunk comes before
+    /// the data.
+    pub time_reference: Option<super::clock::TimeReference>,
 }
 
 impl WavFormat {
@@ -161,6 +164,7 @@ pub(super) fn parse_fmt(b: &[u8]) -> Result<(WavFormat, u64), InputError> {
             bits_per_sample: valid_bits,
             float,
             frames: None,
+            time_reference: None,
         },
         block_align,
     ))

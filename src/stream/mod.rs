@@ -10,6 +10,7 @@
 
 pub mod analysis;
 pub mod audio;
+pub mod clock;
 pub mod flac;
 mod header;
 pub mod source;
@@ -19,6 +20,7 @@ pub mod wpe;
 pub use crate::text::{io_reason, read_text, read_text_from};
 pub use analysis::{Analysis, AnalysisError, ErrorKind, Summary, Warning};
 pub use audio::AudioStream;
+pub use clock::{ClockOrigin, TimeReference};
 pub use flac::FlacStream;
 pub use source::{Channels, SampleSource};
 pub use wav::{WavFormat, WavStream};

@@ -31,6 +31,15 @@ pub trait SampleSource {
     fn notes(&self) -> Vec<String> {
         Vec::new()
     }
+    /// When the first sample was recorded, on the recorder's clock (a Broadcast WAV
+    /// `bext` time reference with a date), if the source says.
+    fn clock_origin(&self) -> Option<super::clock::ClockOrigin> {
+        None
+    }
+    /// The source's time reference, dated or not, if it has one.
+    fn time_reference(&self) -> Option<super::clock::TimeReference> {
+        None
+    }
     /// The sample format in words, for reports.
     fn describe(&self) -> String {
         format!(

@@ -10,6 +10,7 @@
 //! container is exact); the tests check this decoder against hound's for every encoding.
 //! Memory does not depend on the length of the recording.
 
+use super::clock::{ClockOrigin, TimeReference, BEXT_TIME_END};
 use super::header::{not_wav, parse_fmt};
 pub use super::header::{WavFormat, MAX_CHANNELS, MAX_RATE, MIN_RATE};
 use super::source::SampleSource;
@@ -88,6 +89,7 @@ impl WavStream {
         let mut consumed: u64 = 12;
         let mut fmt: Option<Vec<u8>> = None;
         let mut ds64_data: Option<u64> = None;
+        let mut bext: Option<TimeReference> = None;
         let declared = loop {
             let mut head = [0u8; 8];
             if read_full(&mut input, &mut head).map_err(InputError::Io)? < 8 {
@@ -136,6 +138,24 @@ impl WavStream {
                     })?;
                 }
                 b"data" => break len,
+                b"bext" if len as usize >= BEXT_TIME_END => {
+                    let mut body = vec![0u8; BEXT_TIME_END];
+                    if read_full(&mut input, &mut body).map_err(InputError::Io)? < body.len() {
+                        return Err(InputError::Corrupt(
+                            "truncated WAV: the file ends in the header".into(),
+                        ));
+                    }
+                    bext = TimeReference::from_bext(&body);
+                    let skip = len + (len % 2) - BEXT_TIME_END as u64;
+                    let skipped = io::copy(&mut (&mut input).take(skip), &mut io::sink())
+                        .map_err(InputError::Io)?;
+                    if skipped < skip {
+                        return Err(InputError::Corrupt(
+                            "truncated WAV: no data chunk (the file ends in the header)".into(),
+                        ));
+                    }
+                    consumed += len + (len % 2);
+                }
                 _ => {
                     let skip = len + (len % 2);
                     let skipped = io::copy(&mut (&mut input).take(skip), &mut io::sink())
@@ -170,6 +190,7 @@ impl WavStream {
             (d, _) => Some(d),
         };
         format.frames = data_bytes.map(|d| d / block_align);
+        format.time_reference = bext;
         let tail = data_bytes.map_or(0, |d| d % block_align);
         let whole = tail == 0;
         Ok(WavStream {
@@ -358,6 +379,17 @@ impl SampleSource for WavStream {
 
     fn is_live(&self) -> bool {
         self.live
+    }
+
+    fn clock_origin(&self) -> Option<ClockOrigin> {
+        ClockOrigin::new(
+            self.format.time_reference.as_ref()?,
+            self.format.sample_rate,
+        )
+    }
+
+    fn time_reference(&self) -> Option<TimeReference> {
+        self.format.time_reference
     }
 }
 

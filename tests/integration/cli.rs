@@ -254,13 +254,15 @@ fn min_score_is_per_microphone_pair() {
     assert!(lower.iter().any(|r| r.score < 0.5 * 28.0));
 }
 
-/// Runs `ssl args` with stderr on a terminal (util-linux `script`); returns what it shows.
+/// Runs `ssl args` with stderr on a terminal (util-linux `script`), the rows to
+/// out.csv; returns what it shows.
 fn on_terminal(dir: &Path, args: &str) -> String {
-    let cmd = format!(
-        "{} {args} -o {}",
-        env!("CARGO_BIN_EXE_ssl"),
-        s(&dir.join("out.csv"))
-    );
+    on_terminal_raw(dir, &format!("{args} -o {}", s(&dir.join("out.csv"))))
+}
+
+/// Runs `ssl args` with stdout and stderr on a terminal; returns what it shows.
+fn on_terminal_raw(dir: &Path, args: &str) -> String {
+    let cmd = format!("{} {args}", env!("CARGO_BIN_EXE_ssl"));
     let out = Command::new("script")
         .args(["-qec", &cmd, "/dev/null"])
         .current_dir(dir)
@@ -302,7 +304,17 @@ fn the_progress_bar_counts_audio_time_and_each_file_ends_with_a_summary() {
         summary.contains("long.wav: 0:20.3 of audio in"),
         "{summary}"
     );
-    assert!(summary.contains("detections"), "{summary}");
+    assert!(
+        summary.contains(" rows (") && summary.contains("frames with a detection)"),
+        "{summary}"
+    );
+    // Rows on the terminal: no bar to tear them, no summary line among them.
+    let shown = on_terminal_raw(dir.path(), "analyze long.wav -g prism.toml -j 1");
+    assert!(
+        !shown.contains("ETA") && !shown.contains("of audio in"),
+        "{shown}"
+    );
+    assert!(shown.contains("time_s,azimuth_deg"), "{shown}");
 }
 
 #[test]

@@ -12,6 +12,7 @@ mod benchmark;
 mod bounds;
 mod check;
 mod cli;
+mod clock;
 mod entry_points;
 mod flac;
 mod formats;

@@ -610,3 +610,38 @@ fn an_output_in_a_missing_directory_names_the_directory() {
         stderr(&out)
     );
 }
+
+#[test]
+fn a_files_entry_counts_its_rows_and_its_frames_with_a_detection() {
+    // Two sources at once: frames with a detection are fewer than rows.
+    let dir = tempdir();
+    let mics = prism();
+    let mut sc = scene(
+        mics.clone(),
+        48000,
+        &[
+            (40.0, 0.0, Signal::WhiteNoise),
+            (-100.0, 10.0, Signal::WhiteNoise),
+        ],
+        1.2,
+        0.002,
+        4,
+    );
+    // Both on over the same interval.
+    let first = (sc.sources[0].start_s, sc.sources[0].end_s);
+    sc.sources[1].start_s = first.0;
+    sc.sources[1].end_s = first.1;
+    let wav = render_wav(dir.path(), "two.wav", &sc, Encoding::Int16);
+    let geometry = write(dir.path(), "prism.toml", geometry_toml(&mics, ""));
+    let out = run(&["analyze", s(&wav), "-g", s(&geometry), "--format", "json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = doc["detections"].as_array().unwrap().len() as u64;
+    let entry = &doc["files"][0];
+    assert_eq!(entry["rows"].as_u64(), Some(rows));
+    let frames = entry["detections"].as_u64().unwrap();
+    assert!(
+        frames < rows,
+        "{frames} frames with a detection, {rows} rows"
+    );
+}
