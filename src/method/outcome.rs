@@ -152,6 +152,12 @@ pub struct FrameStats {
     /// For frames decided by the weights' ceiling before their search: the most any of
     /// them could have scored per microphone pair.
     pub best_bound_per_pair: Option<f64>,
+    /// Pairs, over the frames with sound above the noise, whose correlation reached the
+    /// frame's threshold per pair ([`crate::method::beyond::edges`]).
+    pub strong_pairs: u64,
+    /// Of those, the pairs whose correlation was largest at the edge of the lags the
+    /// geometry allows: delays longer than the geometry's.
+    pub edge_pairs: u64,
     /// The lowest and highest mean power of a frame with signal, over the recording:
     /// close together when the recording is steady from start to end.
     pub power_range: Option<(f64, f64)>,

@@ -45,6 +45,8 @@ pub(crate) struct FrameState {
     pub teaches: bool,
     /// The directions of its bins ([`super::beyond::votes`]), when they vote.
     pub(crate) votes: Vec<Vote>,
+    /// Its pairs that peak past the lags the geometry allows ([`super::beyond::edges`]).
+    pub(crate) edges: super::beyond::edges::Edges,
 }
 
 /// One bin's vote ([`super::beyond::votes`]): its direction and weight.
@@ -89,6 +91,7 @@ impl FrameState {
             correlated: Correlated::No,
             teaches: false,
             votes: Vec::new(),
+            edges: Default::default(),
         }
     }
 }

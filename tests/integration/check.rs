@@ -173,3 +173,18 @@ fn a_silent_file_is_said_to_be_and_an_unreadable_one_is_exit_2() {
         );
     }
 }
+
+#[test]
+fn analyze_warns_when_the_delays_keep_exceeding_the_geometry() {
+    let (dir, wav, geometry) = support::recording(1.5);
+    let warned = |g: &std::path::Path| {
+        let out = run(&["analyze", s(&wav), "-g", s(g), "-o", "/dev/null"]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        stderr(&out).contains("the delays keep exceeding what the geometry allows")
+    };
+    assert!(!warned(&geometry));
+    // The prism with its positions 30% too small.
+    let small: Vec<_> = prism().iter().map(|p| p * 0.7).collect();
+    let small = write(dir.path(), "small.toml", geometry_toml(&small, ""));
+    assert!(warned(&small));
+}

@@ -27,9 +27,10 @@
 //! directions move by under 0.02 deg, tests/integration/accuracy.rs); a bin with no direct sound
 //! gives a phase at random, as PHAT does.
 
+use super::edges::Edges;
 use crate::geometry::Geometry;
 use crate::method::layout::Layout;
-use crate::method::paper::correlation::{peak_ceiling, Correlator};
+use crate::method::paper::correlation::{peak_ceiling, window_max, Correlator};
 use crate::method::paper::pairs::pair_index;
 use crate::method::state::FrameState;
 use multiversion::multiversion;
@@ -68,7 +69,8 @@ impl Dereverberator {
     /// hear both microphones, weighted by `w_e(k)^2` averaged over the live frames.
     /// Written to `out` laid out as a frame's windows ([`Layout::window_starts`]). Returns the
     /// most any value (or refined peak) can be, as [`peak_ceiling`] bounds it for the
-    /// averaged weights.
+    /// averaged weights. `edges` counts the pairs that peak past their window.
+    #[allow(clippy::too_many_arguments)]
     pub fn correlate(
         &mut self,
         setup: &Layout,
@@ -77,6 +79,7 @@ impl Dereverberator {
         live: &[bool],
         correlator: &mut Correlator,
         out: &mut [f32],
+        edges: &mut Edges,
     ) -> f64 {
         let state = span.last().expect("a frame");
         let mics = setup.mics();
@@ -135,7 +138,13 @@ impl Dereverberator {
                 let pair = pair_index(state.live[a], state.live[b], mics);
                 let half = setup.max_lag[pair] + 1;
                 let start = setup.window_starts[pair];
-                correlator.lags_into(which == 1, &mut out[start..start + 2 * half + 1]);
+                let window = &mut out[start..start + 2 * half + 1];
+                correlator.lags_into(which == 1, window);
+                edges.add(
+                    window_max(window, f32::NEG_INFINITY),
+                    correlator.beyond_max(which == 1, half, 2 * half + 2),
+                    state.threshold,
+                );
             }
         }
         reach

@@ -19,6 +19,7 @@ use super::setup::Setup;
 use super::worker::Worker;
 use crate::geometry::Geometry;
 use crate::method::beyond::background::Background;
+use crate::method::beyond::edges::Edges;
 use crate::method::beyond::patterns::Patterns;
 use crate::method::outcome::{Detections, FrameStats, Outcome, StageTimes};
 use crate::method::paper::frames::{FrameBlock, BLOCK};
@@ -49,7 +50,7 @@ pub(crate) struct Analyzer {
     /// Per frame of the block, its dereverberated correlations (swapped into its state)
     /// and the most they can be.
     dereverbed: Vec<Vec<f32>>,
-    reach: Vec<f64>,
+    reach: Vec<(f64, Edges)>,
     detections: Vec<Detections>,
     times: Option<StageTimes>,
 }
@@ -76,7 +77,7 @@ impl Analyzer {
             hopeless: vec![false; BLOCK + setup.params.average_frames - 1],
             skip: vec![false; BLOCK],
             outcomes: vec![Outcome::Silent; BLOCK],
-            reach: vec![0.0; BLOCK],
+            reach: vec![(0.0, Edges::default()); BLOCK],
             dereverbed: if setup.dereverb.is_some() {
                 vec![vec![0.0; setup.windows_len]; BLOCK]
             } else {
@@ -261,7 +262,7 @@ impl Analyzer {
                     Correlated::Skipped
                 } else {
                     std::mem::swap(&mut state.windows, out);
-                    state.reach = self.reach[i];
+                    (state.reach, state.edges) = self.reach[i];
                     Correlated::Yes
                 };
             }
@@ -318,6 +319,13 @@ impl Analyzer {
         if let Some(times) = self.times.as_mut() {
             for w in workers {
                 times.add(&std::mem::take(&mut w.lock().expect("a worker panicked").1));
+            }
+        }
+        // Pairs whose delays run past the geometry's, over the frames with sound.
+        for (state, &live) in states[carried..].iter().zip(&live[carried..]) {
+            if live && !state.steady && state.correlated == Correlated::Yes {
+                self.sequential.stats.strong_pairs += state.edges.strong as u64;
+                self.sequential.stats.edge_pairs += state.edges.beyond as u64;
             }
         }
         // The last frames go before the next block's.

@@ -9,6 +9,7 @@
 
 use super::setup::Setup;
 use crate::method::beyond::dereverb::Dereverberator;
+use crate::method::beyond::edges::Edges;
 use crate::method::beyond::frame_sources::add_further;
 use crate::method::beyond::steered::{Query, Steered, FURTHER_SHARE};
 use crate::method::beyond::votes::{add_riders, VotePeak};
@@ -95,15 +96,24 @@ impl Worker {
         live: &[bool],
         out: &mut [f32],
         times: Option<&mut StageTimes>,
-    ) -> f64 {
+    ) -> (f64, Edges) {
         let mut clock = Clock::new(times);
         let k = span.last().map_or(0, |s| s.live.len());
         clock.count((pair_count(k), 0));
         let dereverb = self.dereverb.as_mut().expect("dereverberation planned");
         let coherence = setup.dereverb.as_ref().expect("dereverberation planned");
-        let reach = dereverb.correlate(setup, coherence, span, live, &mut self.correlator, out);
+        let mut edges = Edges::default();
+        let reach = dereverb.correlate(
+            setup,
+            coherence,
+            span,
+            live,
+            &mut self.correlator,
+            out,
+            &mut edges,
+        );
         clock.lap(|t| &mut t.correlation);
-        reach
+        (reach, edges)
     }
 
     /// The first stage: live microphones, spectra and `X(k)`. Mic `m`'s samples are
@@ -202,6 +212,7 @@ impl Worker {
         let mut list = (0..k).flat_map(|a| (a + 1..k).map(move |b| (a, b)));
         let mut best_possible = 0.0;
         let mut done = 0;
+        let mut edges = Edges::default();
         while let Some(first) = list.next() {
             let second = list.next();
             if alone
@@ -211,6 +222,7 @@ impl Worker {
                 clock.count((0, pairs - done));
                 state.correlated =
                     Correlated::Stopped(best_possible + (pairs - done) as f64 * state.ceiling);
+                state.edges = Edges::default();
                 return;
             }
             clock.count((if second.is_some() { 2 } else { 1 }, 0));
@@ -223,12 +235,15 @@ impl Worker {
                 let window = &mut state.windows[start..start + 2 * half + 1];
                 self.correlator.lags_into(which == 1, window);
                 let top = window_max(window, f32::NEG_INFINITY);
+                let beyond = self.correlator.beyond_max(which == 1, half, 2 * half + 2);
+                edges.add(top, beyond, state.threshold);
                 best_possible += (top.max(0.0) * overshoot) as f64;
                 done += 1;
             }
         }
         clock.lap(|t| &mut t.correlation);
         state.correlated = Correlated::Yes;
+        state.edges = edges;
     }
 
     /// The stages after the correlations for the last frame of `span` (the frame and the

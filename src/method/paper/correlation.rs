@@ -130,6 +130,25 @@ impl Correlator {
     }
 }
 
+impl Correlator {
+    /// The largest value of the first pair (or the second) of the last
+    /// [`Correlator::correlate`] at the lags `half < |tau| <= reach` (`reach < N/2`): past
+    /// a window of `half` lags each side.
+    pub fn beyond_max(&self, second: bool, half: usize, reach: usize) -> f32 {
+        let n = self.n;
+        let reach = reach.min(n / 2 - 1);
+        if reach <= half {
+            return f32::NEG_INFINITY;
+        }
+        let part = |z: &Complex32| if second { z.im } else { z.re };
+        self.buffer[half + 1..=reach]
+            .iter()
+            .chain(&self.buffer[n - reach..n - half])
+            .map(part)
+            .fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
 /// `out[i] = z[i].re` (or `.im` when `imaginary`).
 #[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 fn pick_part(z: &[Complex32], imaginary: bool, out: &mut [f32]) {
