@@ -7,10 +7,11 @@
 //! directions over their active intervals (black lines, and rings on the sky map) and
 //! the headline figures of `ssl evaluate` in the row's title.
 //!
-//! Large results stay small: each panel draws at most one mark per cell of a grid of
-//! [`TIME_BINS`] columns by 1 deg (azimuth and elevation), the first detection of the cell
-//! setting its colour; while more than [`MAX_MARKS`] cells are occupied the cells double
-//! in size. The same input gives the same bytes.
+//! Large results stay small: a file with more than [`MAX_MARKS`] detections draws at most
+//! one mark per cell of a grid of [`TIME_BINS`] columns by 1 deg (azimuth and elevation),
+//! the first detection of the cell setting its colour; while more than [`MAX_MARKS`]
+//! cells are occupied the cells double in size. The same input gives the same bytes. A
+//! legend on the sky map says which colour is which source, and what black is.
 
 mod read;
 
@@ -30,8 +31,9 @@ pub const MAX_MARKS: usize = 20_000;
 /// bounded (40,000 one-row files made 629 MB of SVG).
 pub const MAX_FILES: usize = 64;
 
-/// Width of the picture and height of one file's row (pixels).
-const WIDTH: u32 = 1500;
+/// Width of the picture and height of one file's row (pixels): it fits a 1400-pixel
+/// window with its scroll bar.
+const WIDTH: u32 = 1360;
 const ROW: u32 = 440;
 
 /// Why a picture could not be drawn.
@@ -92,11 +94,19 @@ fn score_colour(x: f64) -> RGBColor {
     )
 }
 
-/// One mark: time, azimuth, elevation, colour.
-type Mark = (f64, f64, f64, RGBColor);
+/// One mark: time, azimuth, elevation, colour, and its source (`None` untracked).
+type Mark = (f64, f64, f64, RGBColor, Option<u64>);
 
-/// The marks of `rows`, binned (see the module's documentation).
+/// The marks of `rows`: every row, or binned when there are more than [`MAX_MARKS`]
+/// (see the module's documentation).
 pub fn marks(rows: &[DetectionRecord], duration: f64) -> Vec<(f64, f64, f64, u64)> {
+    if rows.len() <= MAX_MARKS {
+        return rows
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r.time_s, r.azimuth_deg, r.elevation_deg, i as u64))
+            .collect();
+    }
     let mut scale = 1.0;
     loop {
         let dt = duration.max(1e-9) / TIME_BINS as f64 * scale;
@@ -199,7 +209,7 @@ fn draw_file<DB: DrawingBackend>(
     };
     let points: Vec<Mark> = kept
         .iter()
-        .map(|&(t, a, e, i)| (t, a, e, colour(i)))
+        .map(|&(t, a, e, i)| (t, a, e, colour(i), file.detections[i as usize].source))
         .collect();
     let mut title = format!(
         "{}: {} detections{}",
@@ -234,8 +244,9 @@ fn draw_file<DB: DrawingBackend>(
         title += "; colour: tracked source";
     }
     let area = area.titled(&title, ("sans-serif", 15)).map_err(draw_err)?;
-    let (azimuth, rest) = area.split_horizontally(560);
-    let (elevation, sky) = rest.split_horizontally(560);
+    let third = area.dim_in_pixel().0 / 3;
+    let (azimuth, rest) = area.split_horizontally(third);
+    let (elevation, sky) = rest.split_horizontally(third);
     // Azimuth and elevation against time.
     for (panel, which, range, label) in [
         (&azimuth, 0usize, -180.0..180.0, "azimuth (deg)"),
@@ -253,8 +264,9 @@ fn draw_file<DB: DrawingBackend>(
             .y_desc(label)
             .max_light_lines(0)
             .bold_line_style(RGBColor(225, 225, 225))
-            .x_labels(10)
+            .x_labels(8)
             .y_labels(9)
+            .x_label_formatter(&|v| plain(*v))
             .y_label_formatter(&|v| format!("{v:.0}"))
             .draw()
             .map_err(draw_err)?;
@@ -266,7 +278,7 @@ fn draw_file<DB: DrawingBackend>(
                         chart
                             .draw_series(LineSeries::new(
                                 piece.iter().map(|&(t, az, el)| (t, value(az, el))),
-                                BLACK.stroke_width(2),
+                                BLACK.mix(0.45).stroke_width(2),
                             ))
                             .map_err(draw_err)?;
                     }
@@ -290,7 +302,7 @@ fn draw_file<DB: DrawingBackend>(
             .draw_series(
                 points
                     .iter()
-                    .map(|&(t, a, e, c)| Circle::new((t, value(a, e)), 2, c.filled())),
+                    .map(|&(t, a, e, c, _)| Circle::new((t, value(a, e)), 2, c.filled())),
             )
             .map_err(draw_err)?;
     }
@@ -313,14 +325,76 @@ fn draw_file<DB: DrawingBackend>(
         .y_label_formatter(&|v| format!("{v:.0}"))
         .draw()
         .map_err(draw_err)?;
-    if let Some((t, _)) = truth {
+    // Events at their mean direction (an events-only result draws these alone).
+    let mut sources: Vec<u64> = file.events.iter().map(|e| e.source).collect();
+    sources.extend(points.iter().filter_map(|p| p.4));
+    sources.sort_unstable();
+    sources.dedup();
+    if !file.events.is_empty() {
+        chart
+            .draw_series(file.events.iter().map(|e| {
+                Rectangle::new(
+                    [
+                        (e.azimuth_deg - 2.5, e.elevation_deg - 2.5),
+                        (e.azimuth_deg + 2.5, e.elevation_deg + 2.5),
+                    ],
+                    track_colour(e.source).mix(0.6).filled(),
+                )
+            }))
+            .map_err(draw_err)?
+            .label("event (mean direction; bars over time)")
+            .legend(|(x, y)| {
+                Rectangle::new(
+                    [(x, y - 4), (x + 8, y + 4)],
+                    RGBColor(127, 127, 127).filled(),
+                )
+            });
+    }
+    if points.iter().any(|p| p.4.is_none()) {
         chart
             .draw_series(
-                t.sources.iter().map(|s| {
-                    Cross::new((s.azimuth_deg, s.elevation_deg), 7, BLACK.stroke_width(2))
-                }),
+                points
+                    .iter()
+                    .filter(|p| p.4.is_none())
+                    .map(|&(_, a, e, c, _)| Circle::new((a, e), 2, c.filled())),
+            )
+            .map_err(draw_err)?
+            .label("detection (colour: score, dark low, bright high)")
+            .legend(|(x, y)| Circle::new((x + 4, y), 3, score_colour(0.8).filled()));
+    }
+    for (k, &source) in sources.iter().enumerate() {
+        let c = track_colour(source);
+        let series = chart
+            .draw_series(
+                points
+                    .iter()
+                    .filter(|p| p.4 == Some(source))
+                    .map(|&(_, a, e, c, _)| Circle::new((a, e), 2, c.filled())),
             )
             .map_err(draw_err)?;
+        // Ten colours: beyond them the legend would repeat them, and grow past the panel.
+        if k < PALETTE.len() {
+            series
+                .label(format!("source {source}"))
+                .legend(move |(x, y)| Circle::new((x + 4, y), 3, c.filled()));
+        } else if k == PALETTE.len() {
+            series
+                .label(format!("... {} sources in all", sources.len()))
+                .legend(move |(x, y)| Circle::new((x + 4, y), 3, c.filled()));
+        }
+    }
+    if let Some((t, _)) = truth {
+        chart
+            .draw_series(t.sources.iter().map(|s| {
+                Cross::new(
+                    (s.azimuth_deg, s.elevation_deg),
+                    7,
+                    BLACK.mix(0.6).stroke_width(2),
+                )
+            }))
+            .map_err(draw_err)?
+            .label("truth (black: crosses here, lines over time)")
+            .legend(|(x, y)| Cross::new((x + 4, y), 4, BLACK.stroke_width(2)));
         // A moving source's path, from its cross on.
         for s in t.sources.iter().filter(|s| s.turn().is_some()) {
             for &[a, b] in &s.active {
@@ -328,20 +402,23 @@ fn draw_file<DB: DrawingBackend>(
                     chart
                         .draw_series(LineSeries::new(
                             piece.iter().map(|&(_, az, el)| (az, el)),
-                            BLACK.stroke_width(1),
+                            BLACK.mix(0.6).stroke_width(1),
                         ))
                         .map_err(draw_err)?;
                 }
             }
         }
     }
-    chart
-        .draw_series(
-            points
-                .iter()
-                .map(|&(_, a, e, c)| Circle::new((a, e), 2, c.filled())),
-        )
-        .map_err(draw_err)?;
+    if !sources.is_empty() || truth.is_some() || points.iter().any(|p| p.4.is_none()) {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(200, 200, 200))
+            .label_font(("sans-serif", 11))
+            .draw()
+            .map_err(draw_err)?;
+    }
     Ok(())
 }
 
@@ -374,6 +451,16 @@ impl PlotData {
             s += &format!(" | threshold: {t}");
         }
         s
+    }
+}
+
+/// A tick's value as plain numbers: `600`, not `600.0`; `2.5` as it is.
+fn plain(v: f64) -> String {
+    let r = (v * 1000.0).round() / 1000.0 + 0.0;
+    if r == r.trunc() {
+        format!("{r:.0}")
+    } else {
+        format!("{r}")
     }
 }
 

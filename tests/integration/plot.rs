@@ -34,11 +34,12 @@ fn plot(args: &[&str]) -> std::process::Output {
 }
 
 /// Every `<circle>` of the SVG, and all its text.
+/// The marks (circles of radius 2; the legend's are 3) and the text of an SVG.
 fn circles_and_text(svg: &str) -> (usize, String) {
     let doc = roxmltree::Document::parse(svg).expect("the SVG parses as XML");
     let circles = doc
         .descendants()
-        .filter(|n| n.has_tag_name("circle"))
+        .filter(|n| n.has_tag_name("circle") && n.attribute("r") == Some("2"))
         .count();
     let text = doc
         .descendants()
@@ -70,6 +71,10 @@ fn the_example_plot_has_one_mark_per_detection_per_panel_and_its_labels() {
         "calibrated per frame",
         "3 events",
         "events detected 100%",
+        // The legend.
+        "source 1",
+        "truth (black",
+        "event (mean direction",
     ] {
         assert!(text.contains(label), "{label} missing from:\n{text}");
     }
@@ -112,8 +117,8 @@ fn several_files_get_one_row_each_and_file_picks_one() {
     let (circles, text) = circles_and_text(&String::from_utf8(o.stdout).unwrap());
     assert_eq!(circles, 3 * rows);
     assert!(text.contains("testdata/example.wav") && text.contains("<stdin>"));
-    // Without tracks the marks are coloured by score, and the title says so.
-    assert!(text.contains("colour: score"));
+    // Without tracks the marks are coloured by score, and the title and legend say so.
+    assert!(text.contains("colour: score") && text.contains("detection (colour: score"));
     let o = plot(&[s(&csv), "--file", "<stdin>"]);
     let (circles, text) = circles_and_text(&String::from_utf8(o.stdout).unwrap());
     assert_eq!(circles, 3 * rows / 2);
@@ -248,4 +253,52 @@ fn one_picture_draws_a_bounded_number_of_files() {
     assert!(out.status.success(), "{}", stderr(&out));
     let size = std::fs::metadata(d.join("most.svg")).unwrap().len();
     assert!(size < 2 << 20, "{size} bytes");
+}
+
+#[test]
+fn an_events_only_result_fills_the_sky_map_and_the_picture_fits_a_window() {
+    let dir = tempdir();
+    let events = dir.path().join("events.csv");
+    let o = ssl()
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "analyze",
+            "testdata/example.wav",
+            "-g",
+            "testdata/prism.toml",
+        ])
+        .args(["--events", "-o", s(&events)])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = plot(&[s(&events)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg = String::from_utf8(o.stdout).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let root = doc.root_element();
+    // A 1400-pixel window shows it whole.
+    let width: f64 = root.attribute("width").unwrap().parse().unwrap();
+    assert!(width <= 1380.0, "{width}");
+    // Each event is a bar in both time panels and a square (drawn at 0.6 opacity) on the
+    // sky map, the third panel, right of two thirds of the width.
+    let squares: Vec<f64> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("rect") && n.attribute("opacity") == Some("0.6"))
+        .filter_map(|n| n.attribute("x")?.parse().ok())
+        .collect();
+    let events_written = std::fs::read_to_string(&events).unwrap().lines().count() - 1;
+    assert!(events_written > 0);
+    assert_eq!(squares.len(), events_written);
+    assert!(
+        squares.iter().all(|&x| x > width * 2.0 / 3.0),
+        "{squares:?}"
+    );
+    // Ticks in plain numbers: 1, 2.5, never 1.0.
+    let (_, text) = circles_and_text(&svg);
+    for line in text.lines() {
+        let t = line.trim();
+        if t.parse::<f64>().is_ok() {
+            assert!(!t.ends_with(".0"), "tick {t}");
+        }
+    }
 }
