@@ -153,7 +153,7 @@ pub struct FrameStats {
     /// them could have scored per microphone pair.
     pub best_bound_per_pair: Option<f64>,
     /// Pairs, over the frames with sound above the noise, whose correlation reached the
-    /// frame's threshold per pair ([`crate::method::beyond::edges`]).
+    /// frame's threshold per pair (`src/method/beyond/edges.rs`).
     pub strong_pairs: u64,
     /// Of those, the pairs whose correlation was largest at the edge of the lags the
     /// geometry allows: delays longer than the geometry's.
