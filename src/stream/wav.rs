@@ -10,14 +10,14 @@
 //! container is exact); the tests check this decoder against hound's for every encoding.
 //! Memory does not depend on the length of the recording.
 
+use super::audio::open_input;
 use super::clock::{ClockOrigin, TimeReference, BEXT_TIME_END};
 use super::header::{not_wav, parse_fmt};
 pub use super::header::{WavFormat, MAX_CHANNELS, MAX_RATE, MIN_RATE};
 use super::source::SampleSource;
 use super::InputError;
 use multiversion::multiversion;
-use std::fs::File;
-use std::io::{self, BufReader, Read};
+use std::io::{self, Read};
 
 /// A streaming WAV reader producing interleaved `f32` samples in [-1, 1).
 pub struct WavStream {
@@ -51,25 +51,8 @@ pub struct WavStream {
 impl WavStream {
     /// Opens a WAV file, or standard input for `-`.
     pub fn open(path: &str) -> Result<Self, InputError> {
-        if path == "-" {
-            return Self::from_reader(
-                "<stdin>",
-                Box::new(BufReader::with_capacity(1 << 16, io::stdin())),
-                None,
-            );
-        }
-        let file = File::open(path).map_err(InputError::Open)?;
-        let meta = file.metadata().map_err(InputError::Io)?;
-        if meta.is_dir() {
-            return Err(InputError::Directory);
-        }
-        // A named pipe or a device (`/dev/stdin`) has no length: read it to its end, as `-`.
-        let size = meta.is_file().then_some(meta.len());
-        Self::from_reader(
-            path,
-            Box::new(BufReader::with_capacity(1 << 16, file)),
-            size,
-        )
+        let (name, input, size) = open_input(path)?;
+        Self::from_reader(name, input, size)
     }
 
     /// Reads the header from `input`; `size` is the total byte size when known (a file).
