@@ -3,33 +3,10 @@
 //! which names what the file is.
 
 use super::flac::FlacStream;
-use super::source::SampleSource;
+use super::source::{open_input, SampleSource};
 use super::wav::WavStream;
 use super::InputError;
-use std::fs::File;
-use std::io::{self, BufReader, Cursor, Read};
-
-/// An opened input: its name in messages, a reader, and its size when known.
-pub(super) type Input<'a> = (&'a str, Box<dyn Read>, Option<u64>);
-
-/// The input at `path` (standard input for `-`): its name in messages, a buffered
-/// reader, and its size when it is a regular file (a pipe or a device has none and is
-/// read as it arrives).
-pub(super) fn open_input(path: &str) -> Result<Input<'_>, InputError> {
-    if path == "-" {
-        let stdin = BufReader::with_capacity(1 << 16, io::stdin());
-        return Ok(("<stdin>", Box::new(stdin), None));
-    }
-    let file = File::open(path).map_err(InputError::Open)?;
-    let meta = file.metadata().map_err(InputError::Io)?;
-    if meta.is_dir() {
-        return Err(InputError::Directory);
-    }
-    // A named pipe or a device (`/dev/stdin`) has no length: read it to its end, as `-`.
-    let size = meta.is_file().then_some(meta.len());
-    let file = BufReader::with_capacity(1 << 16, file);
-    Ok((path, Box::new(file), size))
-}
+use std::io::{self, Cursor, Read};
 
 /// A WAV or FLAC recording, streamed.
 pub enum AudioStream {

@@ -10,11 +10,10 @@
 //! container is exact); the tests check this decoder against hound's for every encoding.
 //! Memory does not depend on the length of the recording.
 
-use super::audio::open_input;
 use super::clock::{ClockOrigin, TimeReference, BEXT_TIME_END};
 use super::header::{not_wav, parse_fmt};
 pub use super::header::{WavFormat, MAX_CHANNELS, MAX_RATE, MIN_RATE};
-use super::source::SampleSource;
+use super::source::{open_input, SampleSource};
 use super::InputError;
 use multiversion::multiversion;
 use std::io::{self, Read};
