@@ -6,6 +6,7 @@
 //! it was too, and the results go to `<stem>.partial.<ext>` beside it.
 
 use super::args::AnalyzeArgs;
+use super::inputs::Input;
 use super::sink::{same_file, Sink};
 use super::{error, output_error, warn, warning_with_hint, with_hint};
 use anyhow::Result;
@@ -22,15 +23,48 @@ use std::time::Instant;
 type Out = BufWriter<Sink>;
 
 /// The output, opened on the first frame of the first file that gives one.
-struct Output<'a> {
+pub(super) struct Output<'a> {
     args: &'a AnalyzeArgs,
     meta: RunMetadata,
     sink: Option<Sink>,
     exporter: Option<Box<dyn Exporter<Out>>>,
     shown: String,
+    /// Some input is a pipe or a device: records go out as they are made.
+    live_input: bool,
 }
 
-impl Output<'_> {
+impl<'a> Output<'a> {
+    /// An output to `sink` with the run's metadata.
+    pub(super) fn new(
+        args: &'a AnalyzeArgs,
+        meta: RunMetadata,
+        sink: Sink,
+        live_input: bool,
+    ) -> Self {
+        Output {
+            args,
+            meta,
+            shown: sink.shown().to_string(),
+            sink: Some(sink),
+            exporter: None,
+            live_input,
+        }
+    }
+
+    /// Ends the output with the files' entries and commits it; `false` when nothing was
+    /// written (no file gave a frame).
+    pub(super) fn finish_into(mut self, files: &[FileEntry]) -> Result<bool> {
+        let Some(exporter) = self.exporter.take() else {
+            return Ok(false);
+        };
+        let buffered = exporter.finish(files).map_err(|e| self.failed(e))?;
+        let sink = buffered
+            .into_inner()
+            .map_err(|e| self.failed(e.into_error().into()))?;
+        sink.commit()?;
+        Ok(true)
+    }
+
     fn exporter(&mut self) -> Result<&mut Box<dyn Exporter<Out>>, OutputError> {
         if self.exporter.is_none() {
             let sink = self
@@ -44,12 +78,7 @@ impl Output<'_> {
                 .exporter(BufWriter::with_capacity(1 << 16, sink), self.args.records());
             // Records go out as they are made to a reader of standard output that waits
             // for them: always as NDJSON, in every format when the input is live.
-            let live_input = self
-                .args
-                .files
-                .iter()
-                .any(|f| f == "-" || !std::fs::metadata(f).is_ok_and(|m| m.is_file()));
-            if live && (self.args.format == Format::Ndjson || live_input) {
+            if live && (self.args.format == Format::Ndjson || self.live_input) {
                 exporter.flush_each_record();
             }
             exporter.begin(&self.meta)?;
@@ -63,25 +92,29 @@ impl Output<'_> {
     }
 }
 
-/// Runs `ssl analyze`. Returns whether every file succeeded.
-pub fn run(args: &AnalyzeArgs) -> Result<bool> {
+/// The localizer of `args` and their inputs, each said once: the geometry's warnings.
+pub(super) fn prepare(args: &AnalyzeArgs) -> Result<(Localizer, Vec<Input>)> {
     let geometry = Geometry::from_file(&args.geometry)?;
-    let geometry_path = args.geometry.display().to_string();
     for w in &geometry.warnings {
-        warn(args.quiet, &format!("{geometry_path}: {w}"));
+        warn(args.quiet, &format!("{}: {w}", args.geometry.display()));
     }
     let localizer = Localizer::new(geometry, &args.options())?;
-    let mut inputs: Vec<&Path> = args.files.iter().map(Path::new).collect();
+    Ok((localizer, super::inputs::expand(args)?))
+}
+
+/// Runs `ssl analyze` into one output. Returns whether every file succeeded.
+pub fn run(args: &AnalyzeArgs) -> Result<bool> {
+    let (localizer, expanded) = prepare(args)?;
+    let geometry_path = args.geometry.display().to_string();
+    let paths: Vec<String> = expanded.into_iter().map(|i| i.path).collect();
+    let mut inputs: Vec<&Path> = paths.iter().map(Path::new).collect();
     inputs.push(&args.geometry);
     let sink = Sink::open(args.output.as_deref(), &inputs)?;
-    warn_about_repeats(args);
-    let mut out = Output {
-        args,
-        meta: localizer.metadata(&geometry_path),
-        shown: sink.shown().to_string(),
-        sink: Some(sink),
-        exporter: None,
-    };
+    warn_about_repeats(args.quiet, &paths);
+    let live_input = paths
+        .iter()
+        .any(|f| f == "-" || !std::fs::metadata(f).is_ok_and(|m| m.is_file()));
+    let mut out = Output::new(args, localizer.metadata(&geometry_path), sink, live_input);
 
     // Rows written to the terminal would be torn by a bar redrawn between them: no bar.
     let rows_on_terminal = args
@@ -92,77 +125,11 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let show_progress = !args.quiet && io::stderr().is_terminal() && !rows_on_terminal;
     let mut all_ok = true;
     let mut files = Vec::new();
-    let mut coarse_said = std::collections::HashSet::new();
-    for path in &args.files {
-        let recording = match localizer.open(path) {
-            Ok(r) => r,
-            Err(e) => {
-                let message = with_hint(&e);
-                error(&message);
-                files.push(FileEntry::new(path, None, Some(message)));
-                all_ok = false;
-                continue;
-            }
-        };
-        let progress = Progress::new(show_progress, recording.analysis());
-        // The output opens on the first frame of the first file that gives one.
-        let shared = RefCell::new(&mut out);
-        let (report, result) = recording.run_observed(
-            |index| {
-                progress.frame(index);
-                shared.borrow_mut().exporter().map(|_| ())
-            },
-            |found| {
-                let mut out = shared.borrow_mut();
-                let exporter = out.exporter()?;
-                match found {
-                    Found::Row(row) => exporter.detection(&row),
-                    Found::Event(event) => exporter.event(&event),
-                    Found::Source(source) => exporter.source(&source),
-                    _ => Ok(()),
-                }
-            },
-        );
-        progress.finish(&report.summary, report.rows);
-        let result = match result {
-            Err(RunError::Output(e)) => return Err(out.failed(e)),
-            Err(RunError::Input(e)) => Err(e),
-            Err(e) => return Err(e.into()),
-            Ok(()) => Ok(()),
-        };
-        let summary = &report.summary;
-        // A file's own error first, then its remarks.
-        let message = result.err().map(|e| with_hint(&e));
-        if let Some(e) = &message {
-            error(e);
-            all_ok = false;
-        }
-        for w in &summary.warnings {
-            // The array's coarse delays are the same for every file at a rate: said once.
-            // So is a band's narrowness.
-            if let Warning::CoarseDelays { sample_rate, .. }
-            | Warning::NarrowBand { sample_rate, .. } = w
-            {
-                if !coarse_said.insert((std::mem::discriminant(w), *sample_rate)) {
-                    continue;
-                }
-            }
-            warn(args.quiet, &warning_with_hint(&summary.name, w));
-        }
-        let unconfirmed = report
-            .tracking
-            .zip(localizer.tracking())
-            .and_then(|(stats, p)| nothing_confirmed(&stats, p))
-            .map(|note| format!("{}: {note}", summary.name));
-        if let Some(note) = &unconfirmed {
-            warn(args.quiet, note);
-        }
-        files.push(
-            FileEntry::new(path, Some(summary), message)
-                .with_rows(report.rows)
-                .with_tracking(report.tracking)
-                .with_warning(unconfirmed),
-        );
+    let mut said = Said::default();
+    for path in &paths {
+        let entry = analyze_one(args, &localizer, path, &mut out, show_progress, &mut said)?;
+        all_ok &= entry.error.is_none();
+        files.push(entry);
     }
     let Some(exporter) = out.exporter.take() else {
         // Nothing was analysed: nothing is written, an existing file stays as it was.
@@ -179,6 +146,87 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
         error(&note);
     }
     Ok(all_ok)
+}
+
+/// What has been said once per run (the array's coarse delays and a band's narrowness,
+/// per sample rate).
+#[derive(Default)]
+pub(super) struct Said(std::collections::HashSet<(std::mem::Discriminant<Warning>, u32)>);
+
+/// Analyses the recording at `path` into `out` (opened on its first frame), saying its
+/// error and warnings on stderr; returns its entry. Only an output that fails is an error.
+pub(super) fn analyze_one(
+    args: &AnalyzeArgs,
+    localizer: &Localizer,
+    path: &str,
+    out: &mut Output,
+    show_progress: bool,
+    said: &mut Said,
+) -> Result<FileEntry> {
+    let recording = match localizer.open(path) {
+        Ok(r) => r,
+        Err(e) => {
+            let message = with_hint(&e);
+            error(&message);
+            return Ok(FileEntry::new(path, None, Some(message)));
+        }
+    };
+    let progress = Progress::new(show_progress, recording.analysis());
+    // The output opens on the first frame of the first file that gives one.
+    let shared = RefCell::new(&mut *out);
+    let (report, result) = recording.run_observed(
+        |index| {
+            progress.frame(index);
+            shared.borrow_mut().exporter().map(|_| ())
+        },
+        |found| {
+            let mut out = shared.borrow_mut();
+            let exporter = out.exporter()?;
+            match found {
+                Found::Row(row) => exporter.detection(&row),
+                Found::Event(event) => exporter.event(&event),
+                Found::Source(source) => exporter.source(&source),
+                _ => Ok(()),
+            }
+        },
+    );
+    progress.finish(&report.summary, report.rows);
+    let result = match result {
+        Err(RunError::Output(e)) => return Err(out.failed(e)),
+        Err(RunError::Input(e)) => Err(e),
+        Err(e) => return Err(e.into()),
+        Ok(()) => Ok(()),
+    };
+    let summary = &report.summary;
+    // A file's own error first, then its remarks.
+    let message = result.err().map(|e| with_hint(&e));
+    if let Some(e) = &message {
+        error(e);
+    }
+    for w in &summary.warnings {
+        // The array's coarse delays are the same for every file at a rate: said once.
+        // So is a band's narrowness.
+        if let Warning::CoarseDelays { sample_rate, .. } | Warning::NarrowBand { sample_rate, .. } =
+            w
+        {
+            if !said.0.insert((std::mem::discriminant(w), *sample_rate)) {
+                continue;
+            }
+        }
+        warn(args.quiet, &warning_with_hint(&summary.name, w));
+    }
+    let unconfirmed = report
+        .tracking
+        .zip(localizer.tracking())
+        .and_then(|(stats, p)| nothing_confirmed(&stats, p))
+        .map(|note| format!("{}: {note}", summary.name));
+    if let Some(note) = &unconfirmed {
+        warn(args.quiet, note);
+    }
+    Ok(FileEntry::new(path, Some(summary), message)
+        .with_rows(report.rows)
+        .with_tracking(report.tracking)
+        .with_warning(unconfirmed))
 }
 
 /// Why a tracked file gave no row although the method detected something: every
@@ -216,14 +264,14 @@ fn nothing_confirmed(
 }
 
 /// Warns when the same file is given twice (its detections would be written twice).
-fn warn_about_repeats(args: &AnalyzeArgs) {
-    for (i, a) in args.files.iter().enumerate() {
-        if let Some(b) = args.files[..i]
+fn warn_about_repeats(quiet: bool, files: &[String]) {
+    for (i, a) in files.iter().enumerate() {
+        if let Some(b) = files[..i]
             .iter()
             .find(|b| *b == a || (a != "-" && same_file(Path::new(a), Path::new(b))))
         {
             warn(
-                args.quiet,
+                quiet,
                 &format!("{a}: the same file as {b}, given earlier; it is analysed twice"),
             );
         }

@@ -157,9 +157,21 @@ pub struct CompletionsArgs {
 
 #[derive(Debug, Args)]
 pub struct AnalyzeArgs {
-    /// WAV (8/16/24/32-bit PCM or 32-bit float) or FLAC recordings; `-` reads standard input
-    #[arg(required = true, value_name = "FILE")]
+    /// WAV (8/16/24/32-bit PCM or 32-bit float) or FLAC recordings, or directories (searched recursively for --glob); `-` reads standard input
+    #[arg(required_unless_present = "files_from", value_name = "PATH")]
     pub files: Vec<String>,
+
+    /// Also analyse the paths in this file, one per line (`-`: standard input)
+    #[arg(long, value_name = "LIST")]
+    pub files_from: Option<PathBuf>,
+
+    /// Which files of a directory to analyse (repeatable; matched against the path under the directory, ignoring case) [default: *.wav, *.flac]
+    #[arg(long, value_name = "PATTERN")]
+    pub glob: Vec<String>,
+
+    /// One result per input in this directory, at the input's path relative to the directory it was found in (or as --files-from gives it), with the format's extension; each written atomically; a summary ends the run (DIR/batch.json with --format json)
+    #[arg(long, value_name = "DIR", conflicts_with = "output")]
+    pub out_dir: Option<PathBuf>,
 
     /// Array geometry (TOML: [[mic]] tables with position = [x, y, z] in metres)
     #[arg(short, long, value_name = "TOML")]

@@ -4,9 +4,11 @@
 
 mod analyze;
 pub mod args;
+mod batch;
 mod check;
 mod evaluate;
 mod geometry;
+mod inputs;
 mod plot;
 mod simulate;
 mod sink;
@@ -47,7 +49,12 @@ pub fn main() -> i32 {
             .num_threads(args.threads as usize)
             .build()
             .map_err(anyhow::Error::from)
-            .and_then(|pool| pool.install(|| analyze::run(&args))),
+            .and_then(|pool| {
+                pool.install(|| match &args.out_dir {
+                    Some(dir) => batch::run(&args, dir),
+                    None => analyze::run(&args),
+                })
+            }),
         Command::Geometry(args) => geometry::run(&args).map(|()| true),
         Command::Check(_) => unreachable!("handled above"),
         Command::Simulate(args) => simulate::run(&args).map(|()| true),

@@ -71,7 +71,15 @@ fn missing_file() {
 #[test]
 fn directory_and_empty_file() {
     let (dir, _, geo) = setup();
-    expect_error(s(dir.path()), &geo, s(dir.path()), &["directory"]);
+    // A directory without recordings (its recordings are analysed: tests/batch.rs).
+    let nothing = dir.path().join("nothing");
+    std::fs::create_dir(&nothing).unwrap();
+    expect_error(
+        s(&nothing),
+        &geo,
+        s(&nothing),
+        &["directory with no file matching"],
+    );
     let empty = write(dir.path(), "empty.wav", b"");
     expect_error(s(&empty), &geo, "empty.wav", &["empty"]);
 }

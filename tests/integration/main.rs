@@ -8,6 +8,7 @@ mod support;
 
 mod accuracy;
 mod band;
+mod batch;
 mod benchmark;
 mod bounds;
 mod check;

@@ -1,0 +1,180 @@
+//! Many files (docs/interface.md, "Many files"): directories searched recursively,
+//! `--glob`, `--files-from`, and `--out-dir` with one result per input at its relative
+//! path, each the bytes a run on that input alone writes; failures listed, never
+//! stopping the batch; a summary, and DIR/batch.json with `--format json`.
+
+use crate::support;
+
+use std::path::Path;
+use support::*;
+
+fn copy(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+    std::fs::copy(from, to).unwrap();
+}
+
+#[test]
+fn a_directory_gives_one_result_per_recording_at_its_relative_path() {
+    let dir = tempdir();
+    let root = dir.path();
+    let example = testdata("example.wav");
+    let archive = root.join("archive");
+    copy(&example, &archive.join("day1/a/x1.wav"));
+    copy(&example, &archive.join("day1/x2.WAV"));
+    let (_keep, other, _) = recording(0.5);
+    copy(&other, &archive.join("day2/x3.wav"));
+    let bytes = std::fs::read(&example).unwrap();
+    write(&archive.join("day2"), "broken.wav", &bytes[..3000]);
+    write(&archive.join("day2"), "notes.txt", "not audio");
+    let geometry = testdata("prism.toml");
+    let out = root.join("out");
+    let o = run(&[
+        "analyze",
+        s(&archive),
+        "-g",
+        s(&geometry),
+        "--out-dir",
+        s(&out),
+        "--format",
+        "json",
+    ]);
+    // One input failed: the status says so, the others have their results.
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("4 input(s): 3 done, 1 failed"), "{e}");
+    assert!(
+        e.contains("failed: ") && e.contains("broken.wav: truncated WAV"),
+        "{e}"
+    );
+    let mut written: Vec<String> = Vec::new();
+    fn walk(d: &Path, base: &Path, out: &mut Vec<String>) {
+        for e in std::fs::read_dir(d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, base, out)
+            } else {
+                out.push(p.strip_prefix(base).unwrap().display().to_string());
+            }
+        }
+    }
+    walk(&out, &out, &mut written);
+    written.sort();
+    assert_eq!(
+        written,
+        [
+            "batch.json",
+            "day1/a/x1.json",
+            "day1/x2.json",
+            "day2/x3.json"
+        ]
+    );
+    // Each result is what a run on that input alone writes.
+    for (input, result) in [
+        ("day1/a/x1.wav", "day1/a/x1.json"),
+        ("day2/x3.wav", "day2/x3.json"),
+    ] {
+        let alone = root.join("alone.json");
+        let input = archive.join(input);
+        let o = run(&[
+            "analyze",
+            s(&input),
+            "-g",
+            s(&geometry),
+            "--format",
+            "json",
+            "-o",
+            s(&alone),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            std::fs::read(out.join(result)).unwrap(),
+            std::fs::read(&alone).unwrap(),
+            "{result}"
+        );
+    }
+    let batch: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("batch.json")).unwrap()).unwrap();
+    assert_eq!(batch["done"], 3);
+    assert_eq!(batch["failed"], 1);
+    assert!(batch["audio_s"].as_f64().unwrap() > 4.4);
+    let files = batch["files"].as_array().unwrap();
+    assert_eq!(files.len(), 4);
+    assert!(files
+        .iter()
+        .any(|f| f["result"].is_null() && f["error"].as_str().unwrap().contains("truncated")));
+    // --glob chooses; a name two inputs would share is refused before anything runs.
+    let only = root.join("only");
+    let o = run(&[
+        "analyze",
+        s(&archive),
+        "-g",
+        s(&geometry),
+        "--out-dir",
+        s(&only),
+        "--glob",
+        "day1/**",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(only.join("day1/a/x1.csv").is_file() && only.join("day1/x2.csv").is_file());
+    assert!(!only.join("day2").exists());
+    copy(&example, &archive.join("day1/x2.flac"));
+    let clash = root.join("clash");
+    let o = run(&[
+        "analyze",
+        s(&archive),
+        "-g",
+        s(&geometry),
+        "--out-dir",
+        s(&clash),
+        "--glob",
+        "*.wav",
+        "--glob",
+        "*.flac",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("would both write"), "{}", stderr(&o));
+    assert!(!clash.join("day1").exists());
+}
+
+#[test]
+fn files_from_a_list_keep_the_lists_relative_paths() {
+    let dir = tempdir();
+    let root = dir.path();
+    copy(&testdata("example.wav"), &root.join("site/mic/a.wav"));
+    copy(&testdata("example.wav"), &root.join("b.wav"));
+    let geometry = testdata("prism.toml");
+    let o = ssl()
+        .current_dir(root)
+        .args([
+            "analyze",
+            "--files-from",
+            "-",
+            "-g",
+            s(&geometry),
+            "--out-dir",
+            "res",
+            "-f",
+            "ndjson",
+        ])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .and_then(|mut c| {
+            use std::io::Write;
+            c.stdin
+                .take()
+                .unwrap()
+                .write_all(b"site/mic/a.wav\n\nb.wav\n")?;
+            c.wait_with_output()
+        })
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(root.join("res/site/mic/a.ndjson").is_file());
+    assert!(root.join("res/b.ndjson").is_file());
+    assert!(
+        stderr(&o).contains("2 input(s): 2 done, 0 failed"),
+        "{}",
+        stderr(&o)
+    );
+}
