@@ -173,6 +173,10 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "DIR", conflicts_with = "output")]
     pub out_dir: Option<PathBuf>,
 
+    /// With --out-dir: skip an input whose result is complete and was made from the same input (size and modification time), parameters, geometry and version; redo every other
+    #[arg(long, requires = "out_dir")]
+    pub resume: bool,
+
     /// Array geometry (TOML: [[mic]] tables with position = [x, y, z] in metres)
     #[arg(short, long, value_name = "TOML")]
     pub geometry: PathBuf,

@@ -3,6 +3,15 @@
 //! never has the result's name. A file that fails has no result, never stops the batch,
 //! and is listed with its reason in the summary that ends the run (on stderr, and with
 //! `--format json` in DIR/batch.json).
+//!
+//! Each result gets a stamp once it has its name, `DIR/.ssl/<result>.json`: the input's
+//! size and modification time, a hash of the run's metadata (the geometry as understood,
+//! every parameter, the version) and the result's size. `--resume` skips an input whose
+//! stamp matches, so a batch stopped at any moment and started again ends with the
+//! results of an uninterrupted run: a result renamed but not yet stamped is redone, to
+//! the same bytes. Size and time rather than a hash of the audio: resuming a finished
+//! archive must cost seconds, and reading every recording again costs what analysing
+//! it does at this tool's speed; a recording rewritten in place changes its time.
 
 use super::analyze::{analyze_one, prepare, Output, Said};
 use super::args::AnalyzeArgs;
@@ -15,11 +24,83 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// What a result was made from (DIR/.ssl/<result>.json).
+#[derive(Debug, Serialize, serde::Deserialize, PartialEq)]
+struct Stamp {
+    input_size: u64,
+    input_mtime_ns: u128,
+    /// FNV-1a of the run's metadata as JSON (tool version, geometry, parameters).
+    run: String,
+    result_size: u64,
+}
+
+impl Stamp {
+    /// The stamp `input` would get now for a result of `result_size` bytes (`None`: its
+    /// size or time cannot be read, as for standard input).
+    fn of(input: &str, run: &str, result_size: u64) -> Option<Stamp> {
+        let meta = std::fs::metadata(input).ok().filter(|m| m.is_file())?;
+        let mtime = meta.modified().ok()?;
+        let since = mtime.duration_since(std::time::UNIX_EPOCH).ok()?;
+        Some(Stamp {
+            input_size: meta.len(),
+            input_mtime_ns: since.as_nanos(),
+            run: run.to_string(),
+            result_size,
+        })
+    }
+
+    fn path(dir: &Path, result: &Path) -> PathBuf {
+        let relative = result.strip_prefix(dir).unwrap_or(result);
+        let mut p = dir.join(".ssl").join(relative).into_os_string();
+        p.push(".json");
+        PathBuf::from(p)
+    }
+
+    /// Whether `result` is complete and was made from `input` by this run's settings.
+    fn current(dir: &Path, result: &Path, input: &str, run: &str) -> bool {
+        let Ok(size) = std::fs::metadata(result).map(|m| m.len()) else {
+            return false;
+        };
+        let Some(now) = Stamp::of(input, run, size) else {
+            return false;
+        };
+        std::fs::read(Stamp::path(dir, result))
+            .ok()
+            .and_then(|b| serde_json::from_slice::<Stamp>(&b).ok())
+            .is_some_and(|saved| saved == now)
+    }
+
+    /// Writes the stamp of `result`, atomically.
+    fn write(dir: &Path, result: &Path, input: &str, run: &str) -> Result<()> {
+        let size = std::fs::metadata(result)?.len();
+        let Some(stamp) = Stamp::of(input, run, size) else {
+            return Ok(());
+        };
+        let path = Stamp::path(dir, result);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        let mut sink = Sink::open(Some(&path), &[])?;
+        serde_json::to_writer(&mut sink, &stamp)?;
+        sink.commit()
+    }
+}
+
+/// FNV-1a, 64 bits, as hex.
+fn fnv(text: &str) -> String {
+    let h = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    });
+    format!("{h:016x}")
+}
+
 /// The summary of a batch (DIR/batch.json).
 #[derive(Debug, Serialize)]
 struct BatchSummary {
     /// Inputs analysed to their end, with a result written.
     done: usize,
+    /// Inputs skipped by `--resume`: their result was current.
+    skipped: usize,
     /// Inputs that failed: no result.
     failed: usize,
     /// Seconds of audio analysed.
@@ -37,6 +118,8 @@ struct BatchSummary {
 struct BatchFile {
     input: String,
     result: Option<String>,
+    /// Whether `--resume` kept its result.
+    skipped: bool,
     error: Option<String>,
 }
 
@@ -71,9 +154,20 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
     let started = Instant::now();
     let mut said = Said::default();
     let mut files = Vec::new();
-    let (mut done, mut failed, mut audio_s) = (0, 0, 0.0);
+    let (mut done, mut skipped, mut failed, mut audio_s) = (0, 0, 0, 0.0);
+    let run = fnv(&serde_json::to_string(&localizer.metadata(&geometry_path))?);
     for input in inputs {
         let t = target(dir, input, args.format);
+        if args.resume && Stamp::current(dir, &t, &input.path, &run) {
+            skipped += 1;
+            files.push(BatchFile {
+                input: input.path.clone(),
+                result: Some(t.display().to_string()),
+                skipped: true,
+                error: None,
+            });
+            continue;
+        }
         if let Some(parent) = t.parent() {
             std::fs::create_dir_all(parent)
                 .with_context(|| format!("{}: cannot create the directory", parent.display()))?;
@@ -91,6 +185,8 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
         let error = entry.error.clone();
         let ok = error.is_none() && out.finish_into(&[entry])?;
         if ok {
+            Stamp::write(dir, &t, &input.path, &run)
+                .with_context(|| format!("{}: cannot stamp the result", t.display()))?;
             done += 1;
         } else {
             failed += 1;
@@ -98,6 +194,7 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
         files.push(BatchFile {
             input: input.path.clone(),
             result: ok.then(|| t.display().to_string()),
+            skipped: false,
             error: if ok {
                 None
             } else {
@@ -108,6 +205,7 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
     let wall_s = started.elapsed().as_secs_f64();
     let summary = BatchSummary {
         done,
+        skipped,
         failed,
         audio_s,
         wall_s,
@@ -115,9 +213,10 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
         files,
     };
     eprintln!(
-        "ssl: batch: {} input(s): {} done, {} failed; {} of audio in {:.1} s ({:.0}x real time); results in {}",
+        "ssl: batch: {} input(s): {} done, {} skipped, {} failed; {} of audio in {:.1} s ({:.0}x real time); results in {}",
         inputs.len(),
         summary.done,
+        summary.skipped,
         summary.failed,
         hours(summary.audio_s),
         summary.wall_s,

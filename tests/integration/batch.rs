@@ -8,6 +8,21 @@ use crate::support;
 use std::path::Path;
 use support::*;
 
+/// The files under `d` but its stamps (`.ssl/`), relative to `base`.
+fn results(d: &Path, base: &Path, out: &mut Vec<String>) {
+    for e in std::fs::read_dir(d).unwrap() {
+        let p = e.unwrap().path();
+        if p.file_name() == Some(std::ffi::OsStr::new(".ssl")) {
+            continue;
+        }
+        if p.is_dir() {
+            results(&p, base, out)
+        } else {
+            out.push(p.strip_prefix(base).unwrap().display().to_string());
+        }
+    }
+}
+
 fn copy(from: &Path, to: &Path) {
     std::fs::create_dir_all(to.parent().unwrap()).unwrap();
     std::fs::copy(from, to).unwrap();
@@ -41,23 +56,13 @@ fn a_directory_gives_one_result_per_recording_at_its_relative_path() {
     // One input failed: the status says so, the others have their results.
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let e = stderr(&o);
-    assert!(e.contains("4 input(s): 3 done, 1 failed"), "{e}");
+    assert!(e.contains("4 input(s): 3 done, 0 skipped, 1 failed"), "{e}");
     assert!(
         e.contains("failed: ") && e.contains("broken.wav: truncated WAV"),
         "{e}"
     );
     let mut written: Vec<String> = Vec::new();
-    fn walk(d: &Path, base: &Path, out: &mut Vec<String>) {
-        for e in std::fs::read_dir(d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                walk(&p, base, out)
-            } else {
-                out.push(p.strip_prefix(base).unwrap().display().to_string());
-            }
-        }
-    }
-    walk(&out, &out, &mut written);
+    results(&out, &out, &mut written);
     written.sort();
     assert_eq!(
         written,
@@ -173,8 +178,106 @@ fn files_from_a_list_keep_the_lists_relative_paths() {
     assert!(root.join("res/site/mic/a.ndjson").is_file());
     assert!(root.join("res/b.ndjson").is_file());
     assert!(
-        stderr(&o).contains("2 input(s): 2 done, 0 failed"),
+        stderr(&o).contains("2 input(s): 2 done, 0 skipped, 0 failed"),
         "{}",
         stderr(&o)
     );
+}
+
+/// Every result under `dir` with its bytes: not the summary, not the stamps, and not the
+/// temporaries a killed run leaves (`.ssl-*.tmp`, never a result's name).
+fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut names = Vec::new();
+    results(dir, dir, &mut names);
+    names.sort();
+    names
+        .into_iter()
+        .filter(|n| n != "batch.json")
+        .filter(|n| {
+            let name = Path::new(n).file_name().unwrap().to_string_lossy();
+            !(name.starts_with(".ssl-") && name.ends_with(".tmp"))
+        })
+        .map(|n| {
+            let bytes = std::fs::read(dir.join(&n)).unwrap();
+            (n, bytes)
+        })
+        .collect()
+}
+
+#[test]
+fn a_batch_killed_anywhere_and_resumed_ends_with_the_uninterrupted_results() {
+    use rand::{Rng, SeedableRng};
+    let dir = tempdir();
+    let root = dir.path();
+    let archive = root.join("archive");
+    for i in 0..12 {
+        copy(
+            &testdata("example.wav"),
+            &archive.join(format!("d{}/r{i:02}.wav", i % 3)),
+        );
+    }
+    let bytes = std::fs::read(testdata("example.wav")).unwrap();
+    write(&archive.join("d0"), "broken.wav", &bytes[..5000]);
+    let geometry = testdata("prism.toml");
+    let batch = |out: &Path, extra: &[&str]| {
+        let mut c = ssl();
+        c.args([
+            "analyze",
+            s(&archive),
+            "-g",
+            s(&geometry),
+            "--out-dir",
+            s(out),
+            "-j",
+            "1",
+        ])
+        .args(extra)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+        c
+    };
+    let whole = root.join("whole");
+    let o = batch(&whole, &[]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let reference = contents(&whole);
+    assert_eq!(reference.len(), 12);
+    // Killed at random moments, then resumed to the end.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let resumed = root.join("resumed");
+    for _ in 0..5 {
+        let mut child = batch(&resumed, &["--resume"]).spawn().unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(rng.random_range(5..400)));
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+    let o = batch(&resumed, &["--resume"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(contents(&resumed), reference);
+    // Resuming a finished batch redoes only the input that failed.
+    let o = batch(&resumed, &["--resume"]).output().unwrap();
+    let e = stderr(&o);
+    assert!(
+        e.contains("13 input(s): 0 done, 12 skipped, 1 failed"),
+        "{e}"
+    );
+    // Another parameter: everything is redone.
+    let o = batch(&resumed, &["--resume", "--alpha", "0.5"])
+        .output()
+        .unwrap();
+    assert!(stderr(&o).contains("12 done, 0 skipped"), "{}", stderr(&o));
+    // A rewritten input: that one again (the others now match --alpha 0.5's stamps).
+    let again = archive.join("d1/r01.wav");
+    std::fs::write(&again, &bytes).unwrap();
+    let o = batch(&resumed, &["--resume", "--alpha", "0.5"])
+        .output()
+        .unwrap();
+    assert!(stderr(&o).contains("1 done, 11 skipped"), "{}", stderr(&o));
+    // Two batches at once on one directory: neither corrupts a result.
+    let shared = root.join("shared");
+    let (mut a, mut b) = (
+        batch(&shared, &[]).spawn().unwrap(),
+        batch(&shared, &[]).spawn().unwrap(),
+    );
+    let _ = (a.wait().unwrap(), b.wait().unwrap());
+    assert_eq!(contents(&shared), reference);
 }
