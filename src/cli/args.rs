@@ -2,7 +2,7 @@
 
 use super::values::{
     band, candidate_share, choice, false_per_hour, non_negative, non_negative_f64, parse_f64,
-    positive, smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
+    positive, shard, smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval, Shard,
 };
 use clap::{Args, Parser, Subcommand};
 use ssl::method::{
@@ -176,6 +176,10 @@ pub struct AnalyzeArgs {
     /// With --out-dir: skip an input whose result is complete and was made from the same input (size and modification time), parameters, geometry and version; redo every other
     #[arg(long, requires = "out_dir")]
     pub resume: bool,
+
+    /// With --out-dir: analyse only the K-th of N shares of the inputs (every N-th, in the batch's order), for N runs on several machines writing to one DIR; each share's summary is DIR/batch.K-of-N.json
+    #[arg(long, value_name = "K/N", requires = "out_dir", value_parser = shard)]
+    pub shard: Option<Shard>,
 
     /// Array geometry (TOML: [[mic]] tables with position = [x, y, z] in metres)
     #[arg(short, long, value_name = "TOML")]

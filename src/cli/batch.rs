@@ -4,6 +4,11 @@
 //! and is listed with its reason in the summary that ends the run (on stderr, and with
 //! `--format json` in DIR/batch.json).
 //!
+//! `--shard K/N` analyses every N-th input from the K-th, so that N runs on as many
+//! machines (GNU parallel over ssh, a Slurm array: contrib/) share one batch and one
+//! DIR, each result byte for byte what the whole batch writes; each share's summary is
+//! DIR/batch.K-of-N.json.
+//!
 //! Each result gets a stamp once it has its name, `DIR/.ssl/<result>.json`: the input's
 //! size and modification time, a hash of the run's metadata (the geometry as understood,
 //! every parameter, the version) and the result's size. `--resume` skips an input whose
@@ -70,6 +75,17 @@ impl Stamp {
             .is_some_and(|saved| saved == now)
     }
 
+    /// Removes the result of an input that failed, when a stamp shows this tool made it
+    /// (from an earlier version of the input): a result must not outlive the recording
+    /// it describes. The stamp goes first, so that a run stopped between the two leaves
+    /// an unstamped result, which `--resume` redoes.
+    fn withdraw(dir: &Path, result: &Path) {
+        let stamp = Stamp::path(dir, result);
+        if std::fs::remove_file(&stamp).is_ok() {
+            let _ = std::fs::remove_file(result);
+        }
+    }
+
     /// Writes the stamp of `result`, atomically.
     fn write(dir: &Path, result: &Path, input: &str, run: &str) -> Result<()> {
         let size = std::fs::metadata(result)?.len();
@@ -97,6 +113,9 @@ fn fnv(text: &str) -> String {
 /// The summary of a batch (DIR/batch.json).
 #[derive(Debug, Serialize)]
 struct BatchSummary {
+    /// The share of the inputs this run analysed (`--shard K/N`), as `K/N`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    shard: Option<String>,
     /// Inputs analysed to their end, with a result written.
     done: usize,
     /// Inputs skipped by `--resume`: their result was current.
@@ -151,12 +170,21 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
             );
         }
     }
+    // A share of the batch: the collision check above saw every input, so that a
+    // sharded run refuses what a whole one does.
+    let total = inputs.len();
+    let inputs: Vec<&Input> = inputs
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| args.shard.is_none_or(|s| s.holds(*i)))
+        .map(|(_, input)| input)
+        .collect();
     let started = Instant::now();
     let mut said = Said::default();
     let mut files = Vec::new();
     let (mut done, mut skipped, mut failed, mut audio_s) = (0, 0, 0, 0.0);
     let run = fnv(&serde_json::to_string(&localizer.metadata(&geometry_path))?);
-    for input in inputs {
+    for &input in &inputs {
         let t = target(dir, input, args.format);
         if args.resume && Stamp::current(dir, &t, &input.path, &run) {
             skipped += 1;
@@ -189,6 +217,7 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
                 .with_context(|| format!("{}: cannot stamp the result", t.display()))?;
             done += 1;
         } else {
+            Stamp::withdraw(dir, &t);
             failed += 1;
         }
         files.push(BatchFile {
@@ -204,6 +233,7 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
     }
     let wall_s = started.elapsed().as_secs_f64();
     let summary = BatchSummary {
+        shard: args.shard.map(|s| format!("{}/{}", s.index, s.count)),
         done,
         skipped,
         failed,
@@ -212,8 +242,12 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
         speed: audio_s / wall_s.max(1e-9),
         files,
     };
+    let share = args
+        .shard
+        .map(|s| format!(" (share {}/{} of {total})", s.index, s.count))
+        .unwrap_or_default();
     eprintln!(
-        "ssl: batch: {} input(s): {} done, {} skipped, {} failed; {} of audio in {:.1} s ({:.0}x real time); results in {}",
+        "ssl: batch: {} input(s){share}: {} done, {} skipped, {} failed; {} of audio in {:.1} s ({:.0}x real time); results in {}",
         inputs.len(),
         summary.done,
         summary.skipped,
@@ -230,7 +264,10 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
         );
     }
     if args.format == Format::Json {
-        let path = dir.join("batch.json");
+        let path = dir.join(match args.shard {
+            Some(s) => format!("batch.{}-of-{}.json", s.index, s.count),
+            None => "batch.json".into(),
+        });
         let sink = Sink::open(Some(&path), &[])?;
         let mut w = std::io::BufWriter::new(sink);
         serde_json::to_writer_pretty(&mut w, &summary)?;

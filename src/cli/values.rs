@@ -127,3 +127,34 @@ pub(super) fn choice<T: Named + Send + Sync>() -> impl TypedValueParser<Value = 
         .map(|&(_, name, help)| PossibleValue::new(name).help(help));
     PossibleValuesParser::new(values).map(|s| T::from_name(&s).expect("a possible value"))
 }
+
+/// One share of a batch split over several runs (`--shard K/N`): the K-th of N, K
+/// counted from 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shard {
+    /// Which share, 1 to `count`.
+    pub index: usize,
+    /// How many shares.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Whether the `i`-th input (from 0, in the batch's order) is this share's: every
+    /// N-th, so that folders of long and short recordings spread over the shares.
+    pub fn holds(&self, i: usize) -> bool {
+        i % self.count == self.index - 1
+    }
+}
+
+pub(super) fn shard(s: &str) -> std::result::Result<Shard, String> {
+    let bad = || format!("`{s}` is not K/N with 1 <= K <= N (the K-th of N shares)");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (index, count): (usize, usize) = (
+        k.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if index == 0 || index > count {
+        return Err(bad());
+    }
+    Ok(Shard { index, count })
+}

@@ -23,7 +23,7 @@ fn results(d: &Path, base: &Path, out: &mut Vec<String>) {
     }
 }
 
-fn copy(from: &Path, to: &Path) {
+pub(crate) fn copy(from: &Path, to: &Path) {
     std::fs::create_dir_all(to.parent().unwrap()).unwrap();
     std::fs::copy(from, to).unwrap();
 }
@@ -184,15 +184,16 @@ fn files_from_a_list_keep_the_lists_relative_paths() {
     );
 }
 
-/// Every result under `dir` with its bytes: not the summary, not the stamps, and not the
-/// temporaries a killed run leaves (`.ssl-*.tmp`, never a result's name).
-fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
+/// Every result under `dir` with its bytes: not the summaries (`batch.json`,
+/// `batch.K-of-N.json`), not the stamps, and not the temporaries a killed run leaves
+/// (`.ssl-*.tmp`, never a result's name).
+pub(crate) fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut names = Vec::new();
     results(dir, dir, &mut names);
     names.sort();
     names
         .into_iter()
-        .filter(|n| n != "batch.json")
+        .filter(|n| !(n.starts_with("batch.") && n.ends_with(".json") && !n.contains('/')))
         .filter(|n| {
             let name = Path::new(n).file_name().unwrap().to_string_lossy();
             !(name.starts_with(".ssl-") && name.ends_with(".tmp"))
@@ -278,6 +279,40 @@ fn a_batch_killed_anywhere_and_resumed_ends_with_the_uninterrupted_results() {
         batch(&shared, &[]).spawn().unwrap(),
         batch(&shared, &[]).spawn().unwrap(),
     );
-    let _ = (a.wait().unwrap(), b.wait().unwrap());
+    // Each fails only for the broken input: a rename race costs neither a result.
+    let (a, b) = (a.wait().unwrap(), b.wait().unwrap());
+    assert_eq!((a.code(), b.code()), (Some(1), Some(1)));
     assert_eq!(contents(&shared), reference);
+}
+
+#[test]
+fn an_input_that_now_fails_loses_the_result_of_its_older_version() {
+    let dir = tempdir();
+    let root = dir.path();
+    let archive = root.join("archive");
+    copy(&testdata("example.wav"), &archive.join("a.wav"));
+    copy(&testdata("example.wav"), &archive.join("b.wav"));
+    let geometry = testdata("prism.toml");
+    let out = root.join("out");
+    let batch = || {
+        run(&[
+            "analyze",
+            s(&archive),
+            "-g",
+            s(&geometry),
+            "--out-dir",
+            s(&out),
+            "--resume",
+        ])
+    };
+    assert!(batch().status.success());
+    assert!(out.join("a.csv").is_file() && out.join(".ssl/a.csv.json").is_file());
+    // a.wav is damaged: its old result and stamp go; b's stay.
+    let bytes = std::fs::read(testdata("example.wav")).unwrap();
+    std::fs::write(archive.join("a.wav"), &bytes[..3000]).unwrap();
+    let o = batch();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(!out.join("a.csv").exists() && !out.join(".ssl/a.csv.json").exists());
+    assert!(out.join("b.csv").is_file());
+    assert!(stderr(&o).contains("0 done, 1 skipped, 1 failed"), "{}", stderr(&o));
 }

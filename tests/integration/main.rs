@@ -21,6 +21,7 @@ mod fuzz;
 mod inputs;
 mod lab_truth;
 mod live;
+mod machines;
 mod man;
 mod moving;
 mod orientation;

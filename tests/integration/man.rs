@@ -5,6 +5,7 @@
 #[allow(dead_code)]
 mod args;
 #[path = "../../src/cli/values.rs"]
+#[allow(dead_code)]
 mod values;
 
 use clap::CommandFactory;
