@@ -121,7 +121,16 @@ pub enum Command {
         angular error of detections in frames inside the source's active intervals, the share of those \
         frames with a detection within 10 degrees, the share of source events (active intervals) \
         detected, and false detections per minute outside the active intervals (each extended by a \
-        reverberation tail)."
+        reverberation tail).\n\n\
+        Many recordings: give folders of results (as `ssl analyze --out-dir` writes them) or several \
+        results, and --truth a folder. Each recording (as the rows name it) is scored against the \
+        truth at its relative path, NAME.truth.json or NAME.truth.csv (the longest trailing part of \
+        the recording's path that has one); one line per recording, then every detection, frame, \
+        event and background second pooled. Recordings without a truth are listed, not scored.",
+        after_help = "Examples:\n  \
+        ssl evaluate --truth testdata/example.truth.json r.csv\n  \
+        ssl analyze ARCHIVE -g array.toml --out-dir results/ && ssl evaluate --truth ARCHIVE results/\n  \
+        cat results/*/*.ndjson | ssl evaluate --truth ARCHIVE -"
     )]
     Evaluate(EvaluateArgs),
     #[command(
@@ -414,7 +423,7 @@ pub struct SimulateArgs {
 
 #[derive(Debug, Args)]
 pub struct PlotArgs {
-    /// Results of `ssl analyze` (CSV, JSON or NDJSON); `-` reads standard input
+    /// Results of `ssl analyze` (CSV, JSON or NDJSON): files, `-` (standard input: one result or several concatenated), or folders of results (as --out-dir writes them)
     #[arg(required = true, value_name = "RESULT")]
     pub results: Vec<PathBuf>,
 
@@ -437,13 +446,13 @@ pub struct PlotArgs {
 
 #[derive(Debug, Args)]
 pub struct EvaluateArgs {
-    /// The truth: what `ssl simulate` writes, or a hand-written JSON or CSV (docs/interface.md, "Ground truth of a measured setup")
-    #[arg(long, value_name = "FILE")]
+    /// The truth: what `ssl simulate` writes, or a hand-written JSON or CSV (docs/interface.md, "Ground truth of a measured setup"); or a folder holding each recording's truth as NAME.truth.json or NAME.truth.csv at the recording's relative path (the archive itself, when truths sit beside recordings): each recording is scored against its own, then all pooled
+    #[arg(long, value_name = "FILE|DIR")]
     pub truth: PathBuf,
 
-    /// Detections from `ssl analyze` (CSV, JSON or NDJSON)
-    #[arg(value_name = "RESULT")]
-    pub result: PathBuf,
+    /// Detections from `ssl analyze` (CSV, JSON or NDJSON): files, `-` (one result or several concatenated), or folders of results (as --out-dir writes them)
+    #[arg(required = true, value_name = "RESULT")]
+    pub results: Vec<PathBuf>,
 
     /// Seconds after each active interval during which detections are not false [default: half the room's RT60, 0 in free field]
     #[arg(long, value_name = "S", value_parser = non_negative)]

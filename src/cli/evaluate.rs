@@ -1,52 +1,76 @@
-//! `ssl evaluate`: score a result against a simulation's truth.
+//! `ssl evaluate`: score results against their truth: one recording against one truth,
+//! or many recordings (folders of results, a concatenation) each against its own truth
+//! in a folder of truths, then pooled.
 
 use super::args::{EvaluateArgs, MetricArg};
+use super::results::{expand, ResultFile};
 use anyhow::{bail, Context, Result};
-use ssl::evaluate::{evaluate_by, Metric};
+use serde::Serialize;
+use ssl::evaluate::{evaluate_by, pool, Metric, Pooled, Report};
 use ssl::geometry::Shape;
-use ssl::record::{read_detections_with_info, GeometryInfo};
+use ssl::record::{read_detections_with_info, DetectionRecord, GeometryInfo, ResultInfo};
 use ssl::stream::{io_reason, read_text_from};
 use ssl::{Geometry, Truth};
-use std::path::Path;
+use std::path::{Component, Path, PathBuf};
 
 /// Runs `ssl evaluate`. `-` reads the result (or the truth) from standard input.
-pub fn run(args: &EvaluateArgs) -> Result<()> {
-    let stdin = |limit| {
-        read_text_from(std::io::stdin().lock(), limit)
-            .map_err(|e| anyhow::anyhow!("<stdin>: cannot read: {}", io_reason(&e)))
-    };
+/// Returns whether every recording was scored.
+pub fn run(args: &EvaluateArgs) -> Result<bool> {
+    let results = expand(&args.results)?;
+    if args.truth != Path::new("-") && args.truth.is_dir() {
+        return many(args, &results);
+    }
     let truth = if args.truth == Path::new("-") {
-        Truth::from_text(&stdin(ssl::record::MAX_TRUTH_BYTES)?).context("<stdin>")?
+        let text = read_text_from(std::io::stdin().lock(), ssl::record::MAX_TRUTH_BYTES)
+            .map_err(|e| anyhow::anyhow!("<stdin>: cannot read: {}", io_reason(&e)))?;
+        Truth::from_text(&text).context("<stdin>")?
     } else {
         Truth::from_file(&args.truth)?
     };
-    let (detections, info) = read_detections_with_info(&args.result)?;
+    let mut detections = Vec::new();
+    let mut geometry = None;
+    for r in &results {
+        let (rows, info) = read_detections_with_info(&r.path)?;
+        detections.extend(rows);
+        geometry = geometry.or(geometry_of(&info));
+    }
     let geometry = match &args.geometry {
         Some(path) => Some(Geometry::from_file(path)?),
-        None => info
-            .geometry
-            .and_then(|g| serde_json::from_value::<GeometryInfo>(g).ok())
-            .and_then(|g| {
-                let positions: Vec<[f64; 3]> = g.mics.iter().map(|m| m.position).collect();
-                let geometry = Geometry::from_positions(&positions).ok()?;
-                Some(match g.orientation {
-                    Some(rows) => geometry.oriented(nalgebra::Matrix3::from_fn(|i, j| rows[i][j])),
-                    None => geometry,
-                })
-            }),
+        None => geometry,
     };
     let metric = metric(args.metric, geometry.as_ref())?;
-    let tail = args
-        .tail
-        .map_or(truth.rt60_s().map_or(0.0, |t| t / 2.0), f64::from);
-    let report = evaluate_by(&truth, &detections, tail, &metric)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.result.display()))?;
+    let tail = tail(args, &truth);
+    let shown = results[0].path.display();
+    let report = evaluate_by(&truth, &detections, tail, &metric).map_err(|e| match e {
+        ssl::evaluate::EvaluateError::SeveralFiles(_) => anyhow::anyhow!(
+            "{shown}: {e}, or give --truth a folder holding each one's truth (NAME.truth.json)"
+        ),
+        e => anyhow::anyhow!("{shown}: {e}"),
+    })?;
     let text = if args.json {
         serde_json::to_string_pretty(&report)? + "\n"
     } else {
         report.table()
     };
-    super::print(text.as_bytes())
+    super::print(text.as_bytes())?;
+    Ok(true)
+}
+
+/// The tail `--tail` gives, or half the truth's RT60 (0 when it has none).
+fn tail(args: &EvaluateArgs, truth: &Truth) -> f64 {
+    args.tail
+        .map_or(truth.rt60_s().map_or(0.0, |t| t / 2.0), f64::from)
+}
+
+/// The geometry a JSON result carries (with its orientation).
+fn geometry_of(info: &ResultInfo) -> Option<Geometry> {
+    let g = serde_json::from_value::<GeometryInfo>(info.geometry.clone()?).ok()?;
+    let positions: Vec<[f64; 3]> = g.mics.iter().map(|m| m.position).collect();
+    let geometry = Geometry::from_positions(&positions).ok()?;
+    Some(match g.orientation {
+        Some(rows) => geometry.oriented(nalgebra::Matrix3::from_fn(|i, j| rows[i][j])),
+        None => geometry,
+    })
 }
 
 /// The metric `--metric` asks for, or what `geometry` observes.
@@ -62,4 +86,221 @@ fn metric(arg: Option<MetricArg>, geometry: Option<&Geometry>) -> Result<Metric>
             bail!("--metric axis needs a linear array's geometry: give it with --geometry (a JSON result carries it)")
         }
     })
+}
+
+/// One recording's rows, as the results name it, with the geometry its result carries.
+struct Recording {
+    name: String,
+    rows: Vec<DetectionRecord>,
+    geometry: Option<Geometry>,
+}
+
+/// The recordings `results` hold, in order of first appearance. A result without rows
+/// (an empty NDJSON file, a CSV header) stands for the recording its path names.
+fn recordings(results: &[ResultFile]) -> Result<Vec<Recording>> {
+    let mut out: Vec<Recording> = Vec::new();
+    for r in results {
+        let empty = r.relative.is_some() && std::fs::metadata(&r.path).is_ok_and(|m| m.len() == 0);
+        let (rows, info) = if empty {
+            (Vec::new(), ResultInfo::default())
+        } else {
+            read_detections_with_info(&r.path)?
+        };
+        let geometry = geometry_of(&info);
+        if rows.is_empty() {
+            let name = r.relative.as_deref().unwrap_or(&r.path);
+            out.push(Recording {
+                name: name.display().to_string(),
+                rows,
+                geometry,
+            });
+            continue;
+        }
+        for row in rows {
+            match out.iter_mut().rev().find(|g| g.name == row.file) {
+                Some(g) => g.rows.push(row),
+                None => out.push(Recording {
+                    name: row.file.clone(),
+                    rows: vec![row],
+                    geometry: geometry.clone(),
+                }),
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The truth of the recording `name` under `dir`: `PART.truth.json` or
+/// `PART.truth.csv`, PART the longest trailing part of the name (its extension dropped)
+/// that has one.
+fn truth_path(dir: &Path, name: &str) -> Option<PathBuf> {
+    let stem = Path::new(name).with_extension("");
+    let parts: Vec<&std::ffi::OsStr> = stem
+        .components()
+        .filter_map(|c| match c {
+            Component::Normal(p) => Some(p),
+            _ => None,
+        })
+        .collect();
+    (0..parts.len()).find_map(|from| {
+        let stem: PathBuf = parts[from..].iter().collect();
+        ["truth.json", "truth.csv"].iter().find_map(|ext| {
+            let mut p = dir.join(&stem).into_os_string();
+            p.push(".");
+            p.push(ext);
+            let p = PathBuf::from(p);
+            p.is_file().then_some(p)
+        })
+    })
+}
+
+/// One recording's line of the report.
+#[derive(Serialize)]
+struct Scored {
+    recording: String,
+    truth: String,
+    report: Report,
+}
+
+/// The report of many recordings.
+#[derive(Serialize)]
+struct ManyReport {
+    /// Per recording with a truth.
+    recordings: Vec<Scored>,
+    /// All of them pooled.
+    pooled: Pooled,
+    /// Recordings with no truth under the folder.
+    without_truth: Vec<String>,
+    /// Recordings that could not be scored, with the reason.
+    failed: Vec<Failed>,
+}
+
+#[derive(Serialize)]
+struct Failed {
+    recording: String,
+    error: String,
+}
+
+fn many(args: &EvaluateArgs, results: &[ResultFile]) -> Result<bool> {
+    let given = match &args.geometry {
+        Some(path) => Some(Geometry::from_file(path)?),
+        None => None,
+    };
+    let mut scored = Vec::new();
+    let mut without_truth = Vec::new();
+    let mut failed = Vec::new();
+    for rec in recordings(results)? {
+        let Some(path) = truth_path(&args.truth, &rec.name) else {
+            without_truth.push(rec.name);
+            continue;
+        };
+        let outcome = Truth::from_file(&path)
+            .map_err(anyhow::Error::from)
+            .and_then(|truth| {
+                let metric = metric(args.metric, given.as_ref().or(rec.geometry.as_ref()))?;
+                evaluate_by(&truth, &rec.rows, tail(args, &truth), &metric)
+                    .map_err(|e| anyhow::anyhow!("{e}"))
+            });
+        match outcome {
+            Ok(report) => scored.push(Scored {
+                recording: rec.name,
+                truth: path.display().to_string(),
+                report,
+            }),
+            Err(e) => failed.push(Failed {
+                recording: rec.name,
+                error: format!("{e:#}"),
+            }),
+        }
+    }
+    if scored.is_empty() && failed.is_empty() {
+        bail!(
+            "{}: no truth for any of the {} recording(s) (looked for NAME.truth.json and NAME.truth.csv at each recording's path, the longest trailing part first; the first is {})",
+            args.truth.display(),
+            without_truth.len(),
+            without_truth.first().map_or("-", String::as_str)
+        );
+    }
+    let report = ManyReport {
+        pooled: pool(scored.iter().map(|s| &s.report)),
+        recordings: scored,
+        without_truth,
+        failed,
+    };
+    let text = if args.json {
+        serde_json::to_string_pretty(&report)? + "\n"
+    } else {
+        table(&report)
+    };
+    super::print(text.as_bytes())?;
+    for f in &report.failed {
+        super::warn(false, &format!("{}: {}", f.recording, f.error));
+    }
+    Ok(report.failed.is_empty())
+}
+
+fn table(r: &ManyReport) -> String {
+    let opt = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |x| format!("{x:.d$}"));
+    let pct = |v: Option<f64>| opt(v.map(|x| 100.0 * x), 1) + "%";
+    let width = r
+        .recordings
+        .iter()
+        .map(|s| s.recording.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max("recording".len());
+    let mut s = String::new();
+    if let Some(first) = r.recordings.first() {
+        s += &format!("errors: {}\n", first.report.metric);
+    }
+    s += &format!(
+        "{:<width$}  detections  mean_err  median_err  frames_detected  events_detected  false_per_min\n",
+        "recording"
+    );
+    for x in &r.recordings {
+        let p = &x.report;
+        s += &format!(
+            "{:<width$}  {:>10}  {:>8}  {:>10}  {:>15}  {:>15}  {:>13}\n",
+            x.recording,
+            p.detections,
+            opt(p.mean_error_deg, 2),
+            opt(p.median_error_deg, 2),
+            pct(p.frame_detection_rate),
+            pct(p.event_detection_rate),
+            opt(p.false_per_minute, 1),
+        );
+    }
+    let p = &r.pooled;
+    s += &format!(
+        "pooled: {} recordings, {} detections, mean error {} deg, median {} deg, frames detected {}, events detected {}, {} false detections in {:.1} s ({} per minute)\n",
+        p.recordings,
+        p.detections,
+        opt(p.mean_error_deg, 2),
+        opt(p.median_error_deg, 2),
+        pct(p.frame_detection_rate),
+        pct(p.event_detection_rate),
+        p.false_detections,
+        p.background_s,
+        opt(p.false_per_minute, 1),
+    );
+    if !r.without_truth.is_empty() {
+        let shown: Vec<&str> = r.without_truth.iter().take(5).map(String::as_str).collect();
+        s += &format!(
+            "without a truth (not scored): {} recording(s): {}{}\n",
+            r.without_truth.len(),
+            shown.join(", "),
+            if r.without_truth.len() > 5 {
+                ", ..."
+            } else {
+                ""
+            }
+        );
+    }
+    if !r.failed.is_empty() {
+        s += &format!(
+            "not scored (errors on standard error): {}\n",
+            r.failed.len()
+        );
+    }
+    s
 }

@@ -10,6 +10,7 @@ mod evaluate;
 mod geometry;
 mod inputs;
 mod plot;
+mod results;
 mod simulate;
 mod sink;
 mod values;
@@ -58,7 +59,7 @@ pub fn main() -> i32 {
         Command::Geometry(args) => geometry::run(&args).map(|()| true),
         Command::Check(_) => unreachable!("handled above"),
         Command::Simulate(args) => simulate::run(&args).map(|()| true),
-        Command::Evaluate(args) => evaluate::run(&args).map(|()| true),
+        Command::Evaluate(args) => evaluate::run(&args),
         Command::Plot(args) => plot::run(&args).map(|()| true),
         Command::Completions(args) => completions(args.shell).map(|()| true),
     };

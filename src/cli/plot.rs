@@ -41,8 +41,14 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     inputs.extend(args.truth.as_deref());
     let mut sink = Sink::open(args.output.as_deref(), &inputs)?;
     let mut data = PlotData::default();
-    for path in &args.results {
-        let one = read_plot_file(path)?;
+    for result in super::results::expand(&args.results)? {
+        // A folder's empty result (NDJSON of a recording without a detection): nothing
+        // to draw.
+        if result.relative.is_some() && std::fs::metadata(&result.path).is_ok_and(|m| m.len() == 0)
+        {
+            continue;
+        }
+        let one = read_plot_file(&result.path)?;
         data.array = data.array.or(one.array);
         data.threshold = data.threshold.or(one.threshold);
         data.files.extend(one.files);

@@ -17,10 +17,12 @@
 //!   module).
 
 mod metric;
+mod pool;
 mod report;
 mod tracks;
 
 pub use metric::Metric;
+pub use pool::{pool, Pooled};
 pub use tracks::{SourceTracks, TrackReport, OVERLAP_WINDOW_S};
 
 use crate::method::default_frame_size;
@@ -171,6 +173,10 @@ pub struct Report {
     pub tracking: Option<TrackReport>,
     /// What the errors measure ([`Metric::name`]).
     pub metric: String,
+    /// Every counted detection's error (degrees, ascending), for pooling reports
+    /// ([`pool`]); not written out.
+    #[serde(skip)]
+    pub errors_deg: Vec<f64>,
 }
 
 /// Scores `dets` against `truth`. `tail_s` extends each active interval when counting
@@ -377,11 +383,12 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
     let background_frames = frames - busy_runs.len();
     let false_detections = dets.iter().filter(|d| !busy(d.time_s)).count();
     let background_s = background_frames as f64 * hop;
+    let (mean_error_deg, median_error_deg) = (mean(&all_errors), median(&mut all_errors));
     Report {
         sources: reports,
         detections: all_errors.len(),
-        mean_error_deg: mean(&all_errors),
-        median_error_deg: median(&mut all_errors),
+        mean_error_deg,
+        median_error_deg,
         mean_azimuth_error_deg: mean(&split.iter().map(|s| s.0).collect::<Vec<_>>()),
         mean_elevation_error_deg: mean(&split.iter().map(|s| s.1.abs()).collect::<Vec<_>>()),
         elevation_bias_deg: mean(&split.iter().map(|s| s.1).collect::<Vec<_>>()),
@@ -395,6 +402,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
         hop_s: hop,
         tail_s,
         metric: metric.name().to_string(),
+        errors_deg: all_errors,
         tracking: dets.iter().any(|d| d.source.is_some()).then(|| {
             let tracked: Vec<Det> = dets
                 .iter()

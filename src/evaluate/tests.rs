@@ -188,3 +188,54 @@ fn a_week_long_truth_is_scored_in_bounded_memory_and_time() {
     // which the old count visited and stored one by one.
     assert!(report.sources[0].active_frames > 56_000_000, "{report:?}");
 }
+
+#[test]
+fn pooling_two_recordings_scores_them_as_one_recording_end_to_end() {
+    // Recording A: the hand-made truth; B: source 0 alone, other intervals.
+    let a = truth();
+    let mut b = truth();
+    b.sources.truncate(1);
+    b.sources[0].active = vec![[2.0, 3.5]];
+    let rows_a: Vec<DetectionRecord> = (95..210)
+        .map(|f| record(f, tilt(if f % 3 == 0 { 2.0 } else { 6.0 })))
+        .chain((300..350).map(|f| record(f, Vector3::y())))
+        .chain((700..720).map(|f| record(f, Vector3::z())))
+        .collect();
+    let rows_b: Vec<DetectionRecord> = (190..260)
+        .map(|f| record(f, tilt(if f % 2 == 0 { 1.0 } else { 12.0 })))
+        .chain((800..810).map(|f| record(f, Vector3::y())))
+        .collect();
+    let (ra, rb) = (
+        evaluate(&a, &rows_a, 0.0).unwrap(),
+        evaluate(&b, &rows_b, 0.0).unwrap(),
+    );
+    let pooled = pool([&ra, &rb]);
+    // The same as one recording of B played after A (B's times shifted by A's 10 s =
+    // 1000 hops): each detection, frame and event counts once.
+    let mut joined = a.clone();
+    joined.duration_s = 20.0;
+    let mut shifted = b.sources[0].clone();
+    shifted.index = 2;
+    shifted.active = vec![[12.0, 13.5]];
+    joined.sources.push(shifted);
+    let rows: Vec<DetectionRecord> = rows_a
+        .iter()
+        .cloned()
+        .chain(rows_b.iter().map(|r| {
+            let f = r.frame.unwrap() + 1000;
+            record(f, Vector3::new(r.x, r.y, r.z))
+        }))
+        .collect();
+    let one = evaluate(&joined, &rows, 0.0).unwrap();
+    assert_eq!(pooled.recordings, 2);
+    assert_eq!(pooled.detections, one.detections);
+    assert_eq!(pooled.detections, ra.detections + rb.detections);
+    let close = |x: Option<f64>, y: Option<f64>| (x.unwrap() - y.unwrap()).abs() < 1e-9;
+    assert!(close(pooled.mean_error_deg, one.mean_error_deg));
+    assert!(close(pooled.median_error_deg, one.median_error_deg));
+    assert!(close(pooled.frame_detection_rate, one.frame_detection_rate));
+    assert!(close(pooled.event_detection_rate, one.event_detection_rate));
+    assert_eq!(pooled.false_detections, one.false_detections);
+    // Two recordings lose one frame each at their ends (a frame spans two hops).
+    assert!((pooled.background_s - one.background_s).abs() <= 0.02 + 1e-9);
+}

@@ -271,6 +271,10 @@ fn read_csv(
             Err(e) => return Err(format_error(format!("row {}: {e}", n + 1))),
         }
         n += 1;
+        // Results concatenated (`cat a.csv b.csv`): the header again.
+        if row == headers {
+            continue;
+        }
         let line = row.position().map_or(n + 1, |p| p.line());
         let at = |e: String| format_error(format!("row {n} (line {line}): {e}"));
         let record = if events {

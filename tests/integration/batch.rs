@@ -314,5 +314,9 @@ fn an_input_that_now_fails_loses_the_result_of_its_older_version() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(!out.join("a.csv").exists() && !out.join(".ssl/a.csv.json").exists());
     assert!(out.join("b.csv").is_file());
-    assert!(stderr(&o).contains("0 done, 1 skipped, 1 failed"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("0 done, 1 skipped, 1 failed"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -29,6 +29,7 @@ mod outputs;
 mod part_of_a_file;
 mod plot;
 mod rooms;
+mod scoring_folders;
 mod simulate;
 mod sources;
 mod talkers_at_once;
