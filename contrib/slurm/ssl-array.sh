@@ -11,7 +11,7 @@
 #
 #   ssl analyze ARCHIVE -g GEOMETRY --out-dir RESULTS --resume --shard K/N ...
 #
-# so each takes every N-th recording, writes each result atomically at the recording's
+# so each takes one share of the recordings (about equal audio each), writes each result atomically at the recording's
 # relative path under RESULTS (byte for byte what one machine writes) and its summary
 # as RESULTS/batch.K-of-N.json with --format json. Threads follow --cpus-per-task. Submitting the same array again
 # after a failure, a time limit or a new recording redoes only what is not done.

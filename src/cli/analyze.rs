@@ -125,9 +125,9 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let show_progress = !args.quiet && io::stderr().is_terminal() && !rows_on_terminal;
     let mut all_ok = true;
     let mut files = Vec::new();
-    let mut said = Said::default();
+    let said = Said::default();
     for path in &paths {
-        let entry = analyze_one(args, &localizer, path, &mut out, show_progress, &mut said)?;
+        let entry = analyze_one(args, &localizer, path, &mut out, show_progress, &said)?;
         all_ok &= entry.error.is_none();
         files.push(entry);
     }
@@ -151,7 +151,19 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
 /// What has been said once per run (the array's coarse delays and a band's narrowness,
 /// per sample rate).
 #[derive(Default)]
-pub(super) struct Said(std::collections::HashSet<(std::mem::Discriminant<Warning>, u32)>);
+pub(super) struct Said(
+    std::sync::Mutex<std::collections::HashSet<(std::mem::Discriminant<Warning>, u32)>>,
+);
+
+impl Said {
+    /// Whether `w` (at `rate`) is said for the first time in this run.
+    fn first(&self, w: &Warning, rate: u32) -> bool {
+        self.0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert((std::mem::discriminant(w), rate))
+    }
+}
 
 /// Analyses the recording at `path` into `out` (opened on its first frame), saying its
 /// error and warnings on stderr; returns its entry. Only an output that fails is an error.
@@ -161,7 +173,7 @@ pub(super) fn analyze_one(
     path: &str,
     out: &mut Output,
     show_progress: bool,
-    said: &mut Said,
+    said: &Said,
 ) -> Result<FileEntry> {
     let recording = match localizer.open(path) {
         Ok(r) => r,
@@ -209,7 +221,7 @@ pub(super) fn analyze_one(
         if let Warning::CoarseDelays { sample_rate, .. } | Warning::NarrowBand { sample_rate, .. } =
             w
         {
-            if !said.0.insert((std::mem::discriminant(w), *sample_rate)) {
+            if !said.first(w, *sample_rate) {
                 continue;
             }
         }

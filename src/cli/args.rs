@@ -186,7 +186,7 @@ pub struct AnalyzeArgs {
     #[arg(long, requires = "out_dir")]
     pub resume: bool,
 
-    /// With --out-dir: analyse only the K-th of N shares of the inputs (every N-th, in the batch's order), for N runs on several machines writing to one DIR; each share's summary is DIR/batch.K-of-N.json
+    /// With --out-dir: analyse only the K-th of N shares of the inputs (dealt by size, about equal audio each), for N runs on several machines writing to one DIR; each share's summary is DIR/batch.K-of-N.json
     #[arg(long, value_name = "K/N", requires = "out_dir", value_parser = shard)]
     pub shard: Option<Shard>,
 

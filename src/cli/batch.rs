@@ -4,10 +4,11 @@
 //! and is listed with its reason in the summary that ends the run (on stderr, and with
 //! `--format json` in DIR/batch.json).
 //!
-//! `--shard K/N` analyses every N-th input from the K-th, so that N runs on as many
-//! machines (GNU parallel over ssh, a Slurm array: contrib/) share one batch and one
-//! DIR, each result byte for byte what the whole batch writes; each share's summary is
-//! DIR/batch.K-of-N.json.
+//! `--shard K/N` analyses the K-th of N shares of the inputs ([`deal`]: about equal
+//! bytes each), so that N runs on as many machines (GNU parallel over ssh, a Slurm
+//! array: contrib/) share one batch and one DIR, each result byte for byte what the
+//! whole batch writes; each share's summary is DIR/batch.K-of-N.json. With several
+//! threads, a batch analyses one input per thread at a time ([`schedule`]).
 //!
 //! Each result gets a stamp once it has its name, `DIR/.ssl/<result>.json`: the input's
 //! size and modification time, a hash of the run's metadata (the geometry as understood,
@@ -102,12 +103,41 @@ impl Stamp {
     }
 }
 
+/// FNV-1a, 64 bits.
+fn fnv64(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
 /// FNV-1a, 64 bits, as hex.
 fn fnv(text: &str) -> String {
-    let h = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
-    });
-    format!("{h:016x}")
+    format!("{:016x}", fnv64(text))
+}
+
+/// The share (from 0) each input falls to among `count` (`--shard K/N`). The inputs are
+/// dealt largest first (by file size: the audio to analyse), each to the share with
+/// the fewest bytes so far (then the fewest inputs, then the lowest number), so the
+/// shares take about equal time; among inputs of one size the order is a hash of the
+/// path, so that a pattern in the names (every other file from a busy room) does not
+/// fall to one share. Every share computes the same deal from the same inputs.
+fn deal(inputs: &[Input], count: usize) -> Vec<usize> {
+    use std::cmp::Reverse;
+    let sizes: Vec<u64> = inputs
+        .iter()
+        .map(|i| std::fs::metadata(&i.path).map_or(0, |m| m.len()))
+        .collect();
+    let mut order: Vec<usize> = (0..inputs.len()).collect();
+    order.sort_by_key(|&i| (Reverse(sizes[i]), fnv64(&inputs[i].path), i));
+    let mut shares: std::collections::BinaryHeap<Reverse<(u64, usize, usize)>> =
+        (0..count).map(|k| Reverse((0, 0, k))).collect();
+    let mut dealt = vec![0; inputs.len()];
+    for i in order {
+        let Reverse((bytes, n, k)) = shares.pop().expect("count >= 1");
+        dealt[i] = k;
+        shares.push(Reverse((bytes + sizes[i], n + 1, k)));
+    }
+    dealt
 }
 
 /// The summary of a batch (DIR/batch.json).
@@ -133,7 +163,7 @@ struct BatchSummary {
     files: Vec<BatchFile>,
 }
 
-#[derive(Debug, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 struct BatchFile {
     input: String,
     result: Option<String>,
@@ -173,28 +203,27 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
     // A share of the batch: the collision check above saw every input, so that a
     // sharded run refuses what a whole one does.
     let total = inputs.len();
+    let shares = args.shard.map(|s| (s.index - 1, deal(inputs, s.count)));
     let inputs: Vec<&Input> = inputs
         .iter()
         .enumerate()
-        .filter(|(i, _)| args.shard.is_none_or(|s| s.holds(*i)))
+        .filter(|(i, _)| shares.as_ref().is_none_or(|(k, of)| of[*i] == *k))
         .map(|(_, input)| input)
         .collect();
     let started = Instant::now();
-    let mut said = Said::default();
-    let mut files = Vec::new();
-    let (mut done, mut skipped, mut failed, mut audio_s) = (0, 0, 0, 0.0);
+    let said = Said::default();
     let run = fnv(&serde_json::to_string(&localizer.metadata(&geometry_path))?);
-    for &input in &inputs {
+    // One input to its result: what the summary lists, and the seconds of audio read.
+    let one = |input: &Input| -> Result<(BatchFile, f64)> {
         let t = target(dir, input, args.format);
         if args.resume && Stamp::current(dir, &t, &input.path, &run) {
-            skipped += 1;
-            files.push(BatchFile {
+            let file = BatchFile {
                 input: input.path.clone(),
                 result: Some(t.display().to_string()),
                 skipped: true,
                 error: None,
-            });
-            continue;
+            };
+            return Ok((file, 0.0));
         }
         if let Some(parent) = t.parent() {
             std::fs::create_dir_all(parent)
@@ -202,25 +231,22 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
         }
         let sink = Sink::open(Some(&t), &[Path::new(&input.path), &args.geometry])?;
         let mut out = Output::new(args, localizer.metadata(&geometry_path), sink, false);
-        let entry = analyze_one(args, localizer, &input.path, &mut out, false, &mut said)?;
-        if let (Some(frames), Some(n), Some(rate)) =
-            (entry.frames, entry.frame_size, entry.sample_rate)
-        {
-            if frames > 0 {
-                audio_s += ((frames - 1) as f64 * n as f64 / 2.0 + n as f64) / rate as f64;
+        let entry = analyze_one(args, localizer, &input.path, &mut out, false, &said)?;
+        let audio_s = match (entry.frames, entry.frame_size, entry.sample_rate) {
+            (Some(frames), Some(n), Some(rate)) if frames > 0 => {
+                ((frames - 1) as f64 * n as f64 / 2.0 + n as f64) / rate as f64
             }
-        }
+            _ => 0.0,
+        };
         let error = entry.error.clone();
         let ok = error.is_none() && out.finish_into(&[entry])?;
         if ok {
             Stamp::write(dir, &t, &input.path, &run)
                 .with_context(|| format!("{}: cannot stamp the result", t.display()))?;
-            done += 1;
         } else {
             Stamp::withdraw(dir, &t);
-            failed += 1;
         }
-        files.push(BatchFile {
+        let file = BatchFile {
             input: input.path.clone(),
             result: ok.then(|| t.display().to_string()),
             skipped: false,
@@ -229,8 +255,15 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
             } else {
                 Some(error.unwrap_or_else(|| "nothing was analysed".into()))
             },
-        });
-    }
+        };
+        Ok((file, audio_s))
+    };
+    let outcomes = schedule(&inputs, one)?;
+    let files: Vec<BatchFile> = outcomes.iter().map(|(f, _)| f.clone()).collect();
+    let audio_s: f64 = outcomes.iter().map(|(_, a)| a).sum();
+    let skipped = files.iter().filter(|f| f.skipped).count();
+    let failed = files.iter().filter(|f| f.error.is_some()).count();
+    let done = files.len() - skipped - failed;
     let wall_s = started.elapsed().as_secs_f64();
     let summary = BatchSummary {
         shard: args.shard.map(|s| format!("{}/{}", s.index, s.count)),
@@ -275,6 +308,57 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
         w.into_inner().map_err(|e| e.into_error())?.commit()?;
     }
     Ok(summary.failed == 0)
+}
+
+/// Runs `one` on every input, in input order: with one thread (or fewer inputs than
+/// threads), one input after another, each analysed by every thread; otherwise one
+/// input per thread at a time, each analysed by its thread alone, which costs no
+/// synchronisation per frame (the results are the same bytes either way). An error of
+/// `one` (an output that cannot be written) stops the batch.
+fn schedule<T: Send>(
+    inputs: &[&Input],
+    one: impl Fn(&Input) -> Result<T> + Sync,
+) -> Result<Vec<T>> {
+    let lanes = rayon::current_num_threads();
+    if lanes <= 1 || inputs.len() < lanes {
+        return inputs.iter().map(|input| one(input)).collect();
+    }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let slots: Vec<std::sync::Mutex<Option<Result<T>>>> =
+        inputs.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..lanes {
+            scope.spawn(|| {
+                // The analysis inside sees one thread: no work is split per frame.
+                let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(1).build() else {
+                    return;
+                };
+                pool.install(|| {
+                    use std::sync::atomic::Ordering::Relaxed;
+                    while !stop.load(Relaxed) {
+                        let i = next.fetch_add(1, Relaxed);
+                        let Some(input) = inputs.get(i) else { break };
+                        let outcome = one(input);
+                        if outcome.is_err() {
+                            stop.store(true, Relaxed);
+                        }
+                        *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(outcome);
+                    }
+                });
+            });
+        }
+    });
+    let mut out = Vec::with_capacity(inputs.len());
+    for (slot, input) in slots.into_iter().zip(inputs) {
+        match slot.into_inner().unwrap_or_else(|e| e.into_inner()) {
+            Some(outcome) => out.push(outcome?),
+            // Not reached: an earlier error stopped the batch (and is returned above),
+            // or a thread could not start.
+            None => bail!("{}: not analysed: a thread could not start", input.path),
+        }
+    }
+    Ok(out)
 }
 
 /// Seconds as hours and minutes (`2 h 05 min`), or seconds under a minute.

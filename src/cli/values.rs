@@ -138,14 +138,6 @@ pub struct Shard {
     pub count: usize,
 }
 
-impl Shard {
-    /// Whether the `i`-th input (from 0, in the batch's order) is this share's: every
-    /// N-th, so that folders of long and short recordings spread over the shares.
-    pub fn holds(&self, i: usize) -> bool {
-        i % self.count == self.index - 1
-    }
-}
-
 pub(super) fn shard(s: &str) -> std::result::Result<Shard, String> {
     let bad = || format!("`{s}` is not K/N with 1 <= K <= N (the K-th of N shares)");
     let (k, n) = s.split_once('/').ok_or_else(bad)?;

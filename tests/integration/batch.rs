@@ -320,3 +320,58 @@ fn an_input_that_now_fails_loses_the_result_of_its_older_version() {
         stderr(&o)
     );
 }
+
+#[test]
+fn one_input_per_thread_writes_the_bytes_of_one_thread() {
+    let dir = tempdir();
+    let root = dir.path();
+    let archive = root.join("archive");
+    for i in 0..7 {
+        copy(
+            &testdata("example.wav"),
+            &archive.join(format!("d{}/r{i}.wav", i % 2)),
+        );
+    }
+    let (_keep, other, _) = recording(0.8);
+    copy(&other, &archive.join("d1/other.wav"));
+    let bytes = std::fs::read(testdata("example.wav")).unwrap();
+    write(&archive.join("d0"), "broken.wav", &bytes[..5000]);
+    let geometry = testdata("prism.toml");
+    let mut outputs = Vec::new();
+    for threads in ["1", "3"] {
+        let out = root.join(format!("j{threads}"));
+        let o = run(&[
+            "analyze",
+            s(&archive),
+            "-g",
+            s(&geometry),
+            "--out-dir",
+            s(&out),
+            "-f",
+            "json",
+            "-j",
+            threads,
+        ]);
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains("9 input(s): 8 done, 0 skipped, 1 failed"),
+            "{}",
+            stderr(&o)
+        );
+        // The summary lists the inputs in their order whatever finished first.
+        let summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("batch.json")).unwrap()).unwrap();
+        let listed: Vec<&str> = summary["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f["input"].as_str().unwrap())
+            .collect();
+        let mut sorted = listed.clone();
+        sorted.sort();
+        assert_eq!(listed, sorted);
+        outputs.push(contents(&out));
+    }
+    assert_eq!(outputs[0].len(), 8);
+    assert!(outputs[0] == outputs[1], "-j 3 wrote other bytes than -j 1");
+}

@@ -36,6 +36,18 @@ pub fn binary() -> &'static Path {
 /// Runs `exe args`, polling its peak resident memory (VmHWM) from /proc every 5 ms.
 /// Returns the wall time in seconds and the peak in MB; fails if the command fails.
 pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std::error::Error>> {
+    let (wall, peak, status) = run_measured_status(exe, args)?;
+    if !status.success() {
+        return Err(format!("{} {} failed", exe.display(), args.join(" ")).into());
+    }
+    Ok((wall, peak))
+}
+
+/// As [`run_measured`], whatever the command's exit status, which it returns too.
+pub fn run_measured_status(
+    exe: &Path,
+    args: &[&str],
+) -> Result<(f64, f64, std::process::ExitStatus), Box<dyn std::error::Error>> {
     let start = Instant::now();
     let mut child = Command::new(exe).args(args).spawn()?;
     let mut peak_kb = 0u64;
@@ -51,10 +63,11 @@ pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std
         }
         std::thread::sleep(Duration::from_millis(5));
     };
-    if !status.success() {
-        return Err(format!("{} {} failed", exe.display(), args.join(" ")).into());
-    }
-    Ok((start.elapsed().as_secs_f64(), peak_kb as f64 / 1024.0))
+    Ok((
+        start.elapsed().as_secs_f64(),
+        peak_kb as f64 / 1024.0,
+        status,
+    ))
 }
 
 /// The value of `key=NAME` among the names of `T` (one of the library's closed sets).

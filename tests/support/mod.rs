@@ -7,6 +7,7 @@ pub mod bench;
 pub mod harness;
 #[cfg(feature = "simulate")]
 pub mod moving;
+pub mod scenes;
 
 use nalgebra::Vector3;
 use ssl::method::direction::{angle_between_deg, unit_from_angles};
