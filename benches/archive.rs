@@ -37,8 +37,11 @@ fn s(p: &Path) -> &str {
     p.to_str().expect("a UTF-8 path")
 }
 
+/// Results by their path under the output folder, with their bytes.
+type Results = Vec<(PathBuf, Vec<u8>)>;
+
 /// Every file under `dir` (but `.ssl/` and the summaries) with its bytes, in name order.
-fn results(dir: &Path) -> Result<Vec<(PathBuf, Vec<u8>)>, Box<dyn Error>> {
+fn results(dir: &Path) -> Result<Results, Box<dyn Error>> {
     fn walk(d: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
         for e in std::fs::read_dir(d)? {
             let p = e?.path();
