@@ -236,7 +236,9 @@ fn main() -> Result<(), Box<dyn Error>> {
          (a truncated header, a text file named .wav, a 4-channel recording for the 8-microphone prism). \
          Behind the names are {SCENES} distinct scenes rendered by `ssl simulate`: half reverberant speech taking \
          turns in a room with a fan, half sparse noise bursts in free field. They are hard-linked under every name: \
-         each recording is analysed in full, but read from the page cache, so the figures are the analysis's.\n",
+         each recording is analysed in full, but read from the page cache, so the figures are the analysis's. \
+         The machine is a shared virtual machine: the same command varies by 10-30% from run to run \
+         (docs/speed.md), so compare the rows of one run rather than runs.\n",
         audio_s / 3600.0
     );
     println!("| run | wall time | hours of audio per minute | x real time | peak memory |");

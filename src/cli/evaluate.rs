@@ -95,35 +95,36 @@ struct Recording {
     geometry: Option<Geometry>,
 }
 
-/// The recordings `results` hold, in order of first appearance. A result without rows
-/// (an empty NDJSON file, a CSV header) stands for the recording its path names.
-fn recordings(results: &[ResultFile]) -> Result<Vec<Recording>> {
+/// The recordings one result holds, in order of first appearance. A result without
+/// rows (an empty NDJSON file, a CSV header) stands for the recording its path names.
+fn recordings(r: &ResultFile) -> Result<Vec<Recording>> {
+    let empty = r.relative.is_some() && std::fs::metadata(&r.path).is_ok_and(|m| m.len() == 0);
+    let (rows, info) = if empty {
+        (Vec::new(), ResultInfo::default())
+    } else {
+        read_detections_with_info(&r.path)?
+    };
+    let geometry = geometry_of(&info);
+    if rows.is_empty() {
+        let name = r.relative.as_deref().unwrap_or(&r.path);
+        return Ok(vec![Recording {
+            name: name.display().to_string(),
+            rows,
+            geometry,
+        }]);
+    }
     let mut out: Vec<Recording> = Vec::new();
-    for r in results {
-        let empty = r.relative.is_some() && std::fs::metadata(&r.path).is_ok_and(|m| m.len() == 0);
-        let (rows, info) = if empty {
-            (Vec::new(), ResultInfo::default())
-        } else {
-            read_detections_with_info(&r.path)?
-        };
-        let geometry = geometry_of(&info);
-        if rows.is_empty() {
-            let name = r.relative.as_deref().unwrap_or(&r.path);
-            out.push(Recording {
-                name: name.display().to_string(),
-                rows,
-                geometry,
-            });
-            continue;
-        }
-        for row in rows {
-            match out.iter_mut().rev().find(|g| g.name == row.file) {
-                Some(g) => g.rows.push(row),
-                None => out.push(Recording {
+    let mut index: std::collections::HashMap<String, usize> = Default::default();
+    for row in rows {
+        match index.get(&row.file) {
+            Some(&i) => out[i].rows.push(row),
+            None => {
+                index.insert(row.file.clone(), out.len());
+                out.push(Recording {
                     name: row.file.clone(),
                     rows: vec![row],
                     geometry: geometry.clone(),
-                }),
+                });
             }
         }
     }
@@ -189,7 +190,21 @@ fn many(args: &EvaluateArgs, results: &[ResultFile]) -> Result<bool> {
     let mut scored = Vec::new();
     let mut without_truth = Vec::new();
     let mut failed = Vec::new();
-    for rec in recordings(results)? {
+    // Each result is scored as it is read, and its rows dropped: the memory is one
+    // result's rows (and every counted detection's error, for the pooled median).
+    let mut seen = std::collections::HashSet::new();
+    for rec in results.iter().map(recordings).flat_map(|r| match r {
+        Ok(recs) => recs.into_iter().map(Ok).collect::<Vec<_>>(),
+        Err(e) => vec![Err(e)],
+    }) {
+        let rec = rec?;
+        if !seen.insert(rec.name.clone()) {
+            failed.push(Failed {
+                error: "its rows are split over two results (scored from the first alone): give them as one (cat)".into(),
+                recording: rec.name,
+            });
+            continue;
+        }
         let Some(path) = truth_path(&args.truth, &rec.name) else {
             without_truth.push(rec.name);
             continue;

@@ -4,6 +4,7 @@
 //! threshold's floors, the diffuse coherences, the bins' solvers) are built by their
 //! stages; the engine's [`Setup`](super::engine::setup::Setup) holds them beside this.
 
+use super::paper::correlation::weight_energy;
 use super::paper::pairs::{pair_count, pair_index};
 use super::params::{
     default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_FRAME_SIZE, MIN_BAND_BINS,
@@ -131,14 +132,8 @@ impl Layout {
     /// frame, the background's gate, the diffuse floor) scale with it.
     pub fn band_share(&self) -> f64 {
         let (first, last) = self.band;
-        let nyquist = self.n / 2;
-        // Bins 0 and N/2 count once in eq. (6)'s N bins, the others twice.
-        let once = [0, nyquist]
-            .iter()
-            .filter(|&&k| (first..=last).contains(&k))
-            .count();
-        let all = last + 1 - first;
-        (2 * all - once) as f64 / self.n as f64
+        let kept = (0..=self.n / 2).map(|k| f64::from(u8::from((first..=last).contains(&k))));
+        weight_energy(kept, self.n)
     }
 
     /// Number of microphones.

@@ -3,10 +3,10 @@
 //! which names what the file is.
 
 use super::flac::FlacStream;
-use super::source::{open_input, SampleSource};
+use super::source::{open_input, read_full, SampleSource};
 use super::wav::WavStream;
 use super::InputError;
-use std::io::{self, Cursor, Read};
+use std::io::{Cursor, Read};
 
 /// A WAV or FLAC recording, streamed.
 pub enum AudioStream {
@@ -31,15 +31,7 @@ impl AudioStream {
         size: Option<u64>,
     ) -> Result<Self, InputError> {
         let mut head = [0u8; 4];
-        let mut got = 0;
-        while got < 4 {
-            match input.read(&mut head[got..]) {
-                Ok(0) => break,
-                Ok(k) => got += k,
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(InputError::Io(e)),
-            }
-        }
+        let got = read_full(&mut input, &mut head).map_err(InputError::Io)?;
         let whole: Box<dyn Read> = Box::new(Cursor::new(head[..got].to_vec()).chain(input));
         if &head[..got] == b"fLaC" {
             FlacStream::from_reader(name, whole, size.is_none()).map(AudioStream::Flac)

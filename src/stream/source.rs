@@ -307,6 +307,20 @@ impl Framer {
     }
 }
 
+/// Like `read_exact`, but returns how many bytes were read before the end of input.
+pub(super) fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
+
 /// Sample frames read at a time from a source of `channels` channels.
 fn chunk_frames(channels: usize) -> usize {
     (CHUNK_SAMPLES / channels).clamp(64, 4096)

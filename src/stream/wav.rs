@@ -13,7 +13,7 @@
 use super::clock::{ClockOrigin, TimeReference, BEXT_TIME_END};
 use super::header::{not_wav, parse_fmt};
 pub use super::header::{WavFormat, MAX_CHANNELS, MAX_RATE, MIN_RATE};
-use super::source::{open_input, SampleSource};
+use super::source::{open_input, read_full, SampleSource};
 use super::InputError;
 use multiversion::multiversion;
 use std::io::{self, Read};
@@ -407,20 +407,6 @@ fn decode(raw: &[u8], width: usize, float: bool, out: &mut [f32]) {
         }
         _ => unreachable!("parse_fmt admits only 1-4 byte integer and 4-byte float containers"),
     }
-}
-
-/// Like `read_exact`, but returns how many bytes were read before the end of input.
-fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> io::Result<usize> {
-    let mut n = 0;
-    while n < buf.len() {
-        match r.read(&mut buf[n..]) {
-            Ok(0) => break,
-            Ok(k) => n += k,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(n)
 }
 
 #[cfg(all(test, feature = "simulate"))]

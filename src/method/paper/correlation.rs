@@ -58,11 +58,18 @@ pub fn window_max(w: &[f32], init: f32) -> f32 {
 /// it. `weights` holds `w_e(k)` for `k = 0..=N/2`; a margin covers rounding.
 #[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 pub fn peak_ceiling(weights: &[f32], n: usize, interp: Interpolation) -> f64 {
-    let last = weights.len() - 1;
-    let inner: f64 = weights[1..last].iter().map(|&w| (w * w) as f64).sum();
-    let edges = (weights[0] * weights[0]) as f64 + (weights[last] * weights[last]) as f64;
-    let e = (edges + 2.0 * inner) / n as f64;
-    e * interp.overshoot() * (1.0 + 1e-3)
+    debug_assert_eq!(weights.len(), n / 2 + 1);
+    weight_energy(weights.iter().map(|&w| (w * w) as f64), n) * interp.overshoot() * (1.0 + 1e-3)
+}
+
+/// The sum over eq. (6)'s N bins of `squares` (one value per bin 0..=N/2), divided by
+/// N: bins 0 and N/2 count once, the others twice (the spectrum's mirror half).
+pub fn weight_energy(squares: impl Iterator<Item = f64>, n: usize) -> f64 {
+    let sum: f64 = squares
+        .enumerate()
+        .map(|(k, x)| if k == 0 || k == n / 2 { x } else { 2.0 * x })
+        .sum();
+    sum / n as f64
 }
 
 /// The weighted PHAT correlations of eq. (6), two microphone pairs per inverse FFT.
