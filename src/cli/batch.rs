@@ -163,7 +163,7 @@ struct BatchSummary {
     files: Vec<BatchFile>,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Serialize)]
 struct BatchFile {
     input: String,
     result: Option<String>,
@@ -258,9 +258,8 @@ pub fn run(args: &AnalyzeArgs, dir: &Path) -> Result<bool> {
         };
         Ok((file, audio_s))
     };
-    let outcomes = schedule(&inputs, one)?;
-    let files: Vec<BatchFile> = outcomes.iter().map(|(f, _)| f.clone()).collect();
-    let audio_s: f64 = outcomes.iter().map(|(_, a)| a).sum();
+    let (files, audio): (Vec<BatchFile>, Vec<f64>) = schedule(&inputs, one)?.into_iter().unzip();
+    let audio_s: f64 = audio.iter().sum();
     let skipped = files.iter().filter(|f| f.skipped).count();
     let failed = files.iter().filter(|f| f.error.is_some()).count();
     let done = files.len() - skipped - failed;

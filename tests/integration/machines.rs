@@ -143,6 +143,17 @@ fn shards_write_the_whole_batch_bytes_and_their_own_summaries() {
     assert!(stderr(&o).contains("--out-dir"), "{}", stderr(&o));
 }
 
+/// A manifest of the archive's recordings, relative to its folder: those of the
+/// `reference` results, and the broken one.
+fn manifest(reference: &[(String, Vec<u8>)]) -> String {
+    let mut list: Vec<String> = reference
+        .iter()
+        .map(|(n, _)| n.replace(".json", ".wav"))
+        .collect();
+    list.push("site0/broken.wav".into());
+    list.join("\n") + "\n"
+}
+
 fn script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("contrib/slurm/ssl-array.sh")
 }
@@ -207,12 +218,7 @@ fn the_slurm_script_run_as_slurm_runs_its_tasks_gives_the_one_machine_results() 
         assert!(root.join(format!("dir/batch.{k}-of-4.json")).is_file());
     }
     // A manifest of relative paths, from the archive's folder.
-    let mut list: Vec<String> = reference
-        .iter()
-        .map(|(n, _)| n.replace(".json", ".wav"))
-        .collect();
-    list.push("site0/broken.wav".into());
-    write(&root.join("archive"), "list.txt", list.join("\n") + "\n");
+    write(&root.join("archive"), "list.txt", manifest(&reference));
     for id in 1..=2 {
         let o = slurm_task(
             &root.join("archive"),
@@ -529,12 +535,7 @@ fn gnu_parallel_on_local_slots_and_over_ssh_gives_the_one_machine_results() {
     }
     let archive = root.join("archive");
     copy(&root.join("prism.toml"), &archive.join("prism.toml"));
-    let mut list: Vec<String> = reference
-        .iter()
-        .map(|(n, _)| n.replace(".json", ".wav"))
-        .collect();
-    list.push("site0/broken.wav".into());
-    write(root, "list.txt", list.join("\n") + "\n");
+    write(root, "list.txt", manifest(&reference));
     let o = ssl()
         .current_dir(&archive)
         .args(["analyze", "--files-from", "../list.txt", "-g", "prism.toml"])
