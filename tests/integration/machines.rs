@@ -82,15 +82,22 @@ fn whole(root: &Path, out: &str, extra: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
-#[test]
-fn shards_write_the_whole_batch_bytes_and_their_own_summaries() {
-    let dir = tempdir();
-    let root = dir.path();
+/// Builds the archive in `root` and analyses it on one machine into `root/whole`:
+/// the results every other run must equal (the broken input failing, exit status 1).
+fn reference(root: &Path) -> Vec<(String, Vec<u8>)> {
     archive(root);
     let o = whole(root, "whole", &[]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let reference = contents(&root.join("whole"));
     assert_eq!(reference.len(), 7);
+    reference
+}
+
+#[test]
+fn shards_write_the_whole_batch_bytes_and_their_own_summaries() {
+    let dir = tempdir();
+    let root = dir.path();
+    let reference = reference(root);
     // Every input falls to exactly one share, and the shares hold about equal audio:
     // their sizes differ by at most the largest input (inputs dealt largest first, each
     // to the share with the fewest bytes).
@@ -181,9 +188,7 @@ fn slurm_task(root: &Path, id: u32, min: u32, max: u32, args: &[&str]) -> Comman
 fn the_slurm_script_run_as_slurm_runs_its_tasks_gives_the_one_machine_results() {
     let dir = tempdir();
     let root = dir.path();
-    archive(root);
-    whole(root, "whole", &[]);
-    let reference = contents(&root.join("whole"));
+    let reference = reference(root);
     // Four tasks at once (IDs 10-13), on a directory and then on a manifest.
     let children: Vec<_> = (10..=13)
         .map(|id| {
@@ -303,9 +308,7 @@ fn a_one_node_slurm_runs_the_array_to_the_one_machine_results() {
     }
     let dir = tempdir();
     let root = dir.path();
-    archive(root);
-    whole(root, "whole", &[]);
-    let reference = contents(&root.join("whole"));
+    let reference = reference(root);
     let slurm = root.join("slurm");
     for d in ["state", "spool"] {
         std::fs::create_dir_all(slurm.join(d)).unwrap();
@@ -500,9 +503,7 @@ fn gnu_parallel_on_local_slots_and_over_ssh_gives_the_one_machine_results() {
     }
     let dir = tempdir();
     let root = dir.path();
-    archive(root);
-    whole(root, "whole", &[]);
-    let reference = contents(&root.join("whole"));
+    let reference = reference(root);
     // Local slots, sharing the folder.
     let o = parallel_shares(root, "slots", &["-j", "2"]);
     // parallel's status counts the jobs that failed: the one holding the broken file.
