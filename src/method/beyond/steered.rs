@@ -28,6 +28,7 @@
 use crate::method::paper::correlation::window_max;
 use crate::method::paper::direction::DirectionSolver;
 use crate::method::paper::pairs::pair_index;
+use multiversion::multiversion;
 use nalgebra::Vector3;
 
 /// Directions in the grid.
@@ -62,6 +63,9 @@ pub const REFINED: usize = 6;
 /// Grid points refined in one search are at least this far apart (degrees).
 pub const SEPARATION_DEG: f64 = 10.0;
 
+/// Entries of [`Steered`]'s table: one per `u16` index.
+const TABLE: usize = 1 << 16;
+
 /// The grid, its delays per pair, and the buffers of one search.
 pub(crate) struct Steered {
     points: Vec<Vector3<f64>>,
@@ -78,6 +82,13 @@ pub(crate) struct Steered {
     starts: Vec<(usize, usize)>,
     pooled: Vec<f32>,
     scratch: Vec<f32>,
+    /// A pair's running maximum, at the start of a table every `u16` indexes (so the
+    /// grid's reads need no bounds checks and vectorise; only the start is ever touched).
+    table: Box<[f32; TABLE]>,
+    /// Per value of the windows searched (laid out as a frame's), the value when it is
+    /// a positive local maximum ([`local_peak`]'s candidates), else 0: marked once a
+    /// search, read by every refinement.
+    marks: Vec<f32>,
     power: Vec<f32>,
     order: Vec<usize>,
     tried: Vec<Vector3<f64>>,
@@ -167,6 +178,11 @@ impl Steered {
             scratch: Vec::with_capacity(
                 max_lag.iter().map(|&h| 2 * h + 3).max().unwrap_or(0) + 2 * widest_radius,
             ),
+            table: vec![0.0; TABLE]
+                .into_boxed_slice()
+                .try_into()
+                .expect("TABLE entries"),
+            marks: vec![0.0; start],
             order: Vec::with_capacity(GRID_POINTS),
             tried: Vec::with_capacity(REFINED),
             lags: Vec::with_capacity(max_lag.len()),
@@ -271,15 +287,23 @@ impl Steered {
                 let (start, half) = self.starts[pair];
                 let w = &windows[start..start + 2 * half + 1];
                 running_max(w, self.radius[pair], &mut self.pooled, &mut self.scratch);
-                for (p, &i) in self.power.iter_mut().zip(&self.index[pair]) {
-                    *p += self.pooled[i as usize];
-                }
+                self.table[..w.len()].copy_from_slice(&self.pooled);
+                gather_add(&mut self.power, &self.table, &self.index[pair]);
             }
         }
         let near = EXCLUDE_DEG.to_radians().cos();
         for (p, u) in self.power.iter_mut().zip(&self.points) {
             if found.iter().any(|f| f.dot(u) > near) {
                 *p = f32::NEG_INFINITY;
+            }
+        }
+        // Each pair's positive local maxima, for the refinements.
+        for a in 0..k {
+            for b in a + 1..k {
+                let pair = pair_index(live[a], live[b], mics);
+                let (start, half) = self.starts[pair];
+                let range = start..start + 2 * half + 1;
+                mark_peaks(&windows[range.clone()], &mut self.marks[range]);
             }
         }
         // The best few grid points, apart from each other, each refined.
@@ -344,14 +368,15 @@ impl Steered {
                 for b in a + 1..k {
                     let pair = pair_index(live[a], live[b], mics);
                     let (start, half) = self.starts[pair];
-                    let w = &windows[start..start + 2 * half + 1];
+                    let range = start..start + 2 * half + 1;
+                    let (w, marks) = (&windows[range.clone()], &self.marks[range]);
                     let expected = u.dot(&self.diffs[pair]);
                     let reach = if pass == 0 {
                         self.radius[pair] as f64 + tolerance as f64
                     } else {
                         tolerance as f64
                     };
-                    match local_peak(w, expected + half as f64, reach) {
+                    match local_peak(w, marks, expected + half as f64, reach) {
                         Some((at, value)) => {
                             self.lags.push(at - half as f64);
                             score.0 += value as f64;
@@ -373,50 +398,78 @@ impl Steered {
     }
 }
 
-/// `out[i]` = the largest of 0 and `w[i - r..=i + r]` (van Herk / Gil-Werman: prefix and
-/// suffix maxima over blocks of `2r + 1`, linear in the length whatever `r`).
+/// `out[i]` = the largest of 0 and `w[i - r..=i + r]`, by doubling: after step `s` each
+/// value is the largest over `2^s` neighbours, and the window of `2r + 1` is the larger of
+/// two overlapping such spans (`log2(2r + 1)` passes, each a plain loop the compiler
+/// vectorises: the prefix-suffix scheme it replaces cost a division per value).
 fn running_max(w: &[f32], r: usize, out: &mut Vec<f32>, scratch: &mut Vec<f32>) {
     let n = w.len();
     let width = 2 * r + 1;
-    // The window padded with r zeros each side: `x[j] = w[j - r]`.
-    let padded = n + 2 * r;
-    let x = |j: usize| if j < r || j >= r + n { 0.0 } else { w[j - r] };
-    // Prefix maxima within each block (in `out`), suffix maxima (in `scratch`).
+    // The window's positive part padded with r zeros each side.
     out.clear();
-    scratch.clear();
-    scratch.resize(padded, 0.0);
-    for j in 0..padded {
-        let v = x(j);
-        out.push(if j % width == 0 { v } else { out[j - 1].max(v) });
+    out.resize(n + 2 * r, 0.0);
+    out[r..r + n]
+        .iter_mut()
+        .zip(w)
+        .for_each(|(o, &v)| *o = v.max(0.0));
+    // `out[i]` is the largest of `span` values from `i`.
+    let mut span = 1;
+    while 2 * span <= width {
+        scratch.clear();
+        scratch.extend(out.iter().zip(&out[span..]).map(|(&a, &b)| a.max(b)));
+        std::mem::swap(out, scratch);
+        span *= 2;
     }
-    for j in (0..padded).rev() {
-        let v = x(j);
-        scratch[j] = if j + 1 == padded || (j + 1) % width == 0 {
+    scratch.clear();
+    scratch.extend(
+        out[..n]
+            .iter()
+            .zip(&out[width - span..])
+            .map(|(&a, &b)| a.max(b)),
+    );
+    std::mem::swap(out, scratch);
+}
+
+/// `power[g] += table[index[g]]` for every grid point `g` (the compiler gathers eight at
+/// a time: an index of `u16` cannot pass the table's end).
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn gather_add(power: &mut [f32], table: &[f32; TABLE], index: &[u16]) {
+    for (p, &i) in power.iter_mut().zip(index) {
+        *p += table[i as usize];
+    }
+}
+
+/// `marks[i]` = `w[i]` where it is a positive local maximum (`w[i] >= w[i - 1]` and
+/// `w[i] > w[i + 1]`), else 0; the window's two ends are never one.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn mark_peaks(w: &[f32], marks: &mut [f32]) {
+    let n = w.len();
+    marks[0] = 0.0;
+    marks[n - 1] = 0.0;
+    for (m, x) in marks[1..n - 1].iter_mut().zip(w.windows(3)) {
+        let v = x[1];
+        *m = if v > 0.0 && v >= x[0] && v > x[2] {
             v
         } else {
-            scratch[j + 1].max(v)
+            0.0
         };
     }
-    // The window `x[i..=i + 2r]` spans at most two blocks.
-    for i in 0..n {
-        let m = scratch[i].max(out[i + 2 * r]);
-        out[i] = m.max(0.0);
-    }
-    out.truncate(n);
 }
 
 /// The highest local maximum of `w` with a positive value within `reach` of position
-/// `centre` (both in window indices), refined with a parabola: its position and value.
-fn local_peak(w: &[f32], centre: f64, reach: f64) -> Option<(f64, f32)> {
+/// `centre` (both in window indices; the first of equal ones), refined with a
+/// parabola: its position and value. `marks` are `w`'s from [`mark_peaks`].
+fn local_peak(w: &[f32], marks: &[f32], centre: f64, reach: f64) -> Option<(f64, f32)> {
     let lo = ((centre - reach).ceil().max(1.0)) as usize;
     let hi = ((centre + reach).floor().min(w.len() as f64 - 2.0)) as isize;
     if hi < lo as isize {
         return None;
     }
     let mut best: Option<(usize, f32)> = None;
-    for i in lo..=hi as usize {
-        let v = w[i];
-        if v > 0.0 && v >= w[i - 1] && v > w[i + 1] && best.is_none_or(|(_, b)| v > b) {
+    let mut top = 0.0;
+    for (i, &v) in marks.iter().enumerate().take(hi as usize + 1).skip(lo) {
+        if v > top {
+            top = v;
             best = Some((i, v));
         }
     }

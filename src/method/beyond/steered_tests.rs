@@ -89,3 +89,42 @@ fn finds_a_source_most_pairs_agree_on_then_the_next() {
     );
     assert!(second.agreeing >= pair_count(mics) - 3);
 }
+
+/// The refinement's peak is the one a scan of the window itself finds: the highest
+/// positive local maximum in reach, the first of equal ones.
+#[test]
+fn local_peak_from_marks_is_the_scanned_one() {
+    let w: Vec<f32> = (0..61)
+        .map(|i| (((i * 7919) % 13) as f32 - 5.0) * 0.1 + if i % 9 == 0 { 0.3 } else { 0.0 })
+        .collect();
+    let mut marks = vec![0.0; w.len()];
+    mark_peaks(&w, &mut marks);
+    for centre in [0.0f64, 3.4, 17.0, 30.5, 59.9] {
+        for reach in [0.0f64, 1.0, 2.4, 8.0, 70.0] {
+            let lo = ((centre - reach).ceil().max(1.0)) as usize;
+            let hi = ((centre + reach).floor().min(w.len() as f64 - 2.0)) as isize;
+            let mut scanned: Option<(usize, f32)> = None;
+            for i in lo..=hi.max(0) as usize {
+                if hi < lo as isize {
+                    break;
+                }
+                let v = w[i];
+                if v > 0.0 && v >= w[i - 1] && v > w[i + 1] && scanned.is_none_or(|(_, b)| v > b) {
+                    scanned = Some((i, v));
+                }
+            }
+            let got = local_peak(&w, &marks, centre, reach);
+            assert_eq!(
+                got.is_some(),
+                scanned.is_some(),
+                "centre {centre} reach {reach}"
+            );
+            if let (Some((at, _)), Some((i, _))) = (got, scanned) {
+                assert!(
+                    (at - i as f64).abs() <= 0.5,
+                    "centre {centre} reach {reach}"
+                );
+            }
+        }
+    }
+}
