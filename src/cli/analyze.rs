@@ -12,6 +12,7 @@ use super::{error, output_error, warn, warning_with_hint, with_hint};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use ssl::localize::{Output as Found, RunError};
+use ssl::method::StageTimes;
 use ssl::record::FileEntry;
 use ssl::stream::{SampleSource, Warning};
 use ssl::{Analysis, Exporter, Format, Geometry, Localizer, OutputError, RunMetadata};
@@ -175,7 +176,7 @@ pub(super) fn analyze_one(
     show_progress: bool,
     said: &Said,
 ) -> Result<FileEntry> {
-    let recording = match localizer.open(path) {
+    let mut recording = match localizer.open(path) {
         Ok(r) => r,
         Err(e) => {
             let message = with_hint(&e);
@@ -183,6 +184,11 @@ pub(super) fn analyze_one(
             return Ok(FileEntry::new(path, None, Some(message)));
         }
     };
+    if args.timings {
+        recording.enable_stage_timing();
+    }
+    let hop_s =
+        recording.analysis().frame_size() as f64 / 2.0 / recording.analysis().sample_rate() as f64;
     let progress = Progress::new(show_progress, recording.analysis());
     // The output opens on the first frame of the first file that gives one.
     let shared = RefCell::new(&mut *out);
@@ -210,6 +216,12 @@ pub(super) fn analyze_one(
         Ok(()) => Ok(()),
     };
     let summary = &report.summary;
+    if let Some(times) = &summary.stage_times {
+        eprint!(
+            "{}",
+            timings_table(&summary.name, times, summary.stats.frames, hop_s)
+        );
+    }
     // A file's own error first, then its remarks.
     let message = result.err().map(|e| with_hint(&e));
     if let Some(e) = &message {
@@ -389,4 +401,27 @@ fn clock(s: f64) -> String {
     } else {
         format!("{}:{:04.1}", (s / 60.0).floor() as u64, s % 60.0)
     }
+}
+
+/// `--timings`: each stage's time, per frame and as a share of the stages' sum.
+fn timings_table(name: &str, times: &StageTimes, frames: u64, hop_s: f64) -> String {
+    let total = times.total().as_secs_f64();
+    let audio_s = frames as f64 * hop_s;
+    let mut s = format!(
+        "ssl: {name}: stage times ({frames} frames, {audio_s:.1} s of audio; {total:.3} s in all, {:.0}x real time per thread)\n",
+        audio_s / total.max(1e-9)
+    );
+    s += &format!(
+        "  {:<12} {:>9} {:>7} {:>10}\n",
+        "stage", "seconds", "share", "us/frame"
+    );
+    for (stage, time) in times.stages() {
+        let t = time.as_secs_f64();
+        s += &format!(
+            "  {stage:<12} {t:>9.3} {:>6.1}% {:>10.1}\n",
+            100.0 * t / total.max(1e-9),
+            1e6 * t / frames.max(1) as f64
+        );
+    }
+    s
 }

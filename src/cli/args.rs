@@ -358,6 +358,10 @@ pub struct AnalyzeArgs {
     #[arg(short = 'j', long, default_value_t = 0, value_name = "N", value_parser = clap::value_parser!(u16).range(0..=MAX_THREADS as i64))]
     pub threads: u16,
 
+    /// After each file, print on stderr the time each stage took (read, spectra, noise, weighting, correlation, background, peaks, search, direction, steered, patterns, tracking, output), per frame and as a share; with several threads, the stages after the noise estimate add up the threads' time
+    #[arg(long)]
+    pub timings: bool,
+
     /// No progress bar and no warnings (errors are still reported)
     #[arg(short, long)]
     pub quiet: bool,

@@ -42,6 +42,7 @@ use crate::stream::{
 use crate::track::{TrackParams, TrackStats, Tracker};
 use std::io::Read;
 use std::ops::ControlFlow;
+use std::time::{Duration, Instant};
 
 /// An array and what to run on it: opens recordings and runs each through the method,
 /// the tracker and the smoother, as `ssl analyze` does.
@@ -152,6 +153,7 @@ impl Localizer {
             localizer: self,
             analysis,
             clock,
+            timing: false,
         })
     }
 }
@@ -199,6 +201,8 @@ pub struct Recording<'a, S: SampleSource> {
     analysis: Analysis<S>,
     /// When its first sample was recorded, with `--clock`.
     clock: Option<ClockOrigin>,
+    /// Whether stage timing is on.
+    timing: bool,
 }
 
 impl<S: SampleSource> Recording<'_, S> {
@@ -210,6 +214,7 @@ impl<S: SampleSource> Recording<'_, S> {
     /// Measures the time spent in each stage (reported in the summary).
     pub fn enable_stage_timing(&mut self) {
         self.analysis.enable_stage_timing();
+        self.timing = true;
     }
 
     /// Runs the recording: `sink` gets every row and event in order; an error it
@@ -272,12 +277,25 @@ impl<S: SampleSource> Recording<'_, S> {
             }
             sink(out)
         };
-        let (summary, result) = self.analysis.run(|index, detections| {
+        // Time in the tracker, and in the output (with stage timing).
+        let (mut tracking, mut output) = (Duration::ZERO, Duration::ZERO);
+        let lap = |total: &mut Duration, since: Option<Instant>| {
+            since.map(|t| {
+                let now = Instant::now();
+                *total += now - t;
+                now
+            })
+        };
+        let timing = self.timing;
+        let (mut summary, result) = self.analysis.run(|index, detections| {
+            let start = timing.then(Instant::now);
             if let Some(t) = tracker.as_mut() {
                 t.push((index as f64 + 1.0) * hop, detections);
             }
+            let tracked = lap(&mut tracking, start);
             let emitted =
                 frame(index).and_then(|()| emit(&name, tracker.as_mut(), detections, &mut sink));
+            lap(&mut output, tracked);
             match emitted {
                 Ok(()) => ControlFlow::Continue(()),
                 Err(e) => {
@@ -287,7 +305,9 @@ impl<S: SampleSource> Recording<'_, S> {
             }
         });
         if let Some(t) = tracker.as_mut() {
+            let start = timing.then(Instant::now);
             t.finish();
+            lap(&mut tracking, start);
             if failure.is_none() && summary.stats.frames > 0 {
                 failure = emit(&name, Some(t), &[], &mut sink).err();
             }
@@ -299,6 +319,10 @@ impl<S: SampleSource> Recording<'_, S> {
                     .and_then(|all| all.into_iter().try_for_each(|s| sink(Output::Source(s))))
                     .err();
             }
+        }
+        if let Some(times) = summary.stage_times.as_mut() {
+            times.tracking += tracking;
+            times.output += output;
         }
         let report = Report {
             summary,

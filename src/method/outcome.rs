@@ -203,21 +203,39 @@ impl FrameStats {
     }
 }
 
-/// Time spent in each stage (measured only when stage timing is on).
+/// Time spent in each stage (measured only when stage timing is on: `ssl analyze
+/// --timings`). With several threads, the stages after the noise estimate add up the
+/// threads' time.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct StageTimes {
+    /// Reading, decoding and framing the audio (with `--wpe`, its dereverberation too).
+    pub read: Duration,
     /// Live-channel check, forward FFTs, mean power spectrum.
     pub spectra: Duration,
-    /// Weights (eq. 4-5), noise estimate update, whitening.
+    /// The noise estimate `X_n(k)`, in frame order.
+    pub noise: Duration,
+    /// Weights (eq. 4-5) and whitening.
     pub weighting: Duration,
-    /// Cross-spectra and inverse FFTs of every pair (eq. 6).
+    /// Cross-spectra and inverse FFTs of every pair (eq. 6), with `--dereverb` its
+    /// diffuse part removed.
     pub correlation: Duration,
-    /// The M highest peaks of every pair (eq. 7).
+    /// The coherent background subtracted from the correlations, in frame order.
+    pub background: Duration,
+    /// Averaging each pair's correlation over the frame's span, and its M highest peaks
+    /// (eq. 7).
     pub peaks: Duration,
     /// The consistency search (eq. 8).
     pub search: Duration,
     /// Direction (eq. 13) and the detection record.
     pub direction: Duration,
+    /// The steered response: a direction the search did not give, further sources.
+    pub steered: Duration,
+    /// Each talker's learned pattern removed before a second look, in frame order.
+    pub patterns: Duration,
+    /// The tracker: tracks, their confirmation and events.
+    pub tracking: Duration,
+    /// Formatting and writing rows, events and sources.
+    pub output: Duration,
     /// Pair correlations computed.
     pub correlated_pairs: u64,
     /// Pair correlations left out because the weights' ceiling proved that the frame
@@ -229,14 +247,54 @@ pub struct StageTimes {
 impl StageTimes {
     /// Adds another record's times and counts to this one.
     pub fn add(&mut self, other: &StageTimes) {
-        self.spectra += other.spectra;
-        self.weighting += other.weighting;
-        self.correlation += other.correlation;
-        self.peaks += other.peaks;
-        self.search += other.search;
-        self.direction += other.direction;
+        for ((_, mine), (_, theirs)) in self.stages_mut().into_iter().zip(other.stages()) {
+            *mine += theirs;
+        }
         self.correlated_pairs += other.correlated_pairs;
         self.skipped_pairs += other.skipped_pairs;
+    }
+
+    /// Each stage's name (as `--timings` prints it) and time, in the order a frame
+    /// meets them.
+    pub fn stages(&self) -> [(&'static str, Duration); 13] {
+        [
+            ("read", self.read),
+            ("spectra", self.spectra),
+            ("noise", self.noise),
+            ("weighting", self.weighting),
+            ("correlation", self.correlation),
+            ("background", self.background),
+            ("peaks", self.peaks),
+            ("search", self.search),
+            ("direction", self.direction),
+            ("steered", self.steered),
+            ("patterns", self.patterns),
+            ("tracking", self.tracking),
+            ("output", self.output),
+        ]
+    }
+
+    fn stages_mut(&mut self) -> [(&'static str, &mut Duration); 13] {
+        [
+            ("read", &mut self.read),
+            ("spectra", &mut self.spectra),
+            ("noise", &mut self.noise),
+            ("weighting", &mut self.weighting),
+            ("correlation", &mut self.correlation),
+            ("background", &mut self.background),
+            ("peaks", &mut self.peaks),
+            ("search", &mut self.search),
+            ("direction", &mut self.direction),
+            ("steered", &mut self.steered),
+            ("patterns", &mut self.patterns),
+            ("tracking", &mut self.tracking),
+            ("output", &mut self.output),
+        ]
+    }
+
+    /// The stages' times summed.
+    pub fn total(&self) -> Duration {
+        self.stages().iter().map(|(_, d)| *d).sum()
     }
 }
 

@@ -13,6 +13,7 @@ use crate::method::{Analyzer, Detection, FrameStats, Params, ParamsError, StageT
 use std::fmt;
 use std::io::Read;
 use std::ops::ControlFlow;
+use std::time::{Duration, Instant};
 
 /// Pairs that heard a clear sound needed before their delays are judged against the
 /// geometry, and the share of them peaking past its longest delays that draws a warning:
@@ -464,17 +465,36 @@ impl<S: SampleSource> Analysis<S> {
         &mut self,
         sink: &mut dyn FnMut(u64, &[Detection]) -> ControlFlow<()>,
     ) -> Result<(), InputError> {
+        let mut read = Duration::ZERO;
+        let result = self.read_and_analyse(sink, &mut read);
+        self.analyzer.add_time(|t| &mut t.read, read);
+        result
+    }
+
+    /// [`Analysis::run_blocks`], adding the time spent reading to `read` when stage
+    /// timing is on.
+    fn read_and_analyse(
+        &mut self,
+        sink: &mut dyn FnMut(u64, &[Detection]) -> ControlFlow<()>,
+        read: &mut Duration,
+    ) -> Result<(), InputError> {
         let mut current = self.analyzer.block();
         let mut next = self.analyzer.block();
         let live = self.source.is_live();
+        let timing = self.analyzer.stage_times().is_some();
         let (framer, source, wpe) = (&mut self.framer, &mut self.source, &mut self.wpe);
         // Through the dereverberation, when on.
-        let mut fill = |framer: &mut Framer, block: &mut FrameBlock| match wpe.as_mut() {
-            Some(filter) => {
-                let source = &mut *source;
-                framer.fill(&mut Filtered { filter, source }, block)
-            }
-            None => framer.fill(&mut *source, block),
+        let mut fill = |framer: &mut Framer, block: &mut FrameBlock| {
+            let clock = timing.then(Instant::now);
+            let result = match wpe.as_mut() {
+                Some(filter) => {
+                    let source = &mut *source;
+                    framer.fill(&mut Filtered { filter, source }, block)
+                }
+                None => framer.fill(&mut *source, block),
+            };
+            *read += clock.map_or(Duration::ZERO, |c| c.elapsed());
+            result
         };
         let mut error = fill(framer, &mut current);
         loop {

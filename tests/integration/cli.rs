@@ -541,3 +541,61 @@ fn the_help_names_every_field_and_shows_the_geometry_format() {
     assert_eq!(g.mics.len(), 2);
     assert_eq!(g.name.as_deref(), Some("my-circle"));
 }
+
+/// `--timings` prints every stage's time after the file, the stages the run goes
+/// through above zero and the shares summing to the whole; the output is as without it.
+#[test]
+fn timings_show_every_stage_and_leave_the_output_as_it_was() {
+    let plain = example(&["-q", "-j", "1"]);
+    let timed = example(&["-q", "-j", "1", "--timings"]);
+    assert!(plain.status.success() && timed.status.success());
+    assert_eq!(plain.stdout, timed.stdout);
+    assert!(stderr(&plain).is_empty(), "{}", stderr(&plain));
+    let text = stderr(&timed);
+    assert!(
+        text.starts_with("ssl: testdata/example.wav: stage times (186 frames, 2.0 s of audio; "),
+        "{text}"
+    );
+    let mut shares = 0.0;
+    for stage in [
+        "read",
+        "spectra",
+        "noise",
+        "weighting",
+        "correlation",
+        "background",
+        "peaks",
+        "search",
+        "direction",
+        "steered",
+        "patterns",
+        "tracking",
+        "output",
+    ] {
+        let line = text
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(stage))
+            .unwrap_or_else(|| panic!("no {stage} in {text}"));
+        let fields: Vec<&str> = line.split_whitespace().collect();
+        let seconds: f64 = fields[1].parse().unwrap();
+        let share: f64 = fields[2].trim_end_matches('%').parse().unwrap();
+        let per_frame: f64 = fields[3].parse().unwrap();
+        assert!(seconds >= 0.0 && per_frame >= 0.0, "{line}");
+        // Every file is read, transformed, correlated and searched; the tracker runs on
+        // every frame; the example's talker has a second look.
+        if [
+            "read",
+            "spectra",
+            "correlation",
+            "peaks",
+            "tracking",
+            "output",
+        ]
+        .contains(&stage)
+        {
+            assert!(per_frame > 0.0, "{line}");
+        }
+        shares += share;
+    }
+    assert!((shares - 100.0).abs() < 0.5, "{shares}: {text}");
+}

@@ -27,7 +27,7 @@ use crate::method::params::{Params, ParamsError};
 use crate::method::state::{Correlated, FrameState};
 use rayon::prelude::*;
 use std::sync::Mutex;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// The method's state over one recording: the checked setup, one [`Worker`] per thread,
 /// the noise estimate and the counters.
@@ -138,6 +138,14 @@ impl Analyzer {
         self.times.as_ref()
     }
 
+    /// Adds `time` to the stage `pick` selects, when stage timing is on (for the stages
+    /// its callers run: reading).
+    pub fn add_time(&mut self, pick: fn(&mut StageTimes) -> &mut Duration, time: Duration) {
+        if let Some(times) = self.times.as_mut() {
+            *pick(times) += time;
+        }
+    }
+
     /// The counters so far.
     pub fn stats(&self) -> &FrameStats {
         &self.sequential.stats
@@ -200,6 +208,7 @@ impl Analyzer {
             &mut states[carried..],
             &live[carried..],
         );
+        let noise = clock.elapsed();
         states[carried..]
             .par_iter_mut()
             .zip(live[carried..].par_iter())
@@ -207,7 +216,8 @@ impl Analyzer {
             .for_each(|(state, _)| Worker::weigh(setup, state));
         if let Some(times) = self.times.as_mut() {
             times.spectra += spectra;
-            times.weighting += clock.elapsed() - spectra;
+            times.noise += noise - spectra;
+            times.weighting += clock.elapsed() - noise;
         }
         // Which frames' correlations no detection can need.
         let prune = workers[0].lock().expect("a worker panicked").0.prune;
@@ -283,7 +293,11 @@ impl Analyzer {
         }
         // The coherent background, in frame order.
         if let Some(background) = self.background.as_mut() {
+            let clock = Instant::now();
             background.apply(setup, &mut states[carried..]);
+            if let Some(times) = self.times.as_mut() {
+                times.background += clock.elapsed();
+            }
         }
         // Averages, peaks, search, direction, in parallel.
         let states = &*states;
@@ -313,7 +327,7 @@ impl Analyzer {
                 block.first,
             );
             if let Some(times) = self.times.as_mut() {
-                times.search += clock.elapsed();
+                times.patterns += clock.elapsed();
             }
         }
         if let Some(times) = self.times.as_mut() {

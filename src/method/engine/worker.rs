@@ -452,8 +452,7 @@ impl Worker {
         };
         clock.lap(|t| &mut t.direction);
         let outcome = self.steer(setup, state, index, threshold, first);
-        // The steered response is a search too: its time counts there.
-        clock.lap(|t| &mut t.search);
+        clock.lap(|t| &mut t.steered);
         outcome
     }
 
