@@ -1,275 +1,350 @@
-//! Whole-run speed and memory of `ssl analyze` against the FFT floor, on an 8-channel
-//! 48 kHz recording with N = 1024.
+//! Speed and memory of `ssl analyze` against the FFT floor, on sparse and on busy audio,
+//! on one core and on two: `cargo bench --bench speed > docs/speed.md` (about five
+//! minutes; the page is this program's output, whole).
 //!
-//! `cargo bench --bench speed -- [SECONDS] [KEEP.wav]` (default 600; 3600 for
-//! the one-hour memory check; with KEEP.wav the recording is written there, or reused if
-//! that file already exists, to repeat a measurement without rewriting it). It:
-//! 1. writes a 16-bit recording of SECONDS to a temporary file, streaming a 10 s block
-//!    of sources and fan noise repeatedly (the recording never sits in memory);
-//! 2. runs the `ssl` binary on it (built by `cargo bench`) on one thread and
-//!    on all cores, and reports wall time, x real time and peak resident memory (VmHWM,
-//!    polled from /proc);
-//! 3. runs the same analysis in this process on one thread with stage timing (and again
-//!    with `--min-score 0`, where no correlation can be skipped), and measures the FFT
-//!    floor in the same run: only the 8 forward and 28 inverse real FFTs per frame,
-//!    with the same library and sizes, on the same data sizes;
-//! 4. prints the stages as microseconds per frame and as a ratio to the floor.
+//! Three scenes are rendered by `ssl simulate` (tests/support/scenes.rs): sparse bursts
+//! from one direction in free field on the paper's prism, a reverberant four-talker
+//! meeting on the prism, and two talkers at once on 32 microphones. For each, in
+//! [`ROUNDS`] rounds (so that every figure sees the same machine load), it measures the
+//! FFT floor (the forward and inverse real FFTs of 1024 a hop needs for that many
+//! microphones, with realfft, as many as the recording has hops) and runs the `ssl`
+//! binary at the defaults on one thread and on two, with `--no-track` and with
+//! `--paper`; it reports medians, peak resident memory (VmHWM) and the stages of one
+//! `--timings` run. The sparse recording repeated ten times shows that memory does not
+//! grow with the length.
 
 #[path = "../tests/support/mod.rs"]
 mod support;
 
 use realfft::num_complex::Complex32;
 use realfft::RealFftPlanner;
-use ssl::method::direction::unit_from_angles;
-use ssl::method::StageTimes;
-use ssl::sim::freefield::{render, Place, Scene, Source};
-use ssl::sim::signals::Signal;
-use ssl::{Analysis, DetectionRecord, Format, Geometry, Params, RunMetadata};
 use std::error::Error;
-use std::io::Write;
-use std::ops::ControlFlow;
-use std::time::{Duration, Instant};
-use support::harness::{args, binary, cores, run_measured, seconds_arg};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+use support::harness::{binary, run_measured};
+use support::scenes::{bursts_toml, meeting_toml, two_talkers_toml};
 
-fn main() -> Result<(), Box<dyn Error>> {
-    let seconds = seconds_arg(600.0)?;
+/// Rounds of every measurement; the page gives their medians.
+const ROUNDS: usize = 3;
+
+type Result<T> = std::result::Result<T, Box<dyn Error>>;
+
+/// A recording to time, with how it was made.
+struct Scene {
+    name: &'static str,
+    about: String,
+    wav: PathBuf,
+    geometry: PathBuf,
+    mics: usize,
+    seconds: f64,
+}
+
+/// One scene's figures.
+struct Figures {
+    frames: u64,
+    floor_s: f64,
+    /// (options, threads, median wall seconds, peak MB)
+    runs: Vec<(&'static str, usize, f64, f64)>,
+    timings: String,
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("a UTF-8 temporary path")
+}
+
+fn main() -> Result<()> {
     let dir = tempfile::tempdir()?;
-    let keep = args().get(1).map(std::path::PathBuf::from);
-    let wav = keep.clone().unwrap_or_else(|| dir.path().join("speed.wav"));
-    let geo = support::testdata("prism.toml");
-    if keep.is_none() || !wav.exists() {
-        write_recording(&wav, seconds)?;
-    } else {
-        let reader = hound::WavReader::open(&wav)?;
-        let spec = reader.spec();
-        if reader.duration() != (seconds * 48000.0) as u32 || spec.channels != 8 {
-            return Err(format!(
-                "{} is not a {seconds} s recording of this benchmark: delete it or give another path",
-                wav.display()
-            )
-            .into());
-        }
-    }
-    let frames = ((seconds * 48000.0 - 1024.0) / 512.0).floor() + 1.0;
-
-    // The binary, end to end.
     let exe = binary();
-    let cores = cores();
-    let mut runs = Vec::new();
-    for threads in [1, cores] {
-        let threads_arg = threads.to_string();
-        let (wall, peak_mb) = run_measured(
+    let prism = dir.path().join("prism");
+    let sphere = dir.path().join("sphere");
+    for (folder, mics) in [
+        (&prism, support::prism()),
+        (&sphere, support::sphere_lattice(32, 0.25)),
+    ] {
+        std::fs::create_dir_all(folder)?;
+        std::fs::write(folder.join("array.toml"), support::geometry_toml(&mics, ""))?;
+        support::copy_speech(folder)?;
+    }
+    let (meeting, meeting_s) = meeting_toml(48000, 5);
+    let specs = [
+        (
+            "sparse",
+            "60 s of white-noise bursts, 0.5 s every 3 s, from one direction in free field, on the prism (8 mics)".to_string(),
+            &prism,
+            8,
+            bursts_toml(48000, 60.0, 3),
+            60.0,
+        ),
+        (
+            "busy",
+            format!("{meeting_s:.1} s of a meeting: four talkers taking twelve turns, some overlapping, in a reverberant room (RT60 0.35 s) with a fan, on the prism (8 mics)"),
+            &prism,
+            8,
+            meeting,
+            meeting_s,
+        ),
+        (
+            "32 mics",
+            "15 s of two talkers at once, three times, in the same room, on 32 mics over a 0.25 m sphere".to_string(),
+            &sphere,
+            32,
+            two_talkers_toml(48000, 4),
+            15.0,
+        ),
+    ];
+    let mut scenes = Vec::new();
+    for (name, about, folder, mics, toml, seconds) in specs {
+        let file = name.replace(' ', "_");
+        let scene = folder.join(format!("{file}.toml"));
+        std::fs::write(&scene, toml)?;
+        let wav = folder.join(format!("{file}.wav"));
+        run_measured(exe, &["simulate", s(&scene), "-o", s(&wav)])?;
+        scenes.push(Scene {
+            name,
+            about,
+            wav,
+            geometry: folder.join("array.toml"),
+            mics,
+            seconds,
+        });
+    }
+
+    let figures: Vec<Figures> = scenes.iter().map(measure).collect::<Result<_>>()?;
+
+    // Memory against length: the sparse recording, and ten of it end to end.
+    let long = dir.path().join("prism").join("sparse_x10.wav");
+    repeat(&scenes[0].wav, &long, 10)?;
+    let mut memory = Vec::new();
+    for wav in [&scenes[0].wav, &long] {
+        let (wall, peak) = run_measured(
             exe,
             &[
                 "analyze",
-                wav.to_str().unwrap(),
+                s(wav),
                 "-g",
-                geo.to_str().unwrap(),
+                s(&scenes[0].geometry),
+                "-j",
+                "1",
+                "-q",
                 "-o",
                 "/dev/null",
-                "--threads",
-                &threads_arg,
             ],
         )?;
-        runs.push((threads, wall, peak_mb));
+        memory.push((wall, peak));
     }
 
-    // The same analysis in-process with stage timing; and with --min-score 0, where no
-    // correlation can be skipped (every frame needs all 28).
-    let g = Geometry::from_file(&geo)?;
-    // (This process runs nothing else on rayon's global pool: make it one thread.)
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build_global()?;
-    // Detections are written as CSV (to a sink that discards the bytes), timed apart.
-    let timed_run = |params: &Params| -> Result<(f64, StageTimes, Duration), Box<dyn Error>> {
-        let mut analysis = Analysis::open(wav.to_str().unwrap(), &g, params)?;
-        analysis.enable_stage_timing();
-        let mut csv = Format::Csv.exporter(std::io::sink(), ssl::record::Records::Detections);
-        csv.begin(&RunMetadata::new(&g, "prism.toml", params))?;
-        let mut output = Duration::ZERO;
-        let t = Instant::now();
-        let (summary, result) = analysis.run(|_, detection| {
-            for d in detection {
-                let t = Instant::now();
-                let record = DetectionRecord::new("speed.wav", d).expect("finite");
-                csv.detection(&record).expect("a sink takes everything");
-                output += t.elapsed();
-            }
-            ControlFlow::Continue(())
-        });
-        result?;
-        Ok((
-            t.elapsed().as_secs_f64(),
-            summary.stage_times.unwrap_or_default(),
-            output,
-        ))
-    };
-    let (in_process, st, output) = timed_run(&Params::default())?;
-    let (all_pairs, _, _) = timed_run(&{
-        let mut p = Params::default();
-        p.min_score_per_pair = 0.0;
-        p.threshold_sigmas = None;
-        p
-    })?;
-
-    // The FFT floor: 8 forward + 28 inverse real FFTs of 1024 per frame, and the transforms as ssl does them when it skips none: 4 forward and
-    // 14 inverse complex FFTs of 1024, each carrying two channels or two pairs.
-    let mut planner = RealFftPlanner::<f32>::new();
-    let fwd = planner.plan_fft_forward(1024);
-    let inv = planner.plan_fft_inverse(1024);
-    let mut complex_planner = rustfft::FftPlanner::<f32>::new();
-    let cfwd = complex_planner.plan_fft_forward(1024);
-    let cinv = complex_planner.plan_fft_inverse(1024);
-    let mut input = vec![0.1f32; 1024];
-    let mut spec = fwd.make_output_vec();
-    let mut scratch = fwd.make_scratch_vec();
-    let mut out = vec![0.0f32; 1024];
-    let mut iscratch = inv.make_scratch_vec();
-    let mut cross = vec![Complex32::new(0.5, 0.1); 513];
-    let mut packed = vec![Complex32::new(0.5, 0.1); 1024];
-    let mut cscratch = vec![
-        Complex32::default();
-        cinv.get_inplace_scratch_len()
-            .max(cfwd.get_inplace_scratch_len())
-    ];
-    let sample = (frames as usize).min(20000);
-    let (mut floor, mut packed_floor) = (Duration::ZERO, Duration::ZERO);
-    // Interleaved in rounds, so that both see the same machine load.
-    for _ in 0..10 {
-        let t = Instant::now();
-        for _ in 0..sample / 10 {
-            for _ in 0..8 {
-                fwd.process_with_scratch(&mut input, &mut spec, &mut scratch)?;
-            }
-            for _ in 0..28 {
-                cross[0].im = 0.0;
-                cross[512].im = 0.0;
-                inv.process_with_scratch(&mut cross, &mut out, &mut iscratch)?;
-            }
-        }
-        floor += t.elapsed();
-        let t = Instant::now();
-        for _ in 0..sample / 10 {
-            for _ in 0..4 {
-                cfwd.process_with_scratch(&mut packed, &mut cscratch);
-            }
-            for _ in 0..14 {
-                cinv.process_with_scratch(&mut packed, &mut cscratch);
-            }
-        }
-        packed_floor += t.elapsed();
-    }
-    let per_frame = |d: Duration| d.as_secs_f64() / (sample / 10 * 10) as f64;
-    let floor_per_frame = per_frame(floor);
-    let packed_per_frame = per_frame(packed_floor);
-
-    let us = |d: Duration| d.as_secs_f64() / frames * 1e6;
-    let floor_us = floor_per_frame * 1e6;
-    println!("recording: {seconds:.0} s, 8 channels, 48 kHz, 16-bit, {frames:.0} frames of 1024");
-    for (threads, wall, peak_mb) in &runs {
-        println!(
-            "ssl analyze --threads {threads}: {wall:.2} s wall, {:.0}x real time, peak memory {peak_mb:.1} MB",
-            seconds / wall,
-        );
-    }
-    let pipeline_us = in_process / frames * 1e6;
-    println!(
-        "FFT floor (8 real forward + 28 real inverse FFTs of 1024, realfft): {floor_us:.1} us per frame ({:.0}x real time)",
-        512.0 / 48000.0 / floor_per_frame
-    );
-    println!(
-        "transforms as ssl does them (4 forward + 14 inverse complex FFTs of 1024, two channels or pairs each): {:.1} us per frame",
-        packed_per_frame * 1e6
-    );
-    println!(
-        "pipeline in-process, 1 thread: {pipeline_us:.1} us per frame = {:.2}x the FFT floor ({:.2}x the transforms as ssl does them)",
-        pipeline_us / floor_us,
-        pipeline_us / (packed_per_frame * 1e6)
-    );
-    let pairs = st.correlated_pairs + st.skipped_pairs;
-    println!(
-        "pair correlations computed: {:.1} per frame of {:.1} ({:.0}% proven unnecessary by the weights' ceiling)",
-        st.correlated_pairs as f64 / frames,
-        pairs as f64 / frames,
-        100.0 * st.skipped_pairs as f64 / pairs.max(1) as f64
-    );
-    let all_us = all_pairs / frames * 1e6;
-    println!(
-        "with --min-score 0 (all 28 correlations in every frame): {all_us:.1} us per frame = {:.2}x the FFT floor ({:.2}x the transforms as ssl does them)\n",
-        all_us / floor_us,
-        all_us / (packed_per_frame * 1e6)
-    );
-    println!("| stage | us per frame | x floor |");
-    println!("|---|---|---|");
-    let timed =
-        st.spectra + st.weighting + st.correlation + st.peaks + st.search + st.direction + output;
-    let read = Duration::from_secs_f64((in_process - timed.as_secs_f64()).max(0.0));
-    for (name, d) in [
-        ("read, convert, frame (the rest)", read),
-        ("forward FFTs + power", st.spectra),
-        ("weighting + whitening", st.weighting),
-        ("cross-spectra + inverse FFTs", st.correlation),
-        ("peaks", st.peaks),
-        ("search", st.search),
-        ("direction", st.direction),
-        ("output (CSV)", output),
-    ] {
-        println!("| {name} | {:.1} | {:.2} |", us(d), us(d) / floor_us);
-    }
-    std::io::stdout().flush()?;
+    print_page(&scenes, &figures, &memory);
     Ok(())
 }
 
-/// Writes `seconds` of a 16-bit 8-channel recording by repeating a 10 s rendered block.
-fn write_recording(path: &std::path::Path, seconds: f64) -> Result<(), Box<dyn Error>> {
-    let mics = support::prism();
-    let mut sources: Vec<Source> = (0..6)
-        .map(|i| Source {
-            place: Place::Direction(unit_from_angles(
-                -150.0 + 60.0 * i as f64,
-                -10.0 + 8.0 * i as f64,
-            )),
-            signal: if i % 2 == 0 {
-                Signal::SpeechLike
-            } else {
-                Signal::WhiteNoise
-            },
-            start_s: 0.3 + 1.6 * i as f64,
-            end_s: 1.3 + 1.6 * i as f64,
-            level: 0.05,
-        })
-        .collect();
-    sources.push(Source {
-        place: Place::Direction(unit_from_angles(80.0, 40.0)),
-        signal: Signal::PinkNoise,
-        start_s: 0.0,
-        end_s: 10.0,
-        level: 0.015,
-    });
-    let block = render(&Scene {
-        sample_rate: 48000,
-        duration_s: 10.0,
-        mics,
-        speed_of_sound: 343.0,
-        sources,
-        sensor_noise: 0.001,
-        seed: 9,
-    });
-    let spec = hound::WavSpec {
-        channels: 8,
-        sample_rate: 48000,
-        bits_per_sample: 16,
-        sample_format: hound::SampleFormat::Int,
-    };
-    let mut w = hound::WavWriter::create(path, spec)?;
-    let total = (seconds * 48000.0) as usize;
-    let len = block[0].len();
-    for i in 0..total {
-        for ch in &block {
-            w.write_sample((ch[i % len] * 32768.0).round().clamp(-32768.0, 32767.0) as i16)?;
+/// The floor, the runs and the stage times of one scene.
+fn measure(scene: &Scene) -> Result<Figures> {
+    let exe = binary();
+    let frames = ((scene.seconds * 48000.0 - 1024.0) / 512.0).floor() as u64 + 1;
+    let options: [(&str, &[&str], usize); 4] = [
+        ("defaults", &[], 1),
+        ("defaults", &[], 2),
+        ("--no-track", &["--no-track"], 1),
+        ("--paper", &["--paper"], 1),
+    ];
+    let mut floors = Vec::new();
+    let mut walls = vec![Vec::new(); options.len()];
+    let mut peaks = vec![0.0f64; options.len()];
+    for _ in 0..ROUNDS {
+        floors.push(floor_seconds(scene.mics, frames)?);
+        for (i, (_, extra, threads)) in options.iter().enumerate() {
+            let threads = threads.to_string();
+            let mut args = vec![
+                "analyze",
+                s(&scene.wav),
+                "-g",
+                s(&scene.geometry),
+                "-q",
+                "-o",
+                "/dev/null",
+                "-j",
+                &threads,
+            ];
+            args.extend_from_slice(extra);
+            let (wall, peak) = run_measured(exe, &args)?;
+            walls[i].push(wall);
+            peaks[i] = peaks[i].max(peak);
         }
     }
-    w.finalize()?;
+    let out = Command::new(exe)
+        .args([
+            "analyze",
+            s(&scene.wav),
+            "-g",
+            s(&scene.geometry),
+            "-q",
+            "-o",
+            "/dev/null",
+            "-j",
+            "1",
+            "--timings",
+        ])
+        .output()?;
+    if !out.status.success() {
+        return Err(format!("ssl analyze --timings failed on {}", scene.name).into());
+    }
+    Ok(Figures {
+        frames,
+        floor_s: median(&mut floors),
+        runs: options
+            .iter()
+            .zip(walls.iter_mut())
+            .zip(peaks)
+            .map(|(((name, _, threads), walls), peak)| (*name, *threads, median(walls), peak))
+            .collect(),
+        timings: String::from_utf8(out.stderr)?,
+    })
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The FFT floor of `frames` hops of `mics` microphones: `mics` forward and
+/// `mics (mics - 1) / 2` inverse real FFTs of 1024 each (realfft), in seconds.
+fn floor_seconds(mics: usize, frames: u64) -> Result<f64> {
+    let mut planner = RealFftPlanner::<f32>::new();
+    let forward = planner.plan_fft_forward(1024);
+    let inverse = planner.plan_fft_inverse(1024);
+    let mut input: Vec<f32> = (0..1024)
+        .map(|i| ((i * 7919) % 1000) as f32 * 1e-3 - 0.5)
+        .collect();
+    let mut spectrum = forward.make_output_vec();
+    let mut scratch = forward.make_scratch_vec();
+    let mut cross = vec![Complex32::new(0.5, 0.1); 513];
+    let mut out = vec![0.0f32; 1024];
+    let mut inverse_scratch = inverse.make_scratch_vec();
+    let pairs = mics * (mics - 1) / 2;
+    let start = Instant::now();
+    for _ in 0..frames {
+        for _ in 0..mics {
+            forward.process_with_scratch(&mut input, &mut spectrum, &mut scratch)?;
+        }
+        for _ in 0..pairs {
+            cross[0].im = 0.0;
+            cross[512].im = 0.0;
+            inverse.process_with_scratch(&mut cross, &mut out, &mut inverse_scratch)?;
+        }
+    }
+    std::hint::black_box(&out);
+    Ok(start.elapsed().as_secs_f64())
+}
+
+/// Writes `times` copies of the WAV file `from`, end to end, to `to`.
+fn repeat(from: &Path, to: &Path, times: usize) -> Result<()> {
+    let mut reader = hound::WavReader::open(from)?;
+    let samples: Vec<i16> = reader
+        .samples::<i16>()
+        .collect::<std::result::Result<_, _>>()?;
+    let mut writer = hound::WavWriter::create(to, reader.spec())?;
+    for _ in 0..times {
+        for &v in &samples {
+            writer.write_sample(v)?;
+        }
+    }
+    writer.finalize()?;
     Ok(())
+}
+
+fn print_page(scenes: &[Scene], figures: &[Figures], memory: &[(f64, f64)]) {
+    let cores = support::harness::cores();
+    println!("# Speed and memory\n");
+    println!(
+        "Made by `cargo bench --bench speed > docs/speed.md` (benches/speed.rs) on a machine with {cores} cores. \
+         The machine is a shared virtual machine: the same command varies by 10-30% from run to run, and its \
+         FFTs themselves by as much from day to day, so the ratios to the FFT floor, measured in the same \
+         rounds, are the figures to compare; absolute times are this machine's on that day. Every figure is \
+         the median of {ROUNDS} rounds; each round measures the floor, then each run. A run is the `ssl` \
+         binary end to end (`ssl analyze REC.wav -g ARRAY.toml -q -o /dev/null -j N [options]`): starting, \
+         reading the 16-bit WAV file, writing CSV.\n"
+    );
+    println!(
+        "**The FFT floor** of a recording is the work of its FFTs alone: per hop of 512 samples, one forward \
+         real FFT of 1024 per microphone and one inverse per pair (8 and 28 for the prism, 32 and 496 for 32 \
+         microphones), with realfft, the library ssl uses. ssl does less than that where it can: two \
+         channels or two pairs per complex FFT, and no correlation in a frame whose weights prove it cannot \
+         hold a detection.\n"
+    );
+    println!("## The scenes\n");
+    for scene in scenes {
+        println!("- **{}**: {}.", scene.name, scene.about);
+    }
+    println!("\n## Against the floor\n");
+    println!("| scene | floor | defaults, 1 thread | defaults, 2 threads | `--no-track`, 1 thread | `--paper`, 1 thread | peak memory |");
+    println!("|---|---|---|---|---|---|---|");
+    for (scene, f) in scenes.iter().zip(figures) {
+        let cell = |wall: f64| {
+            format!(
+                "{wall:.2} s: {:.0}x real time, **{:.2}x** the floor",
+                scene.seconds / wall,
+                wall / f.floor_s
+            )
+        };
+        let peak = f.runs.iter().map(|r| r.3).fold(0.0, f64::max);
+        println!(
+            "| {} | {:.2} s ({:.0}x real time) | {} | {} | {} | {} | {peak:.1} MB |",
+            scene.name,
+            f.floor_s,
+            scene.seconds / f.floor_s,
+            cell(f.runs[0].2),
+            cell(f.runs[1].2),
+            cell(f.runs[2].2),
+            cell(f.runs[3].2),
+        );
+    }
+    println!(
+        "\nOn two threads the floor is shared too: the two-thread cells give the wall time against the \
+         one-thread floor, so 0.5x there is as fast as two cores doing only FFTs.\n"
+    );
+    println!("## Memory against length\n");
+    println!(
+        "The sparse recording (60 s) and the same ten times over (600 s), defaults, one thread: {:.1} MB and \
+         {:.1} MB peak resident memory ({:.2} s and {:.2} s). Audio is read a block of 128 frames at a time \
+         and every output format is streamed, so memory does not grow with the length; `tests/no_alloc.rs` \
+         checks that analysing a frame allocates nothing.\n",
+        memory[0].1, memory[1].1, memory[0].0, memory[1].0
+    );
+    println!("## Where the time goes\n");
+    println!(
+        "`ssl analyze --timings` on one thread, after the rounds above (timing itself costs about 1 us a \
+         frame). Stages: `read` (decoding and framing), `spectra` (forward FFTs, mean power), `noise` (the \
+         noise estimate, in frame order), `weighting` (eq. 4-5 and whitening), `correlation` (cross-spectra \
+         and inverse FFTs), `background` (the coherent background subtracted), `peaks` (averaging over the \
+         frame's span and the M peaks), `search` (eq. 8), `direction` (eq. 13), `steered` (the steered \
+         response: a direction the search missed, further sources), `patterns` (each talker's learned \
+         pattern removed before a second look), `tracking`, `output`. The floor column is the stage's time \
+         against the whole recording's floor.\n"
+    );
+    for (scene, f) in scenes.iter().zip(figures) {
+        println!("### {}\n", scene.name);
+        println!("| stage | seconds | share | us per frame | x floor |");
+        println!("|---|---|---|---|---|");
+        for line in f.timings.lines().skip(2) {
+            let fields: Vec<&str> = line.split_whitespace().collect();
+            if fields.len() != 4 {
+                continue;
+            }
+            let seconds: f64 = fields[1].parse().unwrap_or(0.0);
+            println!(
+                "| {} | {} | {} | {} | {:.2} |",
+                fields[0],
+                fields[1],
+                fields[2],
+                fields[3],
+                seconds / f.floor_s
+            );
+        }
+        println!(
+            "\n{} frames; {}\n",
+            f.frames,
+            f.timings.lines().next().unwrap_or("").trim()
+        );
+    }
 }

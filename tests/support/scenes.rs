@@ -63,3 +63,75 @@ pub fn speech_scene_toml(rate: u32, seconds: f64, planar: bool, seed: u64) -> St
     s + "[noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\nposition = [7.6, 6.6, 2.7]\n\
          signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n"
 }
+
+/// Sparse audio: white-noise bursts of 0.5 s every 3 s, all from one direction (35 deg
+/// azimuth, 12 deg up, 3 m), in free field over sensor noise 24 dB below them.
+pub fn bursts_toml(rate: u32, seconds: f64, seed: u64) -> String {
+    let mut s = format!(
+        "sample_rate = {rate}\nduration = {seconds}\nseed = {seed}\nformat = \"int16\"\n\
+         [array]\ngeometry = \"array.toml\"\nposition = [0.0, 0.0, 0.0]\n\
+         [[source]]\nazimuth_deg = 35.0\nelevation_deg = 12.0\ndistance = 3.0\n\
+         signal = \"white\"\nlevel_db = -26\nactive = ["
+    );
+    let mut t = 1.0;
+    while t + 0.5 < seconds {
+        write!(s, "[{t:.2}, {:.2}], ", t + 0.5).unwrap();
+        t += 3.0;
+    }
+    s + "]\n[noise]\nsensor_db = -50\n"
+}
+
+/// Busy audio: four talkers around the array (azimuths -135, -40, 50 and 140 deg, 7 deg
+/// below it, 2 m away) taking twelve turns, some overlapping by 0.3 s, in an 8 x 7 x 3 m
+/// room at RT60 0.35 s with a fan and diffuse noise 10 dB below them (the tracking
+/// benchmark's meeting). Returns the scene and its length (s).
+pub fn meeting_toml(rate: u32, seed: u64) -> (String, f64) {
+    let azimuths = [-135.0, -40.0, 50.0, 140.0];
+    let gaps = [-0.3, 0.4, 0.2, -0.3, 0.6, 0.3];
+    let mut active = vec![String::new(); 4];
+    let mut t = 1.0;
+    for turn in 0..12 {
+        let who = turn % 4;
+        let length = CLIPS[who % CLIPS.len()].1;
+        write!(active[who], "[{t:.2}, {:.2}], ", t + length).unwrap();
+        t += length + gaps[turn % gaps.len()];
+    }
+    let seconds = ((t + 1.5) * 100.0).round() / 100.0;
+    let mut s = format!(
+        "sample_rate = {rate}\nduration = {seconds}\nseed = {seed}\nformat = \"int16\"\n\
+         [room]\ndimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n\
+         [array]\ngeometry = \"array.toml\"\nposition = [4.0, 3.5, 0.8]\n"
+    );
+    for (who, azimuth) in azimuths.iter().enumerate() {
+        write!(
+            s,
+            "[[source]]\nazimuth_deg = {azimuth}\nelevation_deg = -7.0\ndistance = 2.0\n\
+             signal = \"file\"\nfile = \"{}\"\nlevel_db = -26\nactive = [{}]\n",
+            CLIPS[who % CLIPS.len()].0,
+            active[who]
+        )
+        .unwrap();
+    }
+    (
+        s + "[noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\nposition = [7.6, 6.6, 2.7]\n\
+             signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n",
+        seconds,
+    )
+}
+
+/// Two talkers at once, three times in 15 s (20 deg and -70 deg azimuth, 2 m), in the
+/// meeting's room, for an array named `array.toml` of any size.
+pub fn two_talkers_toml(rate: u32, seed: u64) -> String {
+    format!(
+        "sample_rate = {rate}\nduration = 15\nseed = {seed}\nformat = \"int16\"\n\
+         [room]\ndimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n\
+         [array]\ngeometry = \"array.toml\"\nposition = [4.0, 3.5, 1.2]\n\
+         [[source]]\nazimuth_deg = 20.0\nelevation_deg = 5.0\ndistance = 2.0\n\
+         signal = \"file\"\nfile = \"{}\"\nlevel_db = -26\nactive = [[0.5, 4.4], [5.0, 8.9], [10.0, 13.9]]\n\
+         [[source]]\nazimuth_deg = -70.0\nelevation_deg = 10.0\ndistance = 2.0\n\
+         signal = \"file\"\nfile = \"{}\"\nlevel_db = -26\nactive = [[1.0, 4.5], [5.5, 9.0], [10.5, 14.0]]\n\
+         [noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\nposition = [7.6, 6.6, 2.7]\n\
+         signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n",
+        CLIPS[0].0, CLIPS[2].0
+    )
+}

@@ -63,6 +63,14 @@ pub struct Searcher {
     /// Per (depth, level, candidate), the sum of its matched values with the levels
     /// chosen up to that depth: what the bound adds.
     gained: Vec<f64>,
+    /// `suffix[l]`: the most levels `l..K-1` could add by their pairs' top peaks alone,
+    /// whatever is chosen (a bound that costs nothing to check).
+    suffix: Vec<f64>,
+    /// Every pair's peak lags, [`LANES`] to a row (padded with infinity), so that a
+    /// pair's first peak within the tolerance of a delay is one vector comparison a row.
+    lags: Vec<f32>,
+    /// Rows of `lags` per pair.
+    rows: usize,
     /// Per level `l` and `lp < l`: the top values of `R_lp',l` summed over `lp' < lp`
     /// (so the levels after a depth add their best peaks to the bound in one subtraction).
     tops: Vec<f64>,
@@ -92,6 +100,9 @@ impl Searcher {
             matched_value: Vec::new(),
             gained: Vec::new(),
             tops: Vec::new(),
+            suffix: Vec::new(),
+            lags: Vec::new(),
+            rows: 0,
             best_score: f64::NEG_INFINITY,
             best_choice: Vec::new(),
             found: false,
@@ -148,6 +159,25 @@ impl Searcher {
         self.gained.resize(k * k * width, 0.0);
         self.tops.clear();
         self.tops.resize(k * k, 0.0);
+        self.suffix.clear();
+        self.suffix.resize(k + 1, 0.0);
+        for l in (1..k).rev() {
+            let mut top = peaks[pair_index(0, l, k)][0].value as f64;
+            for lp in 1..l {
+                top += peaks[pair_index(lp, l, k)][0].value as f64;
+            }
+            self.suffix[l] = self.suffix[l + 1] + top;
+        }
+        let most = peaks[..pairs].iter().map(Vec::len).max().unwrap_or(0);
+        self.rows = most.div_ceil(LANES);
+        self.lags.clear();
+        self.lags.resize(pairs * self.rows * LANES, f32::INFINITY);
+        for (pair, list) in peaks[..pairs].iter().enumerate() {
+            let row = &mut self.lags[pair * self.rows * LANES..];
+            for (slot, peak) in row.iter_mut().zip(list) {
+                *slot = peak.lag;
+            }
+        }
         for l in 1..k {
             for lp in 1..l {
                 self.tops[l * k + lp + 1] =
@@ -212,12 +242,20 @@ impl Searcher {
                 }
                 continue;
             }
-            let Some(later) = self.check_forward(level, cand.lag, peaks) else {
+            // What the levels after this one must add for the set to count.
+            let slack = BOUND_SLACK * (1.0 + self.best_score.abs());
+            let need = if self.found {
+                self.best_score - slack - score
+            } else {
+                f64::NEG_INFINITY
+            };
+            if self.suffix[level + 1] < need {
+                continue;
+            }
+            let Some(later) = self.check_forward(level, cand.lag, need, peaks) else {
                 continue;
             };
-            let bound = score + later;
-            let slack = BOUND_SLACK * (1.0 + self.best_score.abs());
-            if !self.found || bound >= self.best_score - slack {
+            if later >= need {
                 self.descend(level + 1, score, peaks);
                 if self.exhausted {
                     return;
@@ -228,8 +266,16 @@ impl Searcher {
 
     /// Matches every candidate of the levels after `level` against its choice (lag
     /// `lag`); returns the most those levels can add, or `None` when one of them has no
-    /// consistent candidate left.
-    fn check_forward(&mut self, level: usize, lag: f32, peaks: &[Vec<Peak>]) -> Option<f64> {
+    /// consistent candidate left or they cannot add `need` (the levels not checked yet
+    /// counted at their top peaks). A choice it turns down is not descended into, so
+    /// what it leaves unchecked is never read.
+    fn check_forward(
+        &mut self,
+        level: usize,
+        lag: f32,
+        need: f64,
+        peaks: &[Vec<Peak>],
+    ) -> Option<f64> {
         let (k, width) = (self.k, self.width);
         let mut later = 0.0;
         for l in level + 1..k {
@@ -245,7 +291,8 @@ impl Searcher {
                 } else {
                     0.0
                 };
-                match matching_peak(pair, cand.lag - lag, self.tolerance) {
+                let lags = &self.lags[pair_index(level, l, k) * self.rows * LANES..];
+                match first_within(&lags[..self.rows * LANES], cand.lag - lag, self.tolerance) {
                     Some(q) => {
                         self.killed[at] = 0;
                         let value = pair[q].value;
@@ -262,9 +309,31 @@ impl Searcher {
             }
             // The pairs of `l` with the levels between: their top peaks.
             later += best + self.tops[l * k + l] - self.tops[l * k + level + 1];
+            if later + self.suffix[l + 1] < need {
+                return None;
+            }
         }
         Some(later)
     }
+}
+
+/// Lags compared at once by [`first_within`].
+const LANES: usize = 8;
+
+/// The first of `lags` (rows of [`LANES`], padded with infinity) within `tolerance` of
+/// `lag`: [`matching_peak`] over the same lags, a row at a time without branches.
+#[inline]
+fn first_within(lags: &[f32], lag: f32, tolerance: f32) -> Option<usize> {
+    for (r, row) in lags.chunks_exact(LANES).enumerate() {
+        let mut hits = 0u32;
+        for (j, &l) in row.iter().enumerate() {
+            hits |= (((l - lag).abs() <= tolerance) as u32) << j;
+        }
+        if hits != 0 {
+            return Some(r * LANES + hits.trailing_zeros() as usize);
+        }
+    }
+    None
 }
 
 /// The highest-ranked peak within `tolerance` of `lag`, if any.
@@ -433,6 +502,31 @@ mod tests {
         assert_eq!(sol.choice, vec![1, 0]);
         assert!((sol.score - (0.8 + 0.7 + 0.6)).abs() < 1e-6);
         assert_eq!(sol.lags, vec![-2.0, -5.0, -3.200000047683716]);
+    }
+
+    #[test]
+    fn first_within_is_matching_peak() {
+        let mut rng = Cases::new(3);
+        for case in 0..2000 {
+            let count: usize = case % 20;
+            let list: Vec<Peak> = (0..count)
+                .map(|_| Peak {
+                    lag: ((rng.next() - 0.5) * 40.0) as f32,
+                    value: 0.5,
+                })
+                .collect();
+            let mut lags = vec![f32::INFINITY; count.div_ceil(LANES).max(1) * LANES];
+            for (slot, p) in lags.iter_mut().zip(&list) {
+                *slot = p.lag;
+            }
+            let lag = ((rng.next() - 0.5) * 40.0) as f32;
+            let tolerance = [0.0f32, 0.5, 2.4, 10.0][case % 4];
+            assert_eq!(
+                first_within(&lags, lag, tolerance),
+                matching_peak(&list, lag, tolerance),
+                "case {case}"
+            );
+        }
     }
 
     /// A pair between two later levels that matches nothing ends the search at the
