@@ -259,9 +259,11 @@ fn print_page(scenes: &[Scene], figures: &[Figures], memory: &[(f64, f64)]) {
     println!("# Speed and memory\n");
     println!(
         "Made by `cargo bench --bench speed > docs/speed.md` (benches/speed.rs) on a machine with {cores} cores. \
-         The machine is a shared virtual machine: the same command varies by 10-30% from run to run, and its \
-         FFTs themselves by as much from day to day, so the ratios to the FFT floor, measured in the same \
-         rounds, are the figures to compare; absolute times are this machine's on that day. Every time is \
+         The machine is a shared virtual machine: other work on it slows the same command by 10-30% from \
+         run to run on a quiet day and the ratios below by up to 1.9x on a busy one (five runs of 2026-12-03, \
+         docs/experiments.md), and its FFTs themselves vary from day to day, so the ratios to the FFT floor, \
+         measured in the same rounds, are the figures to compare, and one run is one sample of them; \
+         absolute times are this machine's on that day. Every time is \
          the shortest of {ROUNDS} rounds (what the machine gives when nothing else slows it); each round \
          measures the floor, then each run. The sparse and the busy scenes need the same FFTs a hop, so \
          both take the faster of their floors a hop. A run is the `ssl` \

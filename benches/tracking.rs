@@ -29,6 +29,7 @@ use std::error::Error;
 use support::bench::{azimuth_error, speech_room};
 use support::harness::analyse_scene;
 use support::moving::{moving_talker, window_share};
+use support::scenes::{meeting_turns, MEETING_AZIMUTHS};
 
 use support::{circle, SPEECH as CLIPS};
 
@@ -91,19 +92,17 @@ fn talker(array: &Array, azimuth: f64, clip: usize, active: Vec<[f64; 2]>) -> So
 
 /// Four talkers taking twelve turns.
 fn meeting(array: &Array, rate: u32, rt60: f64, seed: u64) -> SceneFile {
-    let azimuths = [-135.0, -40.0, 50.0, 140.0];
-    let gaps = [-0.3, 0.4, 0.2, -0.3, 0.6, 0.3];
-    let mut active = vec![Vec::new(); 4];
-    let mut t = 1.0;
-    for turn in 0..12 {
-        let who = turn % 4;
-        let length = CLIPS[who % CLIPS.len()].1;
-        active[who].push([t, t + length]);
-        t += length + gaps[turn % gaps.len()];
-    }
-    let mut scene = speech_room(rate, t + 1.5, seed, rt60, false);
-    scene.source = (0..4)
-        .map(|i| talker(array, azimuths[i], i % CLIPS.len(), active[i].clone()))
+    let (active, end) = meeting_turns();
+    let mut scene = speech_room(rate, end + 1.5, seed, rt60, false);
+    scene.source = (0..MEETING_AZIMUTHS.len())
+        .map(|i| {
+            talker(
+                array,
+                MEETING_AZIMUTHS[i],
+                i % CLIPS.len(),
+                active[i].clone(),
+            )
+        })
         .collect();
     scene
 }

@@ -254,48 +254,44 @@ impl StageTimes {
         self.skipped_pairs += other.skipped_pairs;
     }
 
-    /// Each stage's name (as `--timings` prints it) and time, in the order a frame
-    /// meets them.
-    pub fn stages(&self) -> [(&'static str, Duration); 13] {
-        [
-            ("read", self.read),
-            ("spectra", self.spectra),
-            ("noise", self.noise),
-            ("weighting", self.weighting),
-            ("correlation", self.correlation),
-            ("background", self.background),
-            ("peaks", self.peaks),
-            ("search", self.search),
-            ("direction", self.direction),
-            ("steered", self.steered),
-            ("patterns", self.patterns),
-            ("tracking", self.tracking),
-            ("output", self.output),
-        ]
-    }
-
-    fn stages_mut(&mut self) -> [(&'static str, &mut Duration); 13] {
-        [
-            ("read", &mut self.read),
-            ("spectra", &mut self.spectra),
-            ("noise", &mut self.noise),
-            ("weighting", &mut self.weighting),
-            ("correlation", &mut self.correlation),
-            ("background", &mut self.background),
-            ("peaks", &mut self.peaks),
-            ("search", &mut self.search),
-            ("direction", &mut self.direction),
-            ("steered", &mut self.steered),
-            ("patterns", &mut self.patterns),
-            ("tracking", &mut self.tracking),
-            ("output", &mut self.output),
-        ]
-    }
-
     /// The stages' times summed.
     pub fn total(&self) -> Duration {
         self.stages().iter().map(|(_, d)| *d).sum()
     }
+}
+
+/// `StageTimes::stages` and `stages_mut` from one list of the stages: each one's name
+/// (as `--timings` prints it) and field.
+macro_rules! stage_list {
+    ($($name:literal => $field:ident),* $(,)?) => {
+        impl StageTimes {
+            /// Each stage's name (as `--timings` prints it) and time, in the order a
+            /// frame meets them.
+            pub fn stages(&self) -> [(&'static str, Duration); 13] {
+                [$(($name, self.$field)),*]
+            }
+
+            fn stages_mut(&mut self) -> [(&'static str, &mut Duration); 13] {
+                [$(($name, &mut self.$field)),*]
+            }
+        }
+    };
+}
+
+stage_list! {
+    "read" => read,
+    "spectra" => spectra,
+    "noise" => noise,
+    "weighting" => weighting,
+    "correlation" => correlation,
+    "background" => background,
+    "peaks" => peaks,
+    "search" => search,
+    "direction" => direction,
+    "steered" => steered,
+    "patterns" => patterns,
+    "tracking" => tracking,
+    "output" => output,
 }
 
 /// Stage timing inside one frame (a no-op without a [`StageTimes`]).

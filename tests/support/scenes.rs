@@ -86,15 +86,12 @@ pub fn bursts_toml(rate: u32, seconds: f64, seed: u64) -> String {
 /// room at RT60 0.35 s with a fan and diffuse noise 10 dB below them (the tracking
 /// benchmark's meeting). Returns the scene and its length (s).
 pub fn meeting_toml(rate: u32, seed: u64) -> (String, f64) {
-    let azimuths = [-135.0, -40.0, 50.0, 140.0];
-    let gaps = [-0.3, 0.4, 0.2, -0.3, 0.6, 0.3];
-    let mut active = vec![String::new(); 4];
-    let mut t = 1.0;
-    for turn in 0..12 {
-        let who = turn % 4;
-        let length = CLIPS[who % CLIPS.len()].1;
-        write!(active[who], "[{t:.2}, {:.2}], ", t + length).unwrap();
-        t += length + gaps[turn % gaps.len()];
+    let (turns, t) = meeting_turns();
+    let mut active = vec![String::new(); MEETING_AZIMUTHS.len()];
+    for (who, spans) in turns.iter().enumerate() {
+        for [from, to] in spans {
+            write!(active[who], "[{from:.2}, {to:.2}], ").unwrap();
+        }
     }
     let seconds = ((t + 1.5) * 100.0).round() / 100.0;
     let mut s = format!(
@@ -102,7 +99,7 @@ pub fn meeting_toml(rate: u32, seed: u64) -> (String, f64) {
          [room]\ndimensions = [8.0, 7.0, 3.0]\nrt60 = 0.35\n\
          [array]\ngeometry = \"array.toml\"\nposition = [4.0, 3.5, 0.8]\n"
     );
-    for (who, azimuth) in azimuths.iter().enumerate() {
+    for (who, azimuth) in MEETING_AZIMUTHS.iter().enumerate() {
         write!(
             s,
             "[[source]]\nazimuth_deg = {azimuth}\nelevation_deg = -7.0\ndistance = 2.0\n\
@@ -117,6 +114,24 @@ pub fn meeting_toml(rate: u32, seed: u64) -> (String, f64) {
              signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n",
         seconds,
     )
+}
+
+/// The meeting's talkers' azimuths (degrees).
+pub const MEETING_AZIMUTHS: [f64; 4] = [-135.0, -40.0, 50.0, 140.0];
+
+/// The meeting's twelve turns, the four talkers in turn with gaps and overlaps: each
+/// talker's active spans (seconds), and when the last turn ends.
+pub fn meeting_turns() -> (Vec<Vec<[f64; 2]>>, f64) {
+    let gaps = [-0.3, 0.4, 0.2, -0.3, 0.6, 0.3];
+    let mut active = vec![Vec::new(); MEETING_AZIMUTHS.len()];
+    let mut t = 1.0;
+    for turn in 0..12 {
+        let who = turn % MEETING_AZIMUTHS.len();
+        let length = CLIPS[who % CLIPS.len()].1;
+        active[who].push([t, t + length]);
+        t += length + gaps[turn % gaps.len()];
+    }
+    (active, t)
 }
 
 /// Two talkers at once, three times in 15 s (20 deg and -70 deg azimuth, 2 m), in the
