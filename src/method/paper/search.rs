@@ -31,7 +31,7 @@
 //! candidate first take 3.1 million, 2 frames at the budget, the search 40% faster.
 
 use super::pairs::pair_index;
-use super::peaks::{Peak, MAX_PEAKS};
+use super::peaks::Peak;
 
 /// The outcome of a search.
 #[derive(Debug, Clone, PartialEq)]
@@ -74,11 +74,18 @@ pub struct Searcher {
     gained: Vec<f64>,
     /// Per level `l`: the top peaks of its pairs with the levels `x < l`, summed.
     tops: Vec<f64>,
+    /// Per pair (in [`pair_index`] order), its top peak's value.
+    top: Vec<f64>,
     /// Per (depth, level `l` open at that depth): the most `l` can add with what is
     /// chosen up to that depth (its value, its matches with chosen levels and the top
     /// peaks of its pairs with the open levels before it), for its best candidate still
     /// alive.
     bounds: Vec<f64>,
+    /// Per level, the depth it is chosen at (filled at a leaf).
+    depth_of: Vec<usize>,
+    /// Per depth, the candidates of the level chosen there still alive, each with the
+    /// most it could add, that most first.
+    ranked: Vec<(f64, usize)>,
     /// Per level `l`, during a forward check: the most the open levels after `l` add,
     /// whatever is chosen after.
     tail: Vec<f64>,
@@ -117,6 +124,9 @@ impl Searcher {
             tops: Vec::new(),
             bounds: Vec::new(),
             tail: Vec::new(),
+            ranked: Vec::new(),
+            depth_of: Vec::new(),
+            top: Vec::new(),
             lags: Vec::new(),
             rows: 0,
             best_score: f64::NEG_INFINITY,
@@ -220,10 +230,17 @@ impl Searcher {
         self.bounds.resize(k * k, 0.0);
         self.tail.clear();
         self.tail.resize(k + 1, 0.0);
+        self.ranked.clear();
+        self.ranked.resize(k * self.width, (0.0, 0));
+        self.depth_of.clear();
+        self.depth_of.resize(k, 0);
+        self.top.clear();
+        self.top
+            .extend(peaks[..k * (k - 1) / 2].iter().map(|p| p[0].value as f64));
         let mut first = 1;
         for l in 1..k {
             for x in 1..l {
-                self.tops[l] += peaks[pair_index(x, l, k)][0].value as f64;
+                self.tops[l] += self.top[pair_index(x, l, k)];
             }
             let own = &peaks[pair_index(0, l, k)];
             self.bounds[l] = own[0].value as f64 + self.tops[l];
@@ -249,7 +266,7 @@ impl Searcher {
         // The candidates still alive, the one that could add most first: each with the
         // most it adds (its value, its matches with the chosen levels, the top peaks of
         // its pairs with the open levels before it).
-        let mut ranked = [(0.0f64, 0usize); MAX_PEAKS];
+        let base = depth * width;
         let mut alive = 0;
         for (c, cand) in reference.iter().enumerate() {
             let at = level * width + c;
@@ -261,13 +278,12 @@ impl Searcher {
             } else {
                 0.0
             };
-            ranked[alive] = (cand.value as f64 + self.tops[level] + gained, c);
+            self.ranked[base + alive] = (cand.value as f64 + self.tops[level] + gained, c);
             alive += 1;
         }
         // The others are tried and turned down at once.
         self.nodes += (reference.len() - alive) as u64;
-        let ranked = &mut ranked[..alive];
-        ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
+        self.ranked[base..base + alive].sort_by(|a, b| b.0.total_cmp(&a.0));
         // What the other open levels add at most, whatever this one's choice.
         let others: f64 = (1..k)
             .filter(|&l| l != level && !self.chosen[l])
@@ -275,7 +291,8 @@ impl Searcher {
             .sum();
         self.chosen[level] = true;
         self.order[depth] = level;
-        for &(most, c) in ranked.iter() {
+        for r in base..base + alive {
+            let (most, c) = self.ranked[r];
             if self.nodes >= self.max_nodes {
                 self.exhausted = true;
                 break;
@@ -322,17 +339,26 @@ impl Searcher {
     /// A complete consistent set: scored as [`brute_force`] scores it, kept when it
     /// beats the best so far or ties with it and comes first in lexicographic order.
     fn leaf(&mut self, peaks: &[Vec<Peak>]) {
-        let k = self.k;
-        let lag = |l: usize| peaks[pair_index(0, l, k)][self.choice[l]].lag;
+        let (k, width) = (self.k, self.width);
+        for (depth, &level) in self.order[1..k].iter().enumerate() {
+            self.depth_of[level] = depth;
+        }
+        // A pair's match was stored when the later of its two levels was checked
+        // against the earlier (the same peak brute force matches: `b - a` and `-(a - b)`
+        // are the same number).
+        let matched = |l: usize, x: usize| {
+            let (later, earlier) = if self.depth_of[l] > self.depth_of[x] {
+                (l, x)
+            } else {
+                (x, l)
+            };
+            self.matched[(later * width + self.choice[later]) * k + earlier] as f64
+        };
         let mut score = 0.0f64;
         for l in 1..k {
             score += peaks[pair_index(0, l, k)][self.choice[l]].value as f64;
             for lp in 1..l {
-                let p = pair_index(lp, l, k);
-                let lags = &self.lags[p * self.rows * LANES..][..self.rows * LANES];
-                let q = first_within(lags, lag(l) - lag(lp), self.tolerance)
-                    .expect("a set that reached a leaf is consistent");
-                score += peaks[p][q].value as f64;
+                score += matched(l, lp);
             }
         }
         if !self.found
@@ -369,7 +395,7 @@ impl Searcher {
             if !self.chosen[l] {
                 most = self.bounds[(depth - 1) * k + l];
                 if l < level {
-                    most += peaks[pair_index(l, level, k)][0].value as f64;
+                    most += self.top[pair_index(l, level, k)];
                 }
             }
             self.tail[l] = self.tail[l + 1] + most;
@@ -409,11 +435,7 @@ impl Searcher {
                         self.killed[at] = 0;
                         let value = pair[q].value;
                         self.matched[at * k + level] = value;
-                        let replaced = if level < l {
-                            peaks[p][0].value as f64
-                        } else {
-                            0.0
-                        };
+                        let replaced = if level < l { self.top[p] } else { 0.0 };
                         let gained = before + value as f64 - replaced;
                         self.gained[(depth * k + l) * width + c] = gained;
                         best = best.max(cand.value as f64 + self.tops[l] + gained);
