@@ -276,6 +276,28 @@ impl Steered {
         if bound <= 0.0 || bound < floor {
             return None;
         }
+        // Each pair's positive local maxima, for the refinements. A refinement scores
+        // per pair one of them, refined: when the pairs' largest refined maxima cannot
+        // reach `floor` (summed as a score is), nothing is refined.
+        let mut most = 0.0f64;
+        for a in 0..k {
+            for b in a + 1..k {
+                let pair = pair_index(live[a], live[b], mics);
+                let (start, half) = self.starts[pair];
+                let range = start..start + 2 * half + 1;
+                let w = &windows[range.clone()];
+                let marks = &mut self.marks[range];
+                mark_peaks(w, marks);
+                let top = (1..w.len() - 1)
+                    .filter(|&i| marks[i] > 0.0)
+                    .map(|i| refine_peak(w, i).1)
+                    .fold(0.0f32, f32::max);
+                most += top as f64;
+            }
+        }
+        if most < floor {
+            return None;
+        }
         // The steered response of the grid, from each pair's running maximum.
         self.power.iter_mut().for_each(|p| *p = 0.0);
         for a in 0..k {
@@ -295,15 +317,6 @@ impl Steered {
         for (p, u) in self.power.iter_mut().zip(&self.points) {
             if found.iter().any(|f| f.dot(u) > near) {
                 *p = f32::NEG_INFINITY;
-            }
-        }
-        // Each pair's positive local maxima, for the refinements.
-        for a in 0..k {
-            for b in a + 1..k {
-                let pair = pair_index(live[a], live[b], mics);
-                let (start, half) = self.starts[pair];
-                let range = start..start + 2 * half + 1;
-                mark_peaks(&windows[range.clone()], &mut self.marks[range]);
             }
         }
         // The best few grid points, apart from each other, each refined.
@@ -473,16 +486,23 @@ fn local_peak(w: &[f32], marks: &[f32], centre: f64, reach: f64) -> Option<(f64,
             best = Some((i, v));
         }
     }
-    let (i, v) = best?;
-    let (prev, next) = (w[i - 1], w[i + 1]);
+    let (i, _) = best?;
+    let (delta, value) = refine_peak(w, i);
+    Some((i as f64 + delta as f64, value))
+}
+
+/// The local maximum of `w` at `i` refined with a parabola through it and its two
+/// neighbours: its offset (samples) and value.
+#[inline]
+fn refine_peak(w: &[f32], i: usize) -> (f32, f32) {
+    let (prev, v, next) = (w[i - 1], w[i], w[i + 1]);
     let denom = prev - 2.0 * v + next;
-    let (delta, value) = if denom < 0.0 {
+    if denom < 0.0 {
         let d = (0.5 * (prev - next) / denom).clamp(-0.5, 0.5);
         (d, v - 0.25 * (prev - next) * d)
     } else {
         (0.0, v)
-    };
-    Some((i as f64 + delta as f64, value))
+    }
 }
 
 #[cfg(test)]
