@@ -24,22 +24,90 @@ fn running_max_is_the_naive_one() {
     }
 }
 
+const RATE: f64 = 48000.0;
+const SPEED: f64 = 343.0;
+
+/// The prism at 48 kHz: its positions, lags per pair, a steered response and
+/// the solver of all its microphones.
+fn prism() -> (Vec<Vector3<f64>>, Vec<usize>, Steered, DirectionSolver) {
+    let geometry = Geometry::from_file(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml"),
+    )
+    .unwrap();
+    let positions: Vec<Vector3<f64>> = geometry.mics.iter().map(|m| m.position).collect();
+    let mics = positions.len();
+    let max_lag: Vec<usize> = (0..pair_count(mics))
+        .map(|_| (0.8 * RATE / SPEED) as usize)
+        .collect();
+    let steered = Steered::new(&positions, RATE, SPEED, &max_lag);
+    let solver = DirectionSolver::new(&geometry, (1 << mics) - 1, RATE, SPEED).unwrap();
+    (positions, max_lag, steered, solver)
+}
+
+/// The search stops before its grid only when no refinement could reach its floor: with
+/// one source between samples (each pair's refined peak above its samples), a floor at
+/// the best score found still gives that score, and one just above the pairs' largest
+/// refined maxima gives nothing.
+#[test]
+fn the_refined_maxima_stop_only_searches_that_cannot_reach_the_floor() {
+    let (positions, max_lag, mut steered, solver) = prism();
+    let mics = positions.len();
+    let u = unit_from_angles(30.0, 10.0);
+    let mut single = Vec::new();
+    for i in 0..mics {
+        for j in i + 1..mics {
+            let half = max_lag[pair_index(i, j, mics)] + 1;
+            let lag = u.dot(&((positions[j] - positions[i]) * RATE / SPEED)) + half as f64;
+            single.extend((0..2 * half + 1).map(|k| {
+                let d = k as f64 - lag;
+                (-d * d).exp() as f32
+            }));
+        }
+    }
+    let live: Vec<usize> = (0..mics).collect();
+    let query = |floor| Query {
+        live: &live,
+        mics,
+        found: &[],
+        tolerance: 2.0,
+        floor,
+    };
+    let mut windows = single.clone();
+    let best = steered.search(&mut windows, &query(0.0), &solver).unwrap();
+    assert!(best.score > 0.0);
+    let again = steered
+        .search(&mut windows, &query(best.score), &solver)
+        .expect("a floor the best direction reaches is searched");
+    assert_eq!(again.score, best.score);
+    // The pairs' largest refined maxima, summed as the search sums them, and their
+    // largest samples.
+    let (mut most, mut samples) = (0.0f64, 0.0f64);
+    let mut start = 0;
+    for h in &max_lag {
+        let w = &single[start..start + 2 * h + 3];
+        let top = (1..w.len() - 1)
+            .filter(|&i| w[i] > 0.0 && w[i] >= w[i - 1] && w[i] > w[i + 1])
+            .map(|i| refine_peak(w, i).1)
+            .fold(0.0f32, f32::max);
+        most += top as f64;
+        samples += window_max(w, 0.0) as f64;
+        start += 2 * h + 3;
+    }
+    // The peaks' samples alone would have stopped the search at its own score.
+    assert!(samples < best.score && best.score <= most);
+    assert!(steered
+        .search(&mut windows, &query(most * 1.000001), &solver)
+        .is_none());
+}
+
 /// Correlations with a peak at every pair's delay of source A, weaker ones at
 /// source B's, and three pairs that disagree with A: the first search finds A with
 /// the other pairs agreeing, the second (A cleared) finds B.
 #[test]
 fn finds_a_source_most_pairs_agree_on_then_the_next() {
-    let geometry = Geometry::from_file(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml"),
-    )
-    .unwrap();
-    let (rate, speed) = (48000.0, 343.0);
-    let positions: Vec<Vector3<f64>> = geometry.mics.iter().map(|m| m.position).collect();
+    let (positions, max_lag, mut steered, solver) = prism();
+    let (rate, speed) = (RATE, SPEED);
     let mics = positions.len();
-    let max_lag: Vec<usize> = (0..pair_count(mics))
-        .map(|_| (0.8 * rate / speed) as usize)
-        .collect();
-    let mut steered = Steered::new(&positions, rate, speed, &max_lag);
     let (a, b) = (unit_from_angles(30.0, 10.0), unit_from_angles(-60.0, -5.0));
     let mut windows = vec![0.0f32; max_lag.iter().map(|&h| 2 * h + 3).sum()];
     let mut start = 0;
@@ -61,7 +129,6 @@ fn finds_a_source_most_pairs_agree_on_then_the_next() {
         }
     }
     let live: Vec<usize> = (0..mics).collect();
-    let solver = DirectionSolver::new(&geometry, (1 << mics) - 1, rate, speed).unwrap();
     let query = |found, floor| Query {
         live: &live,
         mics,
