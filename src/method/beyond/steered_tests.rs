@@ -195,3 +195,38 @@ fn local_peak_from_marks_is_the_scanned_one() {
         }
     }
 }
+
+/// Marking a window returns what refining each marked maximum one by one and keeping the
+/// largest gives, bit for bit, whatever the window's length against the eight lanes (and
+/// 0 for a window with no positive local maximum).
+#[test]
+fn marking_returns_the_largest_refined_maximum() {
+    for len in [3usize, 4, 9, 10, 17, 61, 210] {
+        for seed in 0..5u64 {
+            let w: Vec<f32> = (0..len as u64)
+                .map(|i| {
+                    let h = (i * 2654435761 + seed * 40503) % 1000;
+                    (h as f32 / 500.0 - 1.0) * if i % 7 == seed % 7 { 2.0 } else { 0.5 }
+                })
+                .collect();
+            let mut marks = vec![f32::NAN; len];
+            let top = mark_peaks(&w, &mut marks);
+            let mut expected = 0.0f32;
+            for i in 1..len - 1 {
+                let v = w[i];
+                let hit = v > 0.0 && v >= w[i - 1] && v > w[i + 1];
+                assert_eq!(
+                    marks[i],
+                    if hit { v } else { 0.0 },
+                    "len {len} seed {seed} at {i}"
+                );
+                if hit {
+                    expected = expected.max(refine_peak(&w, i).1);
+                }
+            }
+            assert_eq!((marks[0], marks[len - 1]), (0.0, 0.0));
+            assert_eq!(top.to_bits(), expected.to_bits(), "len {len} seed {seed}");
+        }
+    }
+    assert_eq!(mark_peaks(&[-1.0, -0.5, -2.0], &mut [0.0; 3]), 0.0);
+}
