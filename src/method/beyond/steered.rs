@@ -314,16 +314,7 @@ impl Steered {
         }
         // The best few grid points, apart from each other, each refined.
         let mut order = std::mem::take(&mut self.order);
-        order.clear();
-        order.extend(0..self.points.len());
-        let power = &self.power;
-        let by_power = |x: &usize, y: &usize| power[*y].total_cmp(&power[*x]).then(x.cmp(y));
-        let top = TOP_POINTS.min(order.len());
-        if top < order.len() {
-            order.select_nth_unstable_by(top - 1, by_power);
-        }
-        order.truncate(top);
-        order.sort_unstable_by(by_power);
+        best_points(&self.power, TOP_POINTS, &mut order);
         let apart = SEPARATION_DEG.to_radians().cos();
         let mut tried = std::mem::take(&mut self.tried);
         tried.clear();
@@ -402,6 +393,33 @@ impl Steered {
             agreeing: score.1,
         })
     }
+}
+
+/// The `top` grid points of highest `power` (ties: the lower index first), best first,
+/// in `order` (cleared first). The points split into `top` blocks or more, whose maxima
+/// are that many points: none below the least of them is among the best `top`, so only
+/// the rest are selected and sorted.
+fn best_points(power: &[f32], top: usize, order: &mut Vec<usize>) {
+    let by_power = |x: &usize, y: &usize| power[*y].total_cmp(&power[*x]).then(x.cmp(y));
+    let (n, top) = (power.len(), top.min(power.len()));
+    order.clear();
+    if top == 0 {
+        return;
+    }
+    if top < n {
+        let least = power
+            .chunks(n / top)
+            .map(|block| block.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b)))
+            .fold(f32::INFINITY, f32::min);
+        order.extend((0..n).filter(|&g| power[g] >= least));
+        if top < order.len() {
+            order.select_nth_unstable_by(top - 1, by_power);
+        }
+    } else {
+        order.extend(0..n);
+    }
+    order.truncate(top);
+    order.sort_unstable_by(by_power);
 }
 
 /// `out[i]` = the largest of 0 and `w[i - r..=i + r]`, by doubling: after step `s` each

@@ -230,3 +230,31 @@ fn marking_returns_the_largest_refined_maximum() {
     }
     assert_eq!(mark_peaks(&[-1.0, -0.5, -2.0], &mut [0.0; 3]), 0.0);
 }
+
+/// The best points are the first of a full sort by power (ties to the lower index),
+/// with ties, excluded points (-inf) and fewer points than asked for.
+#[test]
+fn best_points_are_a_full_sorts_first() {
+    for n in [1usize, 5, 63, 64, 65, 130, 1000] {
+        for seed in 0..6u64 {
+            let power: Vec<f32> = (0..n as u64)
+                .map(|g| {
+                    let h = (g * 2654435761 + seed * 97) % 1009;
+                    match (h % 11, seed) {
+                        (0, _) => f32::NEG_INFINITY,
+                        (_, 5) => 1.0,
+                        _ => (h % 40) as f32 * 0.25,
+                    }
+                })
+                .collect();
+            for top in [0usize, 1, 6, 64, 2000] {
+                let mut all: Vec<usize> = (0..n).collect();
+                all.sort_by(|x, y| power[*y].total_cmp(&power[*x]).then(x.cmp(y)));
+                all.truncate(top);
+                let mut order = vec![7usize; 3];
+                best_points(&power, top, &mut order);
+                assert_eq!(order, all, "n {n} seed {seed} top {top}");
+            }
+        }
+    }
+}
