@@ -5,11 +5,12 @@
 //! Three scenes are rendered by `ssl simulate` (tests/support/scenes.rs): sparse bursts
 //! from one direction in free field on the paper's prism, a reverberant four-talker
 //! meeting on the prism, and two talkers at once on 32 microphones. For each, in
-//! [`ROUNDS`] rounds (so that every figure sees the same machine load), it measures the
-//! FFT floor (the forward and inverse real FFTs of 1024 a hop needs for that many
-//! microphones, with realfft, as many as the recording has hops) and runs the `ssl`
-//! binary at the defaults on one thread and on two, with `--no-track` and with
-//! `--paper`; it reports the best of the rounds, peak resident memory (VmHWM) and the stages of one
+//! [`ROUNDS`] rounds, it runs the `ssl` binary at the defaults on one thread and on two,
+//! with `--no-track` and with `--paper`, each right after measuring the FFT floor (the
+//! forward and inverse real FFTs of 1024 a hop needs for that many microphones, with
+//! realfft, as many as the recording has hops), so that a run and its floor see the same
+//! machine load; it reports each run's ratio to its floor (the median of the rounds, and
+//! their range), the shortest times, peak resident memory (VmHWM) and the stages of one
 //! `--timings` run. The sparse recording repeated ten times shows that memory does not
 //! grow with the length.
 
@@ -25,7 +26,7 @@ use std::time::Instant;
 use support::harness::{binary, run_measured};
 use support::scenes::{bursts_toml, meeting_toml, two_talkers_toml};
 
-/// Rounds of every measurement; the page gives the best of them.
+/// Rounds of every measurement; the page gives the median ratio and the shortest times.
 const ROUNDS: usize = 5;
 
 type Result<T> = std::result::Result<T, Box<dyn Error>>;
@@ -43,9 +44,9 @@ struct Scene {
 /// One scene's figures.
 struct Figures {
     frames: u64,
+    /// The shortest floor measured.
     floor_s: f64,
-    /// (options, threads, shortest wall seconds, peak MB)
-    runs: Vec<(&'static str, usize, f64, f64)>,
+    runs: Vec<Run>,
     timings: String,
 }
 
@@ -110,14 +111,7 @@ fn main() -> Result<()> {
         });
     }
 
-    let mut figures: Vec<Figures> = scenes.iter().map(measure).collect::<Result<_>>()?;
-    // The sparse and the busy scenes need the same FFTs a hop: each gets the faster of
-    // their floors a hop (the machine's FFT speed, measured twice as often).
-    let per_hop = |f: &Figures| f.floor_s / f.frames as f64;
-    let prism_hop = per_hop(&figures[0]).min(per_hop(&figures[1]));
-    for f in &mut figures[..2] {
-        f.floor_s = prism_hop * f.frames as f64;
-    }
+    let figures: Vec<Figures> = scenes.iter().map(measure).collect::<Result<_>>()?;
 
     // Memory against length: the sparse recording, and ten of it end to end.
     let long = dir.path().join("prism").join("sparse_x10.wav");
@@ -157,13 +151,16 @@ fn measure(scene: &Scene) -> Result<Figures> {
     ];
     let mut floors = Vec::new();
     let mut walls = vec![Vec::new(); options.len()];
+    let mut ratios = vec![Vec::new(); options.len()];
     let mut peaks = vec![0.0f64; options.len()];
     for _ in 0..ROUNDS {
-        floors.push(floor_seconds(scene.mics, frames)?);
         for (i, (_, extra, threads)) in options.iter().enumerate() {
+            let floor = floor_seconds(scene.mics, frames)?;
             let threads = threads.to_string();
             let (wall, peak) = run_measured(exe, &analyze_args(scene, &threads, extra))?;
+            floors.push(floor);
             walls[i].push(wall);
+            ratios[i].push(wall / floor);
             peaks[i] = peaks[i].max(peak);
         }
     }
@@ -176,14 +173,33 @@ fn measure(scene: &Scene) -> Result<Figures> {
     Ok(Figures {
         frames,
         floor_s: best(&floors),
-        runs: options
+        runs: walls
             .iter()
-            .zip(&walls)
+            .zip(ratios)
             .zip(peaks)
-            .map(|(((name, _, threads), walls), peak)| (*name, *threads, best(walls), peak))
+            .map(|((walls, mut ratios), peak)| {
+                ratios.sort_by(f64::total_cmp);
+                Run {
+                    wall: best(walls),
+                    ratio: ratios[ratios.len() / 2],
+                    range: (ratios[0], ratios[ratios.len() - 1]),
+                    peak_mb: peak,
+                }
+            })
             .collect(),
         timings: String::from_utf8(out.stderr)?,
     })
+}
+
+/// One configuration's figures over the rounds.
+struct Run {
+    /// The shortest wall time (seconds).
+    wall: f64,
+    /// The median of the rounds' ratios of the wall time to the floor measured just
+    /// before it, and the lowest and highest of them.
+    ratio: f64,
+    range: (f64, f64),
+    peak_mb: f64,
 }
 
 /// `ssl analyze` of `scene` on `threads` threads, the output discarded, with `extra`.
@@ -260,13 +276,12 @@ fn print_page(scenes: &[Scene], figures: &[Figures], memory: &[(f64, f64)]) {
     println!(
         "Made by `cargo bench --bench speed > docs/speed.md` (benches/speed.rs) on a machine with {cores} cores. \
          The machine is a shared virtual machine: other work on it slows the same command by 10-30% from \
-         run to run on a quiet day and the ratios below by up to 1.9x on a busy one (five runs of 2026-12-03, \
-         docs/experiments.md), and its FFTs themselves vary from day to day, so the ratios to the FFT floor, \
-         measured in the same rounds, are the figures to compare, and one run is one sample of them; \
-         absolute times are this machine's on that day. Every time is \
-         the shortest of {ROUNDS} rounds (what the machine gives when nothing else slows it); each round \
-         measures the floor, then each run. The sparse and the busy scenes need the same FFTs a hop, so \
-         both take the faster of their floors a hop. A run is the `ssl` \
+         run to run on a quiet day and more on a busy one, and its FFTs themselves vary from day to day, so \
+         the figures to compare are the ratios to the FFT floor: in each of {ROUNDS} rounds every run comes \
+         right after a measurement of its floor, so that both see the same load, and the page gives the \
+         median of the rounds' ratios in bold, their lowest and highest in brackets. Absolute times are \
+         the shortest of the rounds (what the machine gives when nothing else slows it), this machine's on \
+         that day. A run is the `ssl` \
          binary end to end (`ssl analyze REC.wav -g ARRAY.toml -q -o /dev/null -j N [options]`): starting, \
          reading the 16-bit WAV file, writing CSV.\n"
     );
@@ -285,24 +300,27 @@ fn print_page(scenes: &[Scene], figures: &[Figures], memory: &[(f64, f64)]) {
     println!("| scene | floor | defaults, 1 thread | defaults, 2 threads | `--no-track`, 1 thread | `--paper`, 1 thread | peak memory |");
     println!("|---|---|---|---|---|---|---|");
     for (scene, f) in scenes.iter().zip(figures) {
-        let cell = |wall: f64| {
+        let cell = |run: &Run| {
             format!(
-                "{wall:.2} s: {:.0}x real time, **{:.2}x** the floor",
-                scene.seconds / wall,
-                wall / f.floor_s
+                "**{:.2}x** the floor ({:.2}-{:.2}); {:.2} s: {:.0}x real time",
+                run.ratio,
+                run.range.0,
+                run.range.1,
+                run.wall,
+                scene.seconds / run.wall,
             )
         };
-        let peak = f.runs.iter().map(|r| r.3).fold(0.0, f64::max);
+        let peak = f.runs.iter().map(|r| r.peak_mb).fold(0.0, f64::max);
         println!(
             "| {} | {:.2} s ({:.0} us a hop, {:.0}x real time) | {} | {} | {} | {} | {peak:.1} MB |",
             scene.name,
             f.floor_s,
             1e6 * f.floor_s / f.frames as f64,
             scene.seconds / f.floor_s,
-            cell(f.runs[0].2),
-            cell(f.runs[1].2),
-            cell(f.runs[2].2),
-            cell(f.runs[3].2),
+            cell(&f.runs[0]),
+            cell(&f.runs[1]),
+            cell(&f.runs[2]),
+            cell(&f.runs[3]),
         );
     }
     println!(
