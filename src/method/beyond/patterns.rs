@@ -43,7 +43,7 @@
 //! the thread count, and its memory is fixed (a few patterns of every pair's lags).
 
 use super::frame_sources::apart;
-use super::steered::{Query, Steered, CLEAR_SAMPLES};
+use super::steered::{whole_within, Query, Steered, CLEAR_SAMPLES};
 use super::threshold::Threshold;
 use crate::method::detect::{detection, solver};
 use crate::method::layout::Layout;
@@ -241,8 +241,8 @@ impl Patterns {
                 }) {
                     continue;
                 }
-                let lo = (centre - tolerance).ceil().max(0.0) as usize;
-                let hi = ((centre + tolerance).floor().max(0.0) as usize).min(2 * half);
+                let (lo, hi) = whole_within(centre - tolerance, centre + tolerance);
+                let (lo, hi) = (lo.max(0) as usize, (hi.max(0) as usize).min(2 * half));
                 let both = (1u64 << a) | (1u64 << b);
                 let frames = || {
                     span.iter()

@@ -253,8 +253,8 @@ impl Steered {
                     let w = &mut windows[start..start + 2 * half + 1];
                     let centre = u.dot(&self.diffs[pair]) as f32 + half as f32;
                     let reach = tolerance + CLEAR_SAMPLES;
-                    let lo = (centre - reach).ceil().max(0.0) as usize;
-                    let hi = ((centre + reach).floor() as usize).min(w.len() - 1);
+                    let (lo, hi) = whole_within((centre - reach) as f64, (centre + reach) as f64);
+                    let (lo, hi) = (lo.max(0) as usize, (hi.max(0) as usize).min(w.len() - 1));
                     for v in w.iter_mut().take(hi + 1).skip(lo) {
                         *v = v.min(0.0);
                     }
@@ -512,8 +512,8 @@ fn mark_peaks(w: &[f32], marks: &mut [f32]) -> f32 {
 /// `centre` (both in window indices; the first of equal ones), refined with a
 /// parabola: its position and value. `marks` are `w`'s from [`mark_peaks`].
 fn local_peak(w: &[f32], marks: &[f32], centre: f64, reach: f64) -> Option<(f64, f32)> {
-    let lo = ((centre - reach).ceil().max(1.0)) as usize;
-    let hi = ((centre + reach).floor().min(w.len() as f64 - 2.0)) as isize;
+    let (lo, hi) = whole_within(centre - reach, centre + reach);
+    let (lo, hi) = (lo.max(1) as usize, hi.min(w.len() as i64 - 2) as isize);
     if hi < lo as isize {
         return None;
     }
@@ -528,6 +528,15 @@ fn local_peak(w: &[f32], marks: &[f32], centre: f64, reach: f64) -> Option<(f64,
     let (i, _) = best?;
     let (delta, value) = refine_peak(w, i);
     Some((i as f64 + delta as f64, value))
+}
+
+/// The whole numbers from `lo` up and from `hi` down: `(lo.ceil(), hi.floor())` as
+/// integers (both finite, under 2^62 in size), without the library call that the
+/// default x86-64 target (no rounding instruction) makes for `ceil` and `floor`.
+#[inline]
+pub(crate) fn whole_within(lo: f64, hi: f64) -> (i64, i64) {
+    let (a, b) = (lo as i64, hi as i64);
+    (a + ((a as f64) < lo) as i64, b - ((b as f64) > hi) as i64)
 }
 
 /// The local maximum of `w` at `i` refined with a parabola through it and its two

@@ -258,3 +258,16 @@ fn best_points_are_a_full_sorts_first() {
         }
     }
 }
+
+/// The whole numbers within a span are `ceil` and `floor`'s, at whole numbers, halves,
+/// just either side of them, and either sign.
+#[test]
+fn whole_within_is_ceil_and_floor() {
+    for base in [-300.0f64, -2.0, -1.0, -0.0, 0.0, 1.0, 17.0, 209.0] {
+        for offset in [0.0, 0.5, -0.5, 1e-9, -1e-9, 0.999, -0.999, 2.4] {
+            let x = base + offset;
+            let (lo, hi) = whole_within(x, x);
+            assert_eq!((lo as f64, hi as f64), (x.ceil(), x.floor()), "{x}");
+        }
+    }
+}
