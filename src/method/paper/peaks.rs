@@ -176,7 +176,11 @@ impl<const K: usize> Top<K> {
             while mask != 0 {
                 let i = start + mask.trailing_zeros() as usize + 1;
                 mask &= mask - 1;
-                top.insert(window[i], i as u32);
+                // A candidate the list has risen past since the block was marked would
+                // change nothing.
+                if window[i] > top.values[K - 1] {
+                    top.insert(window[i], i as u32);
+                }
             }
             start += len;
         }
