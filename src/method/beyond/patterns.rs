@@ -52,6 +52,7 @@ use crate::method::paper::direction::DirectionSolver;
 use crate::method::paper::pairs::{pair_count, pair_index};
 use crate::method::state::{Correlated, FrameState};
 use crate::method::uncertainty::uncertainty_deg;
+use multiversion::multiversion;
 use nalgebra::Vector3;
 use std::collections::HashMap;
 
@@ -290,9 +291,7 @@ impl Patterns {
         }
         let share = (1.0 - self.keep) / self.scale;
         for r in Self::ranges(setup, state) {
-            for (l, w) in self.long[r.clone()].iter_mut().zip(&state.windows[r]) {
-                *l += share * w;
-            }
+            add_scaled(&mut self.long[r.clone()], &state.windows[r], share);
         }
     }
 
@@ -369,9 +368,7 @@ impl Patterns {
         let target = &mut self.slots[s];
         let share = (1.0 / (target.learned as f32 + 1.0)).max(min_share);
         for r in Self::ranges(setup, state) {
-            for (p, w) in target.pattern[r.clone()].iter_mut().zip(&state.windows[r]) {
-                *p += share * (w - *p);
-            }
+            move_towards(&mut target.pattern[r.clone()], &state.windows[r], share);
         }
         target.learned += 1;
         target.last = index;
@@ -409,13 +406,8 @@ impl Patterns {
         }
         let gain = (scale as f64 * cross / energy).max(0.0) as f32;
         for r in Self::ranges(setup, state) {
-            for ((out, l), p) in self.residual[r.clone()]
-                .iter_mut()
-                .zip(&self.long[r.clone()])
-                .zip(&pattern.pattern[r])
-            {
-                *out = scale * l - gain * p;
-            }
+            let out = &mut self.residual[r.clone()];
+            remove(out, &self.long[r.clone()], &pattern.pattern[r], scale, gain);
         }
         let Some(solver) = solver(&mut self.solvers, setup, state) else {
             return;
@@ -474,7 +466,32 @@ impl Patterns {
     }
 }
 
+/// `out = scale long - gain pattern`: the longer average less a talker's pattern.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn remove(out: &mut [f32], long: &[f32], pattern: &[f32], scale: f32, gain: f32) {
+    for ((o, l), p) in out.iter_mut().zip(long).zip(pattern) {
+        *o = scale * l - gain * p;
+    }
+}
+
+/// `to += share from`.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn add_scaled(to: &mut [f32], from: &[f32], share: f32) {
+    for (t, f) in to.iter_mut().zip(from) {
+        *t += share * f;
+    }
+}
+
+/// `to += share (from - to)`.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn move_towards(to: &mut [f32], from: &[f32], share: f32) {
+    for (t, f) in to.iter_mut().zip(from) {
+        *t += share * (f - *t);
+    }
+}
+
 /// `sum a_i b_i` and `sum b_i^2`, in eight lanes (which the compiler vectorises).
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 fn products(a: &[f32], b: &[f32]) -> (f64, f64) {
     let (mut cross, mut energy) = ([0.0f32; 8], [0.0f32; 8]);
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
