@@ -6,11 +6,11 @@
 //! from one direction in free field on the paper's prism, a reverberant four-talker
 //! meeting on the prism, and two talkers at once on 32 microphones. For each, in
 //! [`ROUNDS`] rounds, it runs the `ssl` binary at the defaults on one thread and on two,
-//! with `--no-track` and with `--paper`, each right after measuring the FFT floor (the
-//! forward and inverse real FFTs of 1024 a hop needs for that many microphones, with
+//! with `--no-track` and with `--paper`, each between two measurements of the FFT floor
+//! (the forward and inverse real FFTs of 1024 a hop needs for that many microphones, with
 //! realfft, as many as the recording has hops), so that a run and its floor see the same
-//! machine load; it reports each run's ratio to its floor (the median of the rounds, and
-//! their range), the shortest times, peak resident memory (VmHWM) and the stages of one
+//! machine load; it reports each run's ratio to the mean of its two floors (the median of
+//! the rounds, and their range), the shortest times, peak resident memory (VmHWM) and the stages of one
 //! `--timings` run. The sparse recording repeated ten times shows that memory does not
 //! grow with the length.
 
@@ -27,7 +27,7 @@ use support::harness::{binary, run_measured};
 use support::scenes::{bursts_toml, meeting_toml, two_talkers_toml};
 
 /// Rounds of every measurement; the page gives the median ratio and the shortest times.
-const ROUNDS: usize = 5;
+const ROUNDS: usize = 7;
 
 type Result<T> = std::result::Result<T, Box<dyn Error>>;
 
@@ -154,14 +154,17 @@ fn measure(scene: &Scene) -> Result<Figures> {
     let mut ratios = vec![Vec::new(); options.len()];
     let mut peaks = vec![0.0f64; options.len()];
     for _ in 0..ROUNDS {
+        let mut before = floor_seconds(scene.mics, frames)?;
+        floors.push(before);
         for (i, (_, extra, threads)) in options.iter().enumerate() {
-            let floor = floor_seconds(scene.mics, frames)?;
             let threads = threads.to_string();
             let (wall, peak) = run_measured(exe, &analyze_args(scene, &threads, extra))?;
-            floors.push(floor);
+            let after = floor_seconds(scene.mics, frames)?;
+            floors.push(after);
             walls[i].push(wall);
-            ratios[i].push(wall / floor);
+            ratios[i].push(wall / (0.5 * (before + after)));
             peaks[i] = peaks[i].max(peak);
+            before = after;
         }
     }
     let out = Command::new(exe)
@@ -195,8 +198,8 @@ fn measure(scene: &Scene) -> Result<Figures> {
 struct Run {
     /// The shortest wall time (seconds).
     wall: f64,
-    /// The median of the rounds' ratios of the wall time to the floor measured just
-    /// before it, and the lowest and highest of them.
+    /// The median of the rounds' ratios of the wall time to the mean of the floors
+    /// measured just before and just after it, and the lowest and highest of them.
     ratio: f64,
     range: (f64, f64),
     peak_mb: f64,
@@ -278,8 +281,9 @@ fn print_page(scenes: &[Scene], figures: &[Figures], memory: &[(f64, f64)]) {
          The machine is a shared virtual machine: other work on it slows the same command by 10-30% from \
          run to run on a quiet day and more on a busy one, and its FFTs themselves vary from day to day, so \
          the figures to compare are the ratios to the FFT floor: in each of {ROUNDS} rounds every run comes \
-         right after a measurement of its floor, so that both see the same load, and the page gives the \
-         median of the rounds' ratios in bold, their lowest and highest in brackets. Absolute times are \
+         between two measurements of its floor and is divided by their mean, so that both see the same \
+         load, and the page gives the median of the rounds' ratios in bold, their lowest and highest in \
+         brackets. Absolute times are \
          the shortest of the rounds (what the machine gives when nothing else slows it), this machine's on \
          that day. A run is the `ssl` \
          binary end to end (`ssl analyze REC.wav -g ARRAY.toml -q -o /dev/null -j N [options]`): starting, \

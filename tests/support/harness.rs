@@ -3,6 +3,8 @@
 
 use std::path::Path;
 use std::process::Command;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// The harness's arguments, without the `--bench` flag cargo adds.
@@ -33,8 +35,9 @@ pub fn binary() -> &'static Path {
     Path::new(env!("CARGO_BIN_EXE_ssl"))
 }
 
-/// Runs `exe args`, polling its peak resident memory (VmHWM) from /proc every 5 ms.
-/// Returns the wall time in seconds and the peak in MB; fails if the command fails.
+/// Runs `exe args` while another thread polls its peak resident memory (VmHWM) from
+/// /proc every 5 ms. Returns the wall time in seconds (to the moment it exits) and the
+/// peak in MB; fails if the command fails.
 pub fn run_measured(exe: &Path, args: &[&str]) -> Result<(f64, f64), Box<dyn std::error::Error>> {
     let (wall, peak, status) = run_measured_status(exe, args)?;
     if !status.success() {
@@ -50,24 +53,30 @@ pub fn run_measured_status(
 ) -> Result<(f64, f64, std::process::ExitStatus), Box<dyn std::error::Error>> {
     let start = Instant::now();
     let mut child = Command::new(exe).args(args).spawn()?;
-    let mut peak_kb = 0u64;
-    let status = loop {
-        if let Ok(s) = std::fs::read_to_string(format!("/proc/{}/status", child.id())) {
-            if let Some(v) = s.lines().find(|l| l.starts_with("VmHWM:")) {
-                let kb = v.split_whitespace().nth(1).and_then(|x| x.parse().ok());
-                peak_kb = peak_kb.max(kb.unwrap_or(0));
+    let status_file = format!("/proc/{}/status", child.id());
+    let done = Arc::new(AtomicBool::new(false));
+    let watcher = {
+        let done = Arc::clone(&done);
+        std::thread::spawn(move || {
+            let mut peak_kb = 0u64;
+            while !done.load(Ordering::Relaxed) {
+                if let Ok(s) = std::fs::read_to_string(&status_file) {
+                    if let Some(v) = s.lines().find(|l| l.starts_with("VmHWM:")) {
+                        let kb = v.split_whitespace().nth(1).and_then(|x| x.parse().ok());
+                        peak_kb = peak_kb.max(kb.unwrap_or(0));
+                    }
+                }
+                std::thread::sleep(Duration::from_millis(5));
             }
-        }
-        if let Some(status) = child.try_wait()? {
-            break status;
-        }
-        std::thread::sleep(Duration::from_millis(5));
+            peak_kb
+        })
     };
-    Ok((
-        start.elapsed().as_secs_f64(),
-        peak_kb as f64 / 1024.0,
-        status,
-    ))
+    // Waiting (not polling) ends the wall time when the command exits.
+    let status = child.wait();
+    let wall = start.elapsed().as_secs_f64();
+    done.store(true, Ordering::Relaxed);
+    let peak_kb = watcher.join().map_err(|_| "the memory watcher panicked")?;
+    Ok((wall, peak_kb as f64 / 1024.0, status?))
 }
 
 /// The value of `key=NAME` among the names of `T` (one of the library's closed sets).
