@@ -273,9 +273,14 @@ impl Framer {
                     break;
                 }
             };
-            for (m, &c) in self.channels.iter().enumerate() {
-                let row = &mut block.data[m * stride + filled..m * stride + filled + got];
-                deinterleave(&self.interleaved[..got * ch], ch, c, row);
+            let read = &self.interleaved[..got * ch];
+            if ch == 8 {
+                transpose8(read, &self.channels, &mut block.data, stride, filled);
+            } else {
+                for (m, &c) in self.channels.iter().enumerate() {
+                    let row = &mut block.data[m * stride + filled..m * stride + filled + got];
+                    deinterleave(read, ch, c, row);
+                }
             }
             filled += got;
             self.samples_read += got as u64;
@@ -334,6 +339,34 @@ fn deinterleave(interleaved: &[f32], channels: usize, channel: usize, out: &mut 
     }
 }
 
+/// [`deinterleave`] for every mic of a source of 8 channels at once: mic `m`'s samples,
+/// from channel `channels[m]`, go to `data[m * stride + at..]`. Eight sample frames at a
+/// time are transposed in registers (eight loads, eight rows written whole) instead of
+/// one strided pass over the samples per mic.
+#[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
+fn transpose8(interleaved: &[f32], channels: &[usize], data: &mut [f32], stride: usize, at: usize) {
+    let frames = interleaved.len() / 8;
+    let whole = frames / 8 * 8;
+    for (j, block) in interleaved[..whole * 8].chunks_exact(64).enumerate() {
+        let mut rows = [[0.0f32; 8]; 8];
+        for (k, frame) in block.chunks_exact(8).enumerate() {
+            for (c, &v) in frame.iter().enumerate() {
+                rows[c][k] = v;
+            }
+        }
+        for (m, &c) in channels.iter().enumerate() {
+            let start = m * stride + at + 8 * j;
+            data[start..start + 8].copy_from_slice(&rows[c]);
+        }
+    }
+    for (m, &c) in channels.iter().enumerate() {
+        let row = &mut data[m * stride + at + whole..m * stride + at + frames];
+        for (d, frame) in row.iter_mut().zip(interleaved[whole * 8..].chunks_exact(8)) {
+            *d = frame[c];
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -344,13 +377,18 @@ mod tests {
     #[test]
     fn frame_blocks_hold_consecutive_overlapping_frames() {
         let (n, hop) = (8, 4);
-        for len in [5usize, 8, 11, 12, 27, 28, 29, 40, 41] {
-            let ch: Vec<Vec<f32>> = (0..3)
-                .map(|c| (0..len).map(|t| (c * 1000 + t) as f32 / 4096.0).collect())
+        // Three channels, and eight (the transposed path; lengths that end mid-way
+        // through eight sample frames).
+        for (channels, len) in [5usize, 8, 11, 12, 27, 28, 29, 40, 41]
+            .into_iter()
+            .flat_map(|len| [(3usize, len), (8, len), (8, len + 4096 + 3)])
+        {
+            let ch: Vec<Vec<f32>> = (0..channels)
+                .map(|c| (0..len).map(|t| (c * 10000 + t) as f32 / 65536.0).collect())
                 .collect();
             let mut source =
                 Channels::new("ramp", ch.iter().map(|c| &c[..]).collect(), 8000).unwrap();
-            let mut framer = Framer::new(n, vec![2, 0], 3, 1);
+            let mut framer = Framer::new(n, vec![2, 0], channels, 1);
             let mut block = FrameBlock::new(n, 2, 3);
             let mut seen = 0u64;
             loop {
