@@ -465,7 +465,7 @@ fn gather_add(power: &mut [f32], table: &[f32; TABLE], index: &[u16]) {
 
 /// `marks[i]` = `w[i]` where it is a positive local maximum (`w[i] >= w[i - 1]` and
 /// `w[i] > w[i + 1]`), else 0; the window's two ends are never one. Returns the largest
-/// of those maxima refined (as [`refine_peak`] refines), or 0 when there is none: every lane
+/// of those maxima refined ([`refine3`]), or 0 when there is none: every lane
 /// refines and keeps its refinement only where it marks, eight lanes at a time, so the
 /// loop has no branch and the compiler vectorises it (the largest of the same values as
 /// refining the marked ones one by one).
@@ -478,17 +478,10 @@ fn mark_peaks(w: &[f32], marks: &mut [f32]) -> f32 {
     let mut lanes = [0.0f32; LANES];
     let (prev, here, next) = (&w[..n - 2], &w[1..n - 1], &w[2..]);
     let inner = &mut marks[1..n - 1];
-    // [`refine_peak`] with selects for its branches.
     let mark = |lane: &mut f32, m: &mut f32, p: f32, v: f32, x: f32| {
         let hit = (v > 0.0) & (v >= p) & (v > x);
         *m = if hit { v } else { 0.0 };
-        let denom = p - 2.0 * v + x;
-        let d = (0.5 * (p - x) / denom).clamp(-0.5, 0.5);
-        let refined = if denom < 0.0 {
-            v - 0.25 * (p - x) * d
-        } else {
-            v
-        };
+        let refined = refine3(p, v, x).1;
         *lane = lane.max(if hit { refined } else { 0.0 });
     };
     let whole = inner.len() / LANES * LANES;
@@ -543,10 +536,16 @@ pub(crate) fn whole_within(lo: f64, hi: f64) -> (i64, i64) {
 /// neighbours: its offset (samples) and value.
 #[inline]
 fn refine_peak(w: &[f32], i: usize) -> (f32, f32) {
-    let (prev, v, next) = (w[i - 1], w[i], w[i + 1]);
+    refine3(w[i - 1], w[i], w[i + 1])
+}
+
+/// [`refine_peak`] from the three samples. The offset is computed whether or not it is
+/// kept, so that the choice is a select and a loop over it vectorises ([`mark_peaks`]).
+#[inline(always)]
+fn refine3(prev: f32, v: f32, next: f32) -> (f32, f32) {
     let denom = prev - 2.0 * v + next;
+    let d = (0.5 * (prev - next) / denom).clamp(-0.5, 0.5);
     if denom < 0.0 {
-        let d = (0.5 * (prev - next) / denom).clamp(-0.5, 0.5);
         (d, v - 0.25 * (prev - next) * d)
     } else {
         (0.0, v)

@@ -196,6 +196,12 @@ fn local_peak_from_marks_is_the_scanned_one() {
     }
 }
 
+/// A value in `0..modulus` that jumps about with `i` (Knuth's multiplicative hash),
+/// different for each `seed`.
+fn scattered(i: u64, seed: u64, modulus: u64) -> u64 {
+    (i * 2654435761 + seed * 40503) % modulus
+}
+
 /// Marking a window returns what refining each marked maximum one by one and keeping the
 /// largest gives, bit for bit, whatever the window's length against the eight lanes (and
 /// 0 for a window with no positive local maximum).
@@ -205,7 +211,7 @@ fn marking_returns_the_largest_refined_maximum() {
         for seed in 0..5u64 {
             let w: Vec<f32> = (0..len as u64)
                 .map(|i| {
-                    let h = (i * 2654435761 + seed * 40503) % 1000;
+                    let h = scattered(i, seed, 1000);
                     (h as f32 / 500.0 - 1.0) * if i % 7 == seed % 7 { 2.0 } else { 0.5 }
                 })
                 .collect();
@@ -239,7 +245,7 @@ fn best_points_are_a_full_sorts_first() {
         for seed in 0..6u64 {
             let power: Vec<f32> = (0..n as u64)
                 .map(|g| {
-                    let h = (g * 2654435761 + seed * 97) % 1009;
+                    let h = scattered(g, seed, 1009);
                     match (h % 11, seed) {
                         (0, _) => f32::NEG_INFINITY,
                         (_, 5) => 1.0,
