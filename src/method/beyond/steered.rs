@@ -510,15 +510,17 @@ fn local_peak(w: &[f32], marks: &[f32], centre: f64, reach: f64) -> Option<(f64,
     if hi < lo as isize {
         return None;
     }
-    let mut best: Option<(usize, f32)> = None;
-    let mut top = 0.0;
-    for (i, &v) in marks.iter().enumerate().take(hi as usize + 1).skip(lo) {
-        if v > top {
-            top = v;
-            best = Some((i, v));
-        }
+    // Selects, not branches: which mark is highest is a coin toss for the predictor.
+    let (mut top, mut at) = (0.0f32, 0usize);
+    for (i, &v) in marks[..=hi as usize].iter().enumerate().skip(lo) {
+        let higher = v > top;
+        top = if higher { v } else { top };
+        at = if higher { i } else { at };
     }
-    let (i, _) = best?;
+    if top <= 0.0 {
+        return None;
+    }
+    let i = at;
     let (delta, value) = refine_peak(w, i);
     Some((i as f64 + delta as f64, value))
 }
