@@ -38,17 +38,25 @@ pub fn whiten(x: &[Complex32], we: &[f32], out: &mut [Complex32]) {
 /// a fold of `f32::max` (which must handle NaN) runs one value at a time: the steered
 /// response's bound reads every pair's window once per further source it looks for.
 pub fn window_max(w: &[f32], init: f32) -> f32 {
+    lanes_max(w, init, |&v| v)
+}
+
+/// The largest of `init` and `value` of each of `items` (all finite), in eight running
+/// maxima side by side: [`window_max`] and [`part_max`].
+#[inline(always)]
+fn lanes_max<T>(items: &[T], init: f32, value: impl Fn(&T) -> f32) -> f32 {
     let mut lanes = [init; 8];
-    let chunks = w.chunks_exact(8);
+    let chunks = items.chunks_exact(8);
     let rest = chunks.remainder();
     for chunk in chunks {
-        for (m, &v) in lanes.iter_mut().zip(chunk) {
+        for (m, v) in lanes.iter_mut().zip(chunk.iter().map(&value)) {
             *m = if v > *m { v } else { *m };
         }
     }
     rest.iter()
-        .chain(&lanes)
-        .fold(init, |m, &v| if v > m { v } else { m })
+        .map(&value)
+        .chain(lanes)
+        .fold(init, |m, v| if v > m { v } else { m })
 }
 
 /// An upper bound on every value of a pair's weighted PHAT correlation and on its
@@ -153,22 +161,14 @@ impl Correlator {
 }
 
 /// The largest of `init` and the real parts of `z` (or the imaginary ones, when
-/// `imaginary`), all finite: eight running maxima side by side, as [`window_max`].
+/// `imaginary`), all finite, as [`window_max`].
 #[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 fn part_max(z: &[Complex32], imaginary: bool, init: f32) -> f32 {
-    let mut lanes = [init; 8];
-    let chunks = z.chunks_exact(8);
-    let rest = chunks.remainder();
-    let part = |z: &Complex32| if imaginary { z.im } else { z.re };
-    for chunk in chunks {
-        for (m, v) in lanes.iter_mut().zip(chunk.iter().map(part)) {
-            *m = if v > *m { v } else { *m };
-        }
+    if imaginary {
+        lanes_max(z, init, |z| z.im)
+    } else {
+        lanes_max(z, init, |z| z.re)
     }
-    rest.iter()
-        .map(part)
-        .chain(lanes)
-        .fold(init, |m, v| if v > m { v } else { m })
 }
 
 /// `out[i] = z[i].re` (or `.im` when `imaginary`).
