@@ -497,33 +497,38 @@ impl<S: SampleSource> Analysis<S> {
             result
         };
         let mut error = fill(framer, &mut current);
-        loop {
-            if current.count == 0 {
-                return error.map_or(Ok(()), Err);
-            }
+        while current.count > 0 {
             let mut next_error = None;
             // A live source is read after the frames at hand are handed on: reading ahead
             // would hold them until more audio arrives.
-            let detections = self.analyzer.analyse(&current, || {
+            let (first, detections) = self.analyzer.analyse(&current, || {
                 if !live {
                     next_error = fill(framer, &mut next);
                 }
             });
-            for (detection, index) in detections.iter().zip(current.first..) {
+            for (detection, index) in detections.iter().zip(first..) {
                 if sink(index, detection.as_slice()).is_break() {
                     return Ok(());
                 }
             }
-            if live && error.is_none() {
-                next_error = fill(framer, &mut next);
-            }
             // A read error (a truncated file) ends the run after the frames read before it.
-            if let Some(e) = error {
-                return Err(e);
+            if error.is_some() {
+                break;
+            }
+            if live {
+                next_error = fill(framer, &mut next);
             }
             error = next_error;
             std::mem::swap(&mut current, &mut next);
         }
+        // The last frames, which waited for frames after them.
+        let (first, detections) = self.analyzer.finish();
+        for (detection, index) in detections.iter().zip(first..) {
+            if sink(index, detection.as_slice()).is_break() {
+                return Ok(());
+            }
+        }
+        error.map_or(Ok(()), Err)
     }
 
     fn summary(&self) -> Summary {

@@ -1,7 +1,8 @@
 //! Live input: when `ssl analyze -` reads a pipe fed in real time, each record of a
 //! confirmed track leaves within 100 ms of the audio that completes its frame (after the
-//! first 0.25 s, which primes the noise estimate) with `--smooth-s 0`, and within 200 ms
-//! more with the default smoothing, which waits 0.2 s for the track's rows after it.
+//! first 0.25 s, which primes the noise estimate) with `--smooth-s 0`, 53 ms of it
+//! waiting for the five frames that average it, and within 200 ms more with the default
+//! smoothing, which waits 0.2 s for the track's rows after it.
 
 use crate::support;
 

@@ -39,16 +39,23 @@ pub(crate) struct Analyzer {
     background: Option<Background>,
     /// Each talker's learned pattern and the second look for others, in frame order.
     patterns: Option<Patterns>,
-    /// The last `average_frames - 1` frames of the previous block, then this block's.
+    /// The last `average_frames - 1` frames finished (the spans of the next), then the
+    /// frames weighed and waiting for the frames after them, then a block's.
     states: Vec<FrameState>,
     live: Vec<bool>,
     /// Per frame (as `states`), whether its own weights rule out a detection.
     hopeless: Vec<bool>,
-    /// Per frame of the block, whether its correlations can be left out.
+    /// Frames weighed and not finished (at most `average_frames - 1` between blocks).
+    waiting: usize,
+    /// The index of the first of them.
+    first_waiting: u64,
+    /// Frames the last call finished.
+    finished: usize,
+    /// Per frame being finished, whether its correlations can be left out.
     skip: Vec<bool>,
     outcomes: Vec<Outcome>,
-    /// Per frame of the block, its dereverberated correlations (swapped into its state)
-    /// and the most they can be.
+    /// Per frame being finished, its dereverberated correlations (swapped into its
+    /// state) and the most they can be.
     dereverbed: Vec<Vec<f32>>,
     reach: Vec<(f64, Edges)>,
     detections: Vec<Detections>,
@@ -63,6 +70,9 @@ impl Analyzer {
         params: &Params,
     ) -> Result<Self, ParamsError> {
         let setup = Setup::new(geometry, sample_rate, params)?;
+        // The frames finished before a call (spans), those waiting, a block's.
+        let carried = setup.params.average_frames - 1;
+        let (span, most) = (2 * carried, carried + BLOCK);
         Ok(Analyzer {
             workers: (0..rayon::current_num_threads())
                 .map(|_| Mutex::new((Worker::new(&setup), StageTimes::default())))
@@ -70,20 +80,21 @@ impl Analyzer {
             sequential: Sequential::new(&setup),
             background: Background::new(&setup),
             patterns: Patterns::new(&setup, &setup.threshold),
-            states: (0..BLOCK + setup.params.average_frames - 1)
-                .map(|_| FrameState::new(&setup))
-                .collect(),
-            live: vec![false; BLOCK + setup.params.average_frames - 1],
-            hopeless: vec![false; BLOCK + setup.params.average_frames - 1],
-            skip: vec![false; BLOCK],
-            outcomes: vec![Outcome::Silent; BLOCK],
-            reach: vec![(0.0, Edges::default()); BLOCK],
+            states: (0..span + BLOCK).map(|_| FrameState::new(&setup)).collect(),
+            live: vec![false; span + BLOCK],
+            hopeless: vec![false; span + BLOCK],
+            waiting: 0,
+            first_waiting: 0,
+            finished: 0,
+            skip: vec![false; most],
+            outcomes: vec![Outcome::Silent; most],
+            reach: vec![(0.0, Edges::default()); most],
             dereverbed: if setup.dereverb.is_some() {
-                vec![vec![0.0; setup.windows_len]; BLOCK]
+                vec![vec![0.0; setup.windows_len]; most]
             } else {
                 Vec::new()
             },
-            detections: vec![Detections::default(); BLOCK],
+            detections: vec![Detections::default(); most],
             times: None,
             setup,
         })
@@ -159,59 +170,106 @@ impl Analyzer {
         }
     }
 
-    /// Analyses the frames of `block` and returns their detections in frame order (frame
-    /// `block.first + i` at `i`). `meanwhile` runs on the calling thread while the pool
-    /// works, when there is more than one thread (the caller reads the next block).
-    pub fn analyse(&mut self, block: &FrameBlock, meanwhile: impl FnOnce()) -> &[Detections] {
-        let count = block.count;
+    /// Analyses the frames of `block` and returns the detections of the frames it
+    /// finishes, in frame order, with the index of the first. A frame is finished once
+    /// the [`Params::average_frames`](crate::method::Params::average_frames)` - 1` frames
+    /// after it are weighed (whether its correlations can be left out depends on them),
+    /// so the last of a block wait for the next block or for [`Analyzer::finish`]:
+    /// the output does not depend on where blocks end. `meanwhile` runs on the calling
+    /// thread while the pool works, when there is more than one thread (the caller
+    /// reads the next block).
+    pub fn analyse(
+        &mut self,
+        block: &FrameBlock,
+        meanwhile: impl FnOnce(),
+    ) -> (u64, &[Detections]) {
         if rayon::current_num_threads() > 1 {
             rayon::in_place_scope(|scope| {
-                scope.spawn(|_| self.analyse_block(block));
+                scope.spawn(|_| self.analyse_block(Some(block)));
                 meanwhile();
             });
         } else {
-            self.analyse_block(block);
+            self.analyse_block(Some(block));
             meanwhile();
         }
-        for (detection, &outcome) in self.detections.iter_mut().zip(&self.outcomes[..count]) {
-            *detection = self.sequential.stats.tally(outcome);
-        }
-        &self.detections[..count]
+        self.tally()
     }
 
-    fn analyse_block(&mut self, block: &FrameBlock) {
+    /// Finishes the frames still waiting for the frames after them (at the end of the
+    /// recording) and returns their detections as [`Analyzer::analyse`] does.
+    pub fn finish(&mut self) -> (u64, &[Detections]) {
+        self.analyse_block(None);
+        self.tally()
+    }
+
+    /// Counts the outcomes of the frames just finished; returns their detections.
+    fn tally(&mut self) -> (u64, &[Detections]) {
+        let done = self.finished;
+        for (detection, &outcome) in self.detections.iter_mut().zip(&self.outcomes[..done]) {
+            *detection = self.sequential.stats.tally(outcome);
+        }
+        (self.first_waiting - done as u64, &self.detections[..done])
+    }
+
+    /// Weighs the frames of `block`, then finishes every frame whose next frames are
+    /// weighed (with `None`, at the end: every frame waiting).
+    fn analyse_block(&mut self, block: Option<&FrameBlock>) {
+        let carried = self.setup.params.average_frames - 1;
+        let waiting = self.waiting;
+        if let Some(block) = block {
+            // Frames are contiguous: the block's first follows those waiting.
+            self.first_waiting = block.first - waiting as u64;
+            self.weigh(block, carried + waiting);
+        }
+        let count = block.map_or(0, |b| b.count);
+        // Frames weighed and not finished, and those that can be finished now.
+        let open = waiting + count;
+        let done = if block.is_some() {
+            open.saturating_sub(carried)
+        } else {
+            open
+        };
+        self.finish_frames(carried, open, done);
+        // The last frames go before the next block's: the `carried` finished last,
+        // then those still waiting.
+        self.states[..carried + open].rotate_left(done);
+        self.live[..carried + open].rotate_left(done);
+        self.hopeless[..carried + open].rotate_left(done);
+        self.finished = done;
+        self.waiting = open - done;
+        self.first_waiting += done as u64;
+    }
+
+    /// Spectra, noise estimate, weights, and whether each frame teaches the background
+    /// and can give a detection, for the frames of `block`, into the states from `at`.
+    fn weigh(&mut self, block: &FrameBlock, at: usize) {
         let count = block.count;
         let (setup, workers) = (&self.setup, &self.workers);
         let worker = || {
             let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
             workers[i].lock().expect("a worker panicked")
         };
-        // The frames before this block that the first frames average with.
-        let carried = setup.params.average_frames - 1;
         let (states, live) = (
-            &mut self.states[..carried + count],
-            &mut self.live[..carried + count],
+            &mut self.states[at..at + count],
+            &mut self.live[at..at + count],
         );
         // Spectra, in parallel.
         let clock = Instant::now();
-        states[carried..]
+        states
             .par_iter_mut()
-            .zip(live[carried..].par_iter_mut())
+            .zip(live.par_iter_mut())
             .enumerate()
             .for_each(|(i, (state, live))| {
                 *live = worker().0.spectra(setup, block.frame(i), state);
             });
         let spectra = clock.elapsed();
         // The noise estimate, in frame order, then the weights.
-        self.sequential.estimate_noise(
-            setup.params.weighting,
-            &mut states[carried..],
-            &live[carried..],
-        );
+        self.sequential
+            .estimate_noise(setup.params.weighting, states, live);
         let noise = clock.elapsed();
-        states[carried..]
+        states
             .par_iter_mut()
-            .zip(live[carried..].par_iter())
+            .zip(live.par_iter())
             .filter(|(_, &live)| live)
             .for_each(|(state, _)| Worker::weigh(setup, state));
         if let Some(times) = self.times.as_mut() {
@@ -219,37 +277,58 @@ impl Analyzer {
             times.noise += noise - spectra;
             times.weighting += clock.elapsed() - noise;
         }
-        // Which frames' correlations no detection can need.
-        let prune = workers[0].lock().expect("a worker panicked").0.prune;
-        let hopeless = &mut self.hopeless[..carried + count];
-        for (c, hopeless) in hopeless.iter_mut().enumerate() {
-            // A frame its own weights rule out has no detection (`Worker::decide`).
-            *hopeless =
-                c < carried || !live[c] || states[c].steady || states[c].ceiling < states[c].floor;
-        }
-        for (i, skip) in self.skip[..count].iter_mut().enumerate() {
-            let c = carried + i;
-            states[c].teaches = live[c]
+        for (i, ((state, &live), hopeless)) in states
+            .iter_mut()
+            .zip(live.iter())
+            .zip(&mut self.hopeless[at..at + count])
+            .enumerate()
+        {
+            state.teaches = live
                 && Background::teaches(
                     &setup.params,
                     setup.background_gate,
-                    &states[c],
+                    state,
                     block.first + i as u64,
                 );
-            *skip = prune
-                && !states[c].teaches
-                && c + carried < carried + count
-                && hopeless[c..=c + carried].iter().all(|&h| h);
+            // A frame its own weights rule out has no detection (`Worker::decide`).
+            *hopeless = !live || state.steady || state.ceiling < state.floor.min(state.rider_floor);
         }
+    }
+
+    /// Correlations, background, peaks, search, direction and the second look for the
+    /// first `done` of the `open` frames weighed and not finished (states `carried..`,
+    /// after the `carried` finished before them). `open - done` are left waiting.
+    fn finish_frames(&mut self, carried: usize, open: usize, done: usize) {
+        let (setup, workers) = (&self.setup, &self.workers);
+        let worker = || {
+            let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
+            workers[i].lock().expect("a worker panicked")
+        };
+        let first = self.first_waiting;
+        let (states, live) = (
+            &mut self.states[..carried + open],
+            &mut self.live[..carried + open],
+        );
+        // Which frames' correlations no detection can need: the frame and those that
+        // average it (the ones weighed, at the end) rule out a detection.
+        let prune = workers[0].lock().expect("a worker panicked").0.prune;
+        let hopeless = &self.hopeless[..carried + open];
+        for (i, skip) in self.skip[..done].iter_mut().enumerate() {
+            let c = carried + i;
+            let last = (c + carried).min(carried + open - 1);
+            *skip = prune && !states[c].teaches && hopeless[c..=last].iter().all(|&h| h);
+        }
+        let live = &mut live[..carried + done];
+        let states = &mut states[..carried + done];
         // Correlations, in parallel.
         let timing = self.times.is_some();
         if setup.dereverb.is_some() {
             // From the spectra of each frame and the ones before it, then into the frames.
             let (frozen, live) = (&*states, &*live);
-            let skip = &self.skip[..count];
-            self.dereverbed[..count]
+            let skip = &self.skip[..done];
+            self.dereverbed[..done]
                 .par_iter_mut()
-                .zip(self.reach[..count].par_iter_mut())
+                .zip(self.reach[..done].par_iter_mut())
                 .enumerate()
                 .filter(|(i, _)| live[carried + i] && !skip[*i])
                 .for_each(|(i, (out, reach))| {
@@ -264,7 +343,7 @@ impl Analyzer {
                         timing.then_some(stage_times),
                     );
                 });
-            for (i, out) in self.dereverbed[..count].iter_mut().enumerate() {
+            for (i, out) in self.dereverbed[..done].iter_mut().enumerate() {
                 let state = &mut states[carried + i];
                 state.correlated = if !live[carried + i] {
                     Correlated::No
@@ -280,7 +359,7 @@ impl Analyzer {
             states[carried..]
                 .par_iter_mut()
                 .zip(live[carried..].par_iter())
-                .zip(self.skip[..count].par_iter())
+                .zip(self.skip[..done].par_iter())
                 .for_each(|((state, &live), &skip)| {
                     if live {
                         let mut guard = worker();
@@ -301,12 +380,12 @@ impl Analyzer {
         }
         // Averages, peaks, search, direction, in parallel.
         let states = &*states;
-        self.outcomes[..count]
+        self.outcomes[..done]
             .par_iter_mut()
             .zip(live[carried..].par_iter())
             .enumerate()
             .for_each(|(i, (outcome, &live))| {
-                let index = block.first + i as u64;
+                let index = first + i as u64;
                 *outcome = if live {
                     let mut guard = worker();
                     let (worker, stage_times) = &mut *guard;
@@ -319,13 +398,7 @@ impl Analyzer {
         // Each talker's pattern removed before a second look, in frame order.
         if let Some(patterns) = self.patterns.as_mut() {
             let clock = Instant::now();
-            patterns.apply(
-                setup,
-                states,
-                carried,
-                &mut self.outcomes[..count],
-                block.first,
-            );
+            patterns.apply(setup, states, carried, &mut self.outcomes[..done], first);
             if let Some(times) = self.times.as_mut() {
                 times.patterns += clock.elapsed();
             }
@@ -342,9 +415,6 @@ impl Analyzer {
                 self.sequential.stats.edge_pairs += state.edges.beyond as u64;
             }
         }
-        // The last frames go before the next block's.
-        self.states[..carried + count].rotate_left(count);
-        self.live[..carried + count].rotate_left(count);
     }
 }
 

@@ -203,7 +203,7 @@ impl Worker {
         }
         clock.lap(|t| &mut t.weighting);
         let alone = setup.params.average_frames == 1 && self.prune && !state.teaches;
-        let threshold = state.floor * pairs as f64;
+        let threshold = state.floor.min(state.rider_floor) * pairs as f64;
         let overshoot = setup.params.interpolation.overshoot() as f32;
         let norm = setup.n as f32;
         let whitened = &self.whitened;
