@@ -14,6 +14,7 @@ mod bounds;
 mod check;
 mod cli;
 mod clock;
+mod docs;
 mod entry_points;
 mod flac;
 mod formats;

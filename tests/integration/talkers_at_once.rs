@@ -209,7 +209,7 @@ fn gained(windows: &[usize]) -> usize {
 
 /// Two talkers at once, 60 deg apart, on the prism at 16 kHz in the paper's room:
 /// with further sources from each frame's own correlations
-/// (`src/method/frame_sources.rs`), both are found in more of the 0.1 s windows than
+/// (`src/method/beyond/frame_sources.rs`), both are found in more of the 0.1 s windows than
 /// from the averaged correlations alone (over four draws of the room's noise), still as
 /// one track each, within 1 deg, and without a false event. Rows wait only 0.5 s for
 /// their track.
@@ -395,7 +395,7 @@ fn a_small_arrays_candidates_join_its_talkers() {
 /// Two talkers at once, 60 deg apart, on the prism at 48 kHz in the paper's room: with
 /// each talker's correlation pattern learned while it dominates and removed from a
 /// longer average before a second look for others (`Params::patterns_s`,
-/// src/method/patterns.rs), the talkers are found in more of the windows where both
+/// src/method/beyond/patterns.rs), the talkers are found in more of the windows where both
 /// talk. In three draws, with against without: no draw lower, one track per talker, no
 /// false event, within 1 deg.
 #[test]
@@ -427,7 +427,7 @@ fn removing_a_talkers_pattern_finds_the_other() {
     assert!(gained(&windows) >= 6, "{windows:?}");
 }
 
-/// Riders (`src/method/worker.rs`, `src/track/`): a frame that gives nothing down to
+/// Riders (`src/method/engine/worker.rs`, `src/track/`): a frame that gives nothing down to
 /// the candidates' share has its own correlations searched again down to the
 /// riders'. Two talkers 60 deg apart on the prism at 16 kHz in the smaller, more
 /// reverberant room of the last test. With every detection given out (`keep_unconfirmed`), each row without riders
@@ -507,7 +507,7 @@ fn riders_add_a_talkers_weakest_frames() {
     assert!(gained(&windows) >= 4, "{windows:?}");
 }
 
-/// Riders from single frequency bins (`Params::bin_votes`, src/method/votes.rs): two
+/// Riders from single frequency bins (`Params::bin_votes`, src/method/beyond/votes.rs): two
 /// talkers 60 deg apart on a 6-mic circle (radius 4.63 cm) at 16 kHz in the paper's
 /// room, 1.5 m away at +15 deg. The louder one hides the other in the correlations, but
 /// not in every bin: with the bins' directions as riders beside a frame's detection,
