@@ -21,7 +21,10 @@ fn the_docs_name_files_that_exist() {
         let text = std::fs::read_to_string(page).unwrap();
         for (at, _) in text.match_indices(['`', ' ', '(']) {
             let rest = &text[at + 1..];
-            if !["src/", "benches/", "tests/"].iter().any(|p| rest.starts_with(p)) {
+            if !["src/", "benches/", "tests/"]
+                .iter()
+                .any(|p| rest.starts_with(p))
+            {
                 continue;
             }
             let end = rest
@@ -35,5 +38,9 @@ fn the_docs_name_files_that_exist() {
         }
     }
     assert!(named > 20, "only {named} paths found: the scan is broken");
-    assert!(missing.is_empty(), "named but missing:\n{}", missing.join("\n"));
+    assert!(
+        missing.is_empty(),
+        "named but missing:\n{}",
+        missing.join("\n")
+    );
 }
