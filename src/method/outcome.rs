@@ -113,14 +113,14 @@ pub(crate) enum Outcome {
     Silent,
     /// Fewer than two live microphones, or no direction from the delays.
     Unsolved,
-    /// No consistent set of delays (`true`: the search hit its node budget).
+    /// No consistent set of delays (`true`: the search hit its budget).
     Inconsistent(bool),
     /// The best set scored under the threshold, or no set could reach it (the frame was
     /// decided by the weights' ceiling, see [`peak_ceiling`](super::paper::correlation::peak_ceiling)).
-    /// `true`: the search hit its node budget; then the best set's score per pair when the
+    /// `true`: the search hit its budget; then the best set's score per pair when the
     /// frame was searched (`true`), else the most it could have scored per pair.
     BelowThreshold(bool, f64, bool),
-    /// One detection or more (`true`: the search hit its node budget).
+    /// One detection or more (`true`: the search hit its budget).
     Detected(Detections, bool),
 }
 
@@ -137,7 +137,7 @@ pub struct FrameStats {
     pub silent_frames: u64,
     /// Per mic: frames where it was constant while others carried signal.
     pub dead_frames: Vec<u64>,
-    /// Frames whose search stopped at the node budget.
+    /// Frames whose search stopped at the search's budget.
     pub budget_frames: u64,
     /// Frames with no consistent delay set (among the frames that could reach the
     /// threshold).

@@ -175,7 +175,7 @@ pub enum Warning {
         /// spectral weighting is on: a source on from the first sample is background to it.
         steady: bool,
     },
-    /// The consistency search stopped at its node budget in some frames.
+    /// The consistency search stopped at its budget in some frames.
     SearchBudget {
         /// Frames where it did.
         frames: u64,
@@ -244,7 +244,7 @@ impl fmt::Display for Warning {
             }
             Warning::SearchBudget { frames } => write!(
                 f,
-                "the consistency search hit its node budget in {frames} frames (best set found so far used); a smaller tolerance or fewer peaks per pair avoids this"
+                "the consistency search hit its budget in {frames} frames (best set found so far used); a smaller tolerance or fewer peaks per pair avoids this"
             ),
         }
     }

@@ -66,7 +66,7 @@ impl Worker {
             peaks: (0..pair_count(mics))
                 .map(|_| Vec::with_capacity(setup.params.peaks))
                 .collect(),
-            searcher: Searcher::new(setup.params.tolerance, setup.params.max_nodes),
+            searcher: Searcher::new(setup.params.tolerance, setup.params.max_work),
             solvers: HashMap::new(),
             averaged: if setup.params.steered {
                 vec![0.0; setup.windows_len]
