@@ -261,21 +261,6 @@ impl Steered {
                 }
             }
         }
-        // No direction can score more than the pairs' highest values (a refined peak
-        // rises at most a quarter above its sample): when that cannot reach `floor`,
-        // nothing is searched.
-        let mut bound = 0.0;
-        for a in 0..k {
-            for b in a + 1..k {
-                let pair = pair_index(live[a], live[b], mics);
-                let (start, half) = self.starts[pair];
-                let top = window_max(&windows[start..start + 2 * half + 1], 0.0);
-                bound += 1.25 * top as f64;
-            }
-        }
-        if bound <= 0.0 || bound < floor {
-            return None;
-        }
         // Each pair's positive local maxima, for the refinements. A refinement scores
         // per pair one of them, refined: when the pairs' largest refined maxima cannot
         // reach `floor` (summed as a score is), nothing is refined.
@@ -288,7 +273,7 @@ impl Steered {
                 most += mark_peaks(&windows[range.clone()], &mut self.marks[range]) as f64;
             }
         }
-        if most < floor {
+        if most <= 0.0 || most < floor {
             return None;
         }
         // The steered response of the grid, from each pair's running maximum.
@@ -409,7 +394,7 @@ fn best_points(power: &[f32], top: usize, order: &mut Vec<usize>) {
     if top < n {
         let least = power
             .chunks(n / top)
-            .map(|block| block.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b)))
+            .map(|block| window_max(block, f32::NEG_INFINITY))
             .fold(f32::INFINITY, f32::min);
         order.extend((0..n).filter(|&g| power[g] >= least));
         if top < order.len() {

@@ -33,10 +33,10 @@ pub fn whiten(x: &[Complex32], we: &[f32], out: &mut [Complex32]) {
     }
 }
 
-/// The largest of `init` and the values of `w` (a correlation's lags: finite). Eight
-/// running maxima side by side, which the compiler turns into vector instructions, where
-/// a fold of `f32::max` (which must handle NaN) runs one value at a time: the steered
-/// response's bound reads every pair's window once per further source it looks for.
+/// The largest of `init` and the values of `w` (finite: a correlation's lags, the
+/// steered response's grid). Eight running maxima side by side, which the compiler
+/// turns into vector instructions, where a fold of `f32::max` (which must handle NaN)
+/// runs one value at a time.
 pub fn window_max(w: &[f32], init: f32) -> f32 {
     lanes_max(w, init, |&v| v)
 }
