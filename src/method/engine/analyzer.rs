@@ -26,7 +26,7 @@ use crate::method::paper::frames::{FrameBlock, BLOCK};
 use crate::method::params::{Params, ParamsError};
 use crate::method::state::{Correlated, FrameState};
 use rayon::prelude::*;
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 /// The method's state over one recording: the checked setup, one [`Worker`] per thread,
@@ -245,10 +245,7 @@ impl Analyzer {
     fn weigh(&mut self, block: &FrameBlock, at: usize) {
         let count = block.count;
         let (setup, workers) = (&self.setup, &self.workers);
-        let worker = || {
-            let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
-            workers[i].lock().expect("a worker panicked")
-        };
+        let worker = || this_threads(workers);
         let (states, live) = (
             &mut self.states[at..at + count],
             &mut self.live[at..at + count],
@@ -300,10 +297,7 @@ impl Analyzer {
     /// after the `carried` finished before them). `open - done` are left waiting.
     fn finish_frames(&mut self, carried: usize, open: usize, done: usize) {
         let (setup, workers) = (&self.setup, &self.workers);
-        let worker = || {
-            let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
-            workers[i].lock().expect("a worker panicked")
-        };
+        let worker = || this_threads(workers);
         let first = self.first_waiting;
         let (states, live) = (
             &mut self.states[..carried + open],
@@ -416,6 +410,12 @@ impl Analyzer {
             }
         }
     }
+}
+
+/// The worker of the pool thread that calls (of the calling thread outside the pool).
+fn this_threads(workers: &[Mutex<(Worker, StageTimes)>]) -> MutexGuard<'_, (Worker, StageTimes)> {
+    let i = rayon::current_thread_index().unwrap_or(0) % workers.len();
+    workers[i].lock().expect("a worker panicked")
 }
 
 #[cfg(all(test, feature = "simulate"))]
