@@ -49,8 +49,6 @@ pub(crate) struct Analyzer {
     waiting: usize,
     /// The index of the first of them.
     first_waiting: u64,
-    /// Frames the last call finished.
-    finished: usize,
     /// Per frame being finished, whether its correlations can be left out.
     skip: Vec<bool>,
     outcomes: Vec<Outcome>,
@@ -85,7 +83,6 @@ impl Analyzer {
             hopeless: vec![false; span + BLOCK],
             waiting: 0,
             first_waiting: 0,
-            finished: 0,
             skip: vec![false; most],
             outcomes: vec![Outcome::Silent; most],
             reach: vec![(0.0, Edges::default()); most],
@@ -183,28 +180,28 @@ impl Analyzer {
         block: &FrameBlock,
         meanwhile: impl FnOnce(),
     ) -> (u64, &[Detections]) {
+        let mut done = 0;
         if rayon::current_num_threads() > 1 {
             rayon::in_place_scope(|scope| {
-                scope.spawn(|_| self.analyse_block(Some(block)));
+                scope.spawn(|_| done = self.analyse_block(Some(block)));
                 meanwhile();
             });
         } else {
-            self.analyse_block(Some(block));
+            done = self.analyse_block(Some(block));
             meanwhile();
         }
-        self.tally()
+        self.tally(done)
     }
 
     /// Finishes the frames still waiting for the frames after them (at the end of the
     /// recording) and returns their detections as [`Analyzer::analyse`] does.
     pub fn finish(&mut self) -> (u64, &[Detections]) {
-        self.analyse_block(None);
-        self.tally()
+        let done = self.analyse_block(None);
+        self.tally(done)
     }
 
-    /// Counts the outcomes of the frames just finished; returns their detections.
-    fn tally(&mut self) -> (u64, &[Detections]) {
-        let done = self.finished;
+    /// Counts the outcomes of the `done` frames just finished; returns their detections.
+    fn tally(&mut self, done: usize) -> (u64, &[Detections]) {
         for (detection, &outcome) in self.detections.iter_mut().zip(&self.outcomes[..done]) {
             *detection = self.sequential.stats.tally(outcome);
         }
@@ -212,8 +209,9 @@ impl Analyzer {
     }
 
     /// Weighs the frames of `block`, then finishes every frame whose next frames are
-    /// weighed (with `None`, at the end: every frame waiting).
-    fn analyse_block(&mut self, block: Option<&FrameBlock>) {
+    /// weighed (with `None`, at the end: every frame waiting); returns how many it
+    /// finished.
+    fn analyse_block(&mut self, block: Option<&FrameBlock>) -> usize {
         let carried = self.setup.params.average_frames - 1;
         let waiting = self.waiting;
         if let Some(block) = block {
@@ -235,9 +233,9 @@ impl Analyzer {
         self.states[..carried + open].rotate_left(done);
         self.live[..carried + open].rotate_left(done);
         self.hopeless[..carried + open].rotate_left(done);
-        self.finished = done;
         self.waiting = open - done;
         self.first_waiting += done as u64;
+        done
     }
 
     /// Spectra, noise estimate, weights, and whether each frame teaches the background
