@@ -23,6 +23,16 @@ use std::time::Instant;
 
 type Out = BufWriter<Sink>;
 
+/// What [`Output::finish`] wrote.
+pub(super) enum Written {
+    /// Nothing: no file gave a frame.
+    Nothing,
+    /// The output, of this many bytes.
+    Result(u64),
+    /// The rows of a run that failed, beside the output; the line that says where.
+    Partial(String),
+}
+
 /// The output, opened on the first frame of the first file that gives one.
 pub(super) struct Output<'a> {
     args: &'a AnalyzeArgs,
@@ -52,18 +62,25 @@ impl<'a> Output<'a> {
         }
     }
 
-    /// Ends the output with the files' entries and commits it; `false` when nothing was
-    /// written (no file gave a frame).
-    pub(super) fn finish_into(mut self, files: &[FileEntry]) -> Result<bool> {
+    /// Ends the output with the files' entries: commits it when `ok`, or sets what was
+    /// written aside as `<stem>.partial.<ext>` ([`Sink::set_aside`]).
+    pub(super) fn finish(mut self, files: &[FileEntry], ok: bool) -> Result<Written> {
         let Some(exporter) = self.exporter.take() else {
-            return Ok(false);
+            return Ok(Written::Nothing);
         };
         let buffered = exporter.finish(files).map_err(|e| self.failed(e))?;
-        let sink = buffered
+        let mut sink = buffered
             .into_inner()
             .map_err(|e| self.failed(e.into_error().into()))?;
-        sink.commit()?;
-        Ok(true)
+        if ok {
+            let size = sink.len().map_err(|e| sink.write_error(&e))?;
+            sink.commit()?;
+            return Ok(Written::Result(size));
+        }
+        Ok(match sink.set_aside()? {
+            Some(note) => Written::Partial(note),
+            None => Written::Nothing,
+        })
     }
 
     fn exporter(&mut self) -> Result<&mut Box<dyn Exporter<Out>>, OutputError> {
@@ -107,6 +124,10 @@ pub(super) fn prepare(args: &AnalyzeArgs) -> Result<(Localizer, Vec<Input>)> {
 pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let (localizer, expanded) = prepare(args)?;
     let geometry_path = args.geometry.display().to_string();
+    let refused: std::collections::HashMap<String, String> = expanded
+        .iter()
+        .filter_map(|i| Some((i.path.clone(), i.refused.clone()?)))
+        .collect();
     let paths: Vec<String> = expanded.into_iter().map(|i| i.path).collect();
     let mut inputs: Vec<&Path> = paths.iter().map(Path::new).collect();
     inputs.push(&args.geometry);
@@ -128,7 +149,13 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let mut files = Vec::new();
     let said = Said::default();
     for path in &paths {
-        let entry = analyze_one(args, &localizer, path, &mut out, show_progress, &said)?;
+        if let Some(why) = refused.get(path) {
+            error(why);
+            all_ok = false;
+            files.push(FileEntry::new(path, None, Some(why.clone())));
+            continue;
+        }
+        let entry = analyze_one(args, &localizer, path, None, &mut out, show_progress, &said)?;
         all_ok &= entry.error.is_none();
         files.push(entry);
     }
@@ -166,22 +193,28 @@ impl Said {
     }
 }
 
-/// Analyses the recording at `path` into `out` (opened on its first frame), saying its
-/// error and warnings on stderr; returns its entry. Only an output that fails is an error.
+/// Analyses the recording at `path` (read from `file` when it is open already) into
+/// `out` (opened on its first frame), saying its error and warnings on stderr; returns
+/// its entry. Only an output that fails is an error.
 pub(super) fn analyze_one(
     args: &AnalyzeArgs,
     localizer: &Localizer,
     path: &str,
+    file: Option<std::fs::File>,
     out: &mut Output,
     show_progress: bool,
     said: &Said,
 ) -> Result<FileEntry> {
-    let mut recording = match localizer.open(path) {
+    let opened = match file {
+        Some(file) => localizer.open_file(path, file),
+        None => localizer.open(path),
+    };
+    let mut recording = match opened {
         Ok(r) => r,
         Err(e) => {
             let message = with_hint(&e);
             error(&message);
-            return Ok(FileEntry::new(path, None, Some(message)));
+            return Ok(FileEntry::new(shown_name(path), None, Some(message)));
         }
     };
     if args.timings {
@@ -247,10 +280,20 @@ pub(super) fn analyze_one(
     if let Some(note) = &unconfirmed {
         warn(args.quiet, note);
     }
-    Ok(FileEntry::new(path, Some(summary), message)
+    Ok(FileEntry::new(shown_name(path), Some(summary), message)
         .with_rows(report.rows)
         .with_tracking(report.tracking)
         .with_warning(unconfirmed))
+}
+
+/// The name a recording has in the output: standard input is `<stdin>` in `files[]`
+/// as in its rows.
+fn shown_name(path: &str) -> &str {
+    if path == "-" {
+        "<stdin>"
+    } else {
+        path
+    }
 }
 
 /// Why a tracked file gave no row although the method detected something: every

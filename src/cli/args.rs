@@ -164,7 +164,7 @@ pub struct CompletionsArgs {
     pub shell: clap_complete::Shell,
 }
 
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct AnalyzeArgs {
     /// WAV (8/16/24/32-bit PCM or 32-bit float) or FLAC recordings, or directories (searched recursively for --glob); `-` reads standard input
     #[arg(required_unless_present = "files_from", value_name = "PATH")]

@@ -34,6 +34,11 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
         detections.extend(rows);
         geometry = geometry.or(geometry_of(&info));
     }
+    let shown = results
+        .iter()
+        .map(|r| r.path.display().to_string())
+        .collect::<Vec<_>>();
+    let detections = drop_repeats(detections, &shown.join(", "));
     let geometry = match &args.geometry {
         Some(path) => Some(Geometry::from_file(path)?),
         None => geometry,
@@ -115,6 +120,7 @@ fn recordings(r: &ResultFile) -> Result<Vec<Recording>> {
     }
     let mut out: Vec<Recording> = Vec::new();
     let mut index: std::collections::HashMap<String, usize> = Default::default();
+    let rows = drop_repeats(rows, &r.path.display().to_string());
     for row in rows {
         match index.get(&row.file) {
             Some(&i) => out[i].rows.push(row),
@@ -129,6 +135,39 @@ fn recordings(r: &ResultFile) -> Result<Vec<Recording>> {
         }
     }
     Ok(out)
+}
+
+/// `rows` without repeats: a row of one run is never repeated whole (its recording,
+/// time, direction and source), so a repeat is the same result given twice
+/// (`cat a.csv a.csv`); it is counted once, and said.
+fn drop_repeats(rows: Vec<DetectionRecord>, shown: &str) -> Vec<DetectionRecord> {
+    let mut seen = std::collections::HashSet::new();
+    let mut repeated: std::collections::BTreeMap<String, usize> = Default::default();
+    let kept = rows
+        .into_iter()
+        .filter(|row| {
+            let key = (
+                row.file.clone(),
+                row.time_s.to_bits(),
+                [row.x, row.y, row.z].map(f64::to_bits),
+                row.source,
+            );
+            let first = seen.insert(key);
+            if !first {
+                *repeated.entry(row.file.clone()).or_default() += 1;
+            }
+            first
+        })
+        .collect();
+    for (file, n) in repeated {
+        super::warn(
+            false,
+            &format!(
+                "{shown}: {n} row(s) of {file} appear twice (the same result given twice?); each is counted once"
+            ),
+        );
+    }
+    kept
 }
 
 /// The truth of the recording `name` under `dir`: `PART.truth.json` or

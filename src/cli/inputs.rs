@@ -19,6 +19,9 @@ pub struct Input {
     /// Where its result goes under `--out-dir`, before the extension is replaced: its
     /// path relative to the directory it was found in, or as a list gives it.
     pub relative: PathBuf,
+    /// Why it cannot be analysed, found before it is opened (a list line that is not a
+    /// path): it fails with this message, and the others go on.
+    pub refused: Option<String>,
 }
 
 /// Every input `args` names, in order.
@@ -27,7 +30,7 @@ pub fn expand(args: &AnalyzeArgs) -> Result<Vec<Input>> {
     let mut inputs = Vec::new();
     let mut empty = Vec::new();
     for path in &args.files {
-        if add(path, None, &globs, &mut inputs)? == 0 {
+        if add(path, None, &globs, &mut inputs, args.quiet)? == 0 {
             empty.push(path.clone());
         }
     }
@@ -48,8 +51,26 @@ pub fn expand(args: &AnalyzeArgs) -> Result<Vec<Input>> {
                 )
             })?
         };
-        for line in text.lines().map(str::trim_end).filter(|l| !l.is_empty()) {
-            if add(line, Some(line), &globs, &mut inputs)? == 0 {
+        let shown = if list == Path::new("-") {
+            "<stdin>".to_string()
+        } else {
+            list.display().to_string()
+        };
+        for (n, line) in text.lines().enumerate() {
+            let line = line.trim_end();
+            if line.is_empty() {
+                continue;
+            }
+            if let Some(why) = not_a_path(line) {
+                let path = escape(line);
+                inputs.push(Input {
+                    refused: Some(format!("{shown}:{}: {path}: {why}", n + 1)),
+                    relative: PathBuf::from(&path),
+                    path,
+                });
+                continue;
+            }
+            if add(line, Some(line), &globs, &mut inputs, args.quiet)? == 0 {
                 empty.push(line.to_string());
             }
         }
@@ -67,6 +88,42 @@ pub fn expand(args: &AnalyzeArgs) -> Result<Vec<Input>> {
         super::warn(args.quiet, &why(dir));
     }
     Ok(inputs)
+}
+
+/// Why a list line is not a path to analyse: a control character (a NUL cannot be in
+/// a path; the others are a corrupt list), or a name that ends in `..` or `/`.
+fn not_a_path(line: &str) -> Option<&'static str> {
+    if line.contains('\0') {
+        return Some("a NUL byte in the line: not a path");
+    }
+    if line.chars().any(|c| c.is_control() && c != '\t') {
+        return Some("a control character in the line: not a path");
+    }
+    let p = Path::new(line);
+    if line.ends_with('/')
+        || matches!(
+            p.components().next_back(),
+            Some(Component::ParentDir | Component::RootDir) | None
+        )
+    {
+        return Some("names a folder (it ends in `..` or `/`), not a recording");
+    }
+    None
+}
+
+/// `text` with control characters written as escapes (`\0`, `\u{1b}`), for messages.
+fn escape(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c == '\0' {
+                "\\0".to_string()
+            } else if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 fn patterns(globs: &[String]) -> String {
@@ -99,11 +156,24 @@ fn add(
     listed: Option<&str>,
     globs: &GlobSet,
     inputs: &mut Vec<Input>,
+    quiet: bool,
 ) -> Result<usize> {
     let p = Path::new(path);
     if path != "-" && p.is_dir() {
         let mut found = Vec::new();
-        walk(p, &mut found).with_context(|| format!("{path}: cannot read the directory"))?;
+        let mut unreadable = Vec::new();
+        std::fs::read_dir(p).with_context(|| format!("{path}: cannot read the directory"))?;
+        walk(p, &mut found, &mut unreadable);
+        for (folder, e) in unreadable {
+            super::warn(
+                quiet,
+                &format!(
+                    "{}: cannot read the folder ({}); its recordings are not analysed",
+                    folder.display(),
+                    ssl::stream::io_reason(&e)
+                ),
+            );
+        }
         found.sort();
         let before = inputs.len();
         for f in found {
@@ -115,6 +185,7 @@ fn add(
                 inputs.push(Input {
                     path: f.to_string_lossy().into_owned(),
                     relative,
+                    refused: None,
                 });
             }
         }
@@ -131,26 +202,47 @@ fn add(
                 .collect()
         }
         _ if path == "-" => PathBuf::from("stdin"),
-        _ => PathBuf::from(p.file_name().unwrap_or(p.as_os_str())),
+        _ => match p.file_name() {
+            Some(name) => PathBuf::from(name),
+            None => {
+                // `..`, `/`: no name to give a result; never a path out of --out-dir.
+                inputs.push(Input {
+                    path: path.to_string(),
+                    relative: PathBuf::from("."),
+                    refused: Some(format!(
+                        "{path}: names a folder (it ends in `..` or `/`), not a recording"
+                    )),
+                });
+                return Ok(1);
+            }
+        },
     };
     inputs.push(Input {
         path: path.to_string(),
         relative,
+        refused: None,
     });
     Ok(1)
 }
 
 /// Every regular file under `dir`, recursively: links to files are followed, links to
-/// directories are not (a link to a parent would never end).
-fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
-    for entry in std::fs::read_dir(dir)? {
-        let entry = entry?;
+/// directories are not (a link to a parent would never end). A folder that cannot be
+/// read (`lost+found`) goes to `unreadable`, and the rest is still searched.
+fn walk(dir: &Path, out: &mut Vec<PathBuf>, unreadable: &mut Vec<(PathBuf, std::io::Error)>) {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) => return unreadable.push((dir.to_path_buf(), e)),
+    };
+    for entry in entries {
+        let entry = match entry {
+            Ok(e) => e,
+            Err(e) => return unreadable.push((dir.to_path_buf(), e)),
+        };
         let path = entry.path();
-        if entry.file_type()?.is_dir() {
-            walk(&path, out)?;
+        if entry.file_type().is_ok_and(|t| t.is_dir()) {
+            walk(&path, out, unreadable);
         } else if path.is_file() {
             out.push(path);
         }
     }
-    Ok(())
 }

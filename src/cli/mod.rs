@@ -9,10 +9,12 @@ mod check;
 mod evaluate;
 mod geometry;
 mod inputs;
+mod outdir;
 mod plot;
 mod results;
 mod simulate;
 mod sink;
+mod temporaries;
 mod values;
 
 use args::{Cli, Command};

@@ -1,7 +1,12 @@
 //! Results as `ssl evaluate` and `ssl plot` take them: files, `-` (one result or the
 //! concatenation of several), or folders such as `ssl analyze --out-dir` writes,
-//! searched recursively for `*.csv`, `*.json` and `*.ndjson` in name order (not the
-//! batch summaries `batch.json` and `batch.K-of-N.json`, not the stamps in `.ssl/`).
+//! searched recursively for `*.csv`, `*.json` and `*.ndjson` in name order. Not taken:
+//! the batch summaries (`batch.json` and `batch.K-of-N.json` at the top, told by their
+//! contents, so that the result of a recording `batch2.wav` is read), the truths
+//! `ssl simulate` writes beside recordings (`*.truth.json`, `*.truth.csv`: a results
+//! folder may be the archive itself), the rows of failed runs (`*.partial.*`), and
+//! hidden files and folders (the stamps in `.ssl/`). A subfolder that cannot be read
+//! is named in a warning, and the rest is read.
 
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
@@ -20,8 +25,9 @@ pub fn expand(paths: &[PathBuf]) -> Result<Vec<ResultFile>> {
     for path in paths {
         if path != Path::new("-") && path.is_dir() {
             let mut found = Vec::new();
-            walk(path, path, &mut found)
+            std::fs::read_dir(path)
                 .with_context(|| format!("{}: cannot read the folder", path.display()))?;
+            walk(path, path, &mut found);
             found.sort();
             if found.is_empty() {
                 anyhow::bail!(
@@ -43,7 +49,7 @@ pub fn expand(paths: &[PathBuf]) -> Result<Vec<ResultFile>> {
     Ok(out)
 }
 
-fn is_result(relative: &Path) -> bool {
+fn is_result(root: &Path, relative: &Path) -> bool {
     let ext = relative
         .extension()
         .and_then(|e| e.to_str())
@@ -51,28 +57,65 @@ fn is_result(relative: &Path) -> bool {
     let name = relative
         .file_name()
         .and_then(|n| n.to_str())
-        .unwrap_or_default();
-    let summary = relative.parent() == Some(Path::new(""))
-        && name.starts_with("batch")
-        && name.ends_with(".json");
-    matches!(ext.as_deref(), Some("csv" | "json" | "ndjson")) && !summary
+        .unwrap_or_default()
+        .to_ascii_lowercase();
+    if !matches!(ext.as_deref(), Some("csv" | "json" | "ndjson")) {
+        return false;
+    }
+    let stem = Path::new(&name).file_stem().map(Path::new);
+    let second = stem.and_then(|s| s.extension()).and_then(|e| e.to_str());
+    if matches!(second, Some("truth" | "partial")) {
+        return false;
+    }
+    !(super::batch::is_summary_name(relative) && is_summary(&root.join(relative)))
 }
 
-fn walk(root: &Path, dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
-    for entry in std::fs::read_dir(dir)? {
-        let entry = entry?;
+/// Whether the JSON file at `path` is a batch summary (an object with `done`,
+/// `skipped`, `failed` and `files`), not a result.
+fn is_summary(path: &Path) -> bool {
+    let Ok(text) = ssl::stream::read_text(path, 64 << 20) else {
+        return false;
+    };
+    serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|v| {
+        ["done", "skipped", "failed", "files"]
+            .iter()
+            .all(|k| v.get(k).is_some())
+            && v.get("detections").is_none()
+    })
+}
+
+fn walk(root: &Path, dir: &Path, out: &mut Vec<PathBuf>) {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) => return unreadable(dir, &e),
+    };
+    for entry in entries {
+        let entry = match entry {
+            Ok(e) => e,
+            Err(e) => return unreadable(dir, &e),
+        };
         let path = entry.path();
         let hidden = entry.file_name().to_string_lossy().starts_with('.');
-        if entry.file_type()?.is_dir() {
+        if entry.file_type().is_ok_and(|t| t.is_dir()) {
             if !hidden {
-                walk(root, &path, out)?;
+                walk(root, &path, out);
             }
         } else if !hidden
             && path.is_file()
-            && is_result(path.strip_prefix(root).expect("under the root"))
+            && is_result(root, path.strip_prefix(root).expect("under the root"))
         {
             out.push(path);
         }
     }
-    Ok(())
+}
+
+fn unreadable(dir: &Path, e: &std::io::Error) {
+    super::warn(
+        false,
+        &format!(
+            "{}: cannot read the folder ({}); its results are not read",
+            dir.display(),
+            ssl::stream::io_reason(e)
+        ),
+    );
 }

@@ -14,6 +14,8 @@
 //! a read-only file is not replaced. Temporary files are removed when a signal ends the
 //! process, and no signal lands between the renames of a commit.
 
+use super::outdir::Staged;
+use super::temporaries;
 use anyhow::{bail, Context, Result};
 use ssl::stream::io_reason;
 use std::fs::{File, Permissions};
@@ -22,9 +24,6 @@ use std::os::fd::AsFd;
 use std::os::unix::fs::{MetadataExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-
-/// Temporary files to remove if a signal ends the process.
-static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
 /// Held while outputs are renamed into place: a signal waits for the commit to end, so
 /// `ssl simulate`'s two files are both replaced or neither at every instant.
@@ -67,11 +66,7 @@ pub fn remove_temporaries_on_signal() {
         if let Some(signal) = signals.forever().next() {
             SIGNALLED.store(true, std::sync::atomic::Ordering::SeqCst);
             let _commit = COMMIT.lock();
-            if let Ok(paths) = TEMPORARIES.lock() {
-                for p in paths.iter() {
-                    let _ = std::fs::remove_file(p);
-                }
-            }
+            temporaries::remove_all();
             let name = signal_hook::low_level::signal_name(signal).unwrap_or("a signal");
             if signal == SIGINT {
                 eprintln!("ssl: interrupted");
@@ -120,12 +115,14 @@ impl Temporary {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
         };
-        let mut registry = TEMPORARIES.lock().expect("not poisoned");
-        let tmp = tempfile::Builder::new()
-            .prefix(".ssl-")
-            .suffix(".tmp")
-            .make_in(dir, |path| create(path))?;
-        registry.push(tmp.path().to_path_buf());
+        let tmp = temporaries::make(|| {
+            let tmp = tempfile::Builder::new()
+                .prefix(".ssl-")
+                .suffix(".tmp")
+                .make_in(dir, |path| create(path))?;
+            let path = tmp.path().to_path_buf();
+            Ok((tmp, path))
+        })?;
         Ok(Temporary(Some(tmp)))
     }
 
@@ -158,9 +155,7 @@ impl Drop for Temporary {
 }
 
 fn unregister(path: &Path) {
-    if let Ok(mut paths) = TEMPORARIES.lock() {
-        paths.retain(|p| p != path);
-    }
+    temporaries::unregister(path)
 }
 
 /// An open destination.
@@ -174,6 +169,8 @@ enum Kind {
     Stdout(File),
     Atomic(Temporary, PathBuf),
     Direct(File),
+    /// A file in a batch's results folder, written without following links.
+    Staged(Staged),
 }
 
 impl Sink {
@@ -246,9 +243,29 @@ impl Sink {
         Ok(Sink { kind, shown })
     }
 
+    /// A file of a batch's results folder ([`Staged`]).
+    pub(super) fn staged(staged: Staged) -> Sink {
+        Sink {
+            shown: staged.shown().display().to_string(),
+            kind: Kind::Staged(staged),
+        }
+    }
+
     /// Whether a person or program reads the output as it comes (standard output).
     pub fn is_live(&self) -> bool {
         matches!(self.kind, Kind::Stdout(_))
+    }
+
+    /// The bytes written so far (flushed first); 0 for standard output and devices.
+    pub fn len(&mut self) -> io::Result<u64> {
+        self.flush()?;
+        match &mut self.kind {
+            Kind::Atomic(tmp, _) => Ok(tmp.file().as_file().metadata()?.len()),
+            Kind::Staged(s) => {
+                Ok(rustix::fs::fstat(s.fd()).map_err(io::Error::from)?.st_size as u64)
+            }
+            _ => Ok(0),
+        }
     }
 
     /// The name errors are reported under.
@@ -273,11 +290,12 @@ impl Sink {
     /// Completes the output: flushes it, and renames a temporary file onto its target.
     pub fn commit(mut self) -> Result<()> {
         self.flush().map_err(|e| self.write_error(&e))?;
-        if let Kind::Atomic(tmp, target) = self.kind {
-            committing(|| tmp.persist(&target))
-                .map_err(|e| anyhow::anyhow!("cannot write {}: {}", self.shown, io_reason(&e)))?;
-        }
-        Ok(())
+        let persisted = match self.kind {
+            Kind::Atomic(tmp, target) => committing(|| tmp.persist(&target)),
+            Kind::Staged(staged) => committing(|| staged.persist(None)),
+            _ => Ok(()),
+        };
+        persisted.map_err(|e| anyhow::anyhow!("cannot write {}: {}", self.shown, io_reason(&e)))
     }
 
     /// Ends a run that failed: the target is left as it was (or not made), and what was
@@ -286,8 +304,27 @@ impl Sink {
     /// which were written as the run went.
     pub fn set_aside(mut self) -> Result<Option<String>> {
         self.flush().map_err(|e| self.write_error(&e))?;
-        let Kind::Atomic(tmp, target) = self.kind else {
-            return Ok(None);
+        let (tmp, target) = match self.kind {
+            Kind::Atomic(tmp, target) => (tmp, target),
+            Kind::Staged(staged) => {
+                let partial = partial_name(Path::new(staged.name()));
+                let partial = partial.as_os_str().to_os_string();
+                let shown = staged.shown().with_file_name(&partial);
+                let kept = if staged.target_exists() {
+                    "left as it was"
+                } else {
+                    "not written"
+                };
+                committing(|| staged.persist(Some(&partial))).map_err(|e| {
+                    anyhow::anyhow!("cannot write {}: {}", shown.display(), io_reason(&e))
+                })?;
+                return Ok(Some(format!(
+                    "{}: {kept}, since the recording failed; the results of what was read are in {}",
+                    self.shown,
+                    shown.display()
+                )));
+            }
+            _ => return Ok(None),
         };
         let partial = partial_name(&target);
         let kept = if target.exists() {
@@ -364,6 +401,7 @@ impl Write for Sink {
             Kind::Stdout(w) => w.write(buf),
             Kind::Atomic(w, _) => w.file().write(buf),
             Kind::Direct(w) => w.write(buf),
+            Kind::Staged(w) => w.write(buf),
         }
     }
 
@@ -372,6 +410,7 @@ impl Write for Sink {
             Kind::Stdout(w) => w.flush(),
             Kind::Atomic(w, _) => w.file().flush(),
             Kind::Direct(w) => w.flush(),
+            Kind::Staged(w) => w.flush(),
         }
     }
 }
@@ -464,7 +503,7 @@ fn check_directory(target: &Path, shown: &str) -> Result<()> {
 }
 
 /// `out.csv` -> `out.partial.csv`; `out` -> `out.partial`.
-fn partial_name(target: &Path) -> PathBuf {
+pub(super) fn partial_name(target: &Path) -> PathBuf {
     let stem = target.file_stem().unwrap_or_default().to_string_lossy();
     let name = match target.extension() {
         Some(ext) => format!("{stem}.partial.{}", ext.to_string_lossy()),

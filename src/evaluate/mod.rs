@@ -19,6 +19,7 @@
 mod metric;
 mod pool;
 mod report;
+mod spans;
 mod tracks;
 
 pub use metric::Metric;
@@ -30,6 +31,7 @@ use crate::method::direction::angles_deg;
 use crate::record::truth::turned;
 use crate::record::{DetectionRecord, Truth};
 use nalgebra::Vector3;
+use spans::Spans;
 
 /// A detection within this many degrees of a source counts as detecting it.
 pub const HIT_DEG: f64 = 10.0;
@@ -234,10 +236,12 @@ pub fn evaluate_by(
     let sources: Vec<Source> = truth
         .sources
         .iter()
-        .map(|s| Source {
-            direction: unit(s.x, s.y, s.z).expect("checked"),
-            turn: s.turn(),
-            intervals: s.active.iter().map(|&[a, b]| (a, b)).collect(),
+        .map(|s| {
+            Source::new(
+                unit(s.x, s.y, s.z).expect("checked"),
+                s.turn(),
+                s.active.iter().map(|&[a, b]| (a, b)).collect(),
+            )
         })
         .collect();
     // A hand-written truth may not say how long the recording is: at least as long as
@@ -260,9 +264,20 @@ struct Source {
     direction: Vector3<f64>,
     turn: Option<(f64, f64)>,
     intervals: Vec<(f64, f64)>,
+    /// The intervals indexed.
+    spans: Spans,
 }
 
 impl Source {
+    fn new(direction: Vector3<f64>, turn: Option<(f64, f64)>, intervals: Vec<(f64, f64)>) -> Self {
+        Source {
+            direction,
+            turn,
+            spans: Spans::new(intervals.iter().copied()),
+            intervals,
+        }
+    }
+
     /// Its direction at time `t` (seconds).
     fn at(&self, t: f64) -> Vector3<f64> {
         turned(&self.direction, self.turn, t)
@@ -289,8 +304,12 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
         0
     };
     let centre = |f: u64| (f as f64 + 1.0) * hop;
-    let inside = |t: f64, (a, b): (f64, f64)| t - hop >= a - 1e-9 && t + hop <= b + 1e-9;
-    let overlaps = |t: f64, (a, b): (f64, f64), tail: f64| t + hop > a && t - hop < b + tail;
+    // A frame centred at t wholly inside one of the source's intervals.
+    let inside = |t: f64, s: &Source| s.spans.any_reaching(t - hop + 1e-9, t + hop - 1e-9);
+    // The detections in time order, to find those around an interval by bisection.
+    let mut by_time: Vec<&Det> = dets.iter().collect();
+    by_time.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    let times: Vec<f64> = by_time.iter().map(|d| d.time_s).collect();
     let frame_of = |d: &Det| {
         d.frame
             .unwrap_or_else(|| ((d.time_s / hop).round() as u64).saturating_sub(1))
@@ -306,12 +325,12 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
         // intervals, and nearer to it than to any other source active then.
         let mine: Vec<(&Det, f64)> = dets
             .iter()
-            .filter(|d| s.intervals.iter().any(|&iv| inside(d.time_s, iv)))
+            .filter(|d| inside(d.time_s, s))
             .filter(|d| {
                 let own = metric.error_deg(&d.direction, &s.at(d.time_s));
                 sources.iter().enumerate().all(|(oi, o)| {
                     oi == si
-                        || !o.intervals.iter().any(|&iv| inside(d.time_s, iv))
+                        || !inside(d.time_s, o)
                         || metric.error_deg(&d.direction, &o.at(d.time_s)) > own
                 })
             })
@@ -341,11 +360,13 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
         let events_detected = s
             .intervals
             .iter()
-            .filter(|&&iv| {
-                dets.iter().any(|d| {
-                    overlaps(d.time_s, iv, 0.0)
-                        && metric.error_deg(&d.direction, &s.at(d.time_s)) < HIT_DEG
-                })
+            .filter(|&&(a, b)| {
+                // The frames that overlap it: centres strictly within (a - hop, b + hop).
+                let from = times.partition_point(|&t| t + hop <= a);
+                let to = times.partition_point(|&t| t - hop < b);
+                by_time[from..to.max(from)]
+                    .iter()
+                    .any(|d| metric.error_deg(&d.direction, &s.at(d.time_s)) < HIT_DEG)
             })
             .count();
         active_total += active.len() as usize;
@@ -368,11 +389,9 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
             events_detected,
         });
     }
-    let busy = |t: f64| {
-        sources
-            .iter()
-            .any(|s| s.intervals.iter().any(|&iv| overlaps(t, iv, tail_s)))
-    };
+    // A frame centred at t that overlaps an interval with its tail.
+    let all = Spans::new(sources.iter().flat_map(|s| s.intervals.iter().copied()));
+    let busy = |t: f64| all.any_strictly(t + hop, t - hop - tail_s);
     // Frames that overlap an interval (with its tail) are busy; the rest is background.
     let busy_runs = FrameRuns::new(sources.iter().flat_map(|s| &s.intervals).map(|&(a, b)| {
         (

@@ -87,7 +87,7 @@ pub(super) fn score_tracks(
     tail_s: f64,
     metric: &super::Metric,
 ) -> TrackReport {
-    let active = |s: &Source, t: f64| s.intervals.iter().any(|&(a, b)| t >= a && t <= b + tail_s);
+    let active = |s: &Source, t: f64| s.spans.any_reaching(t, t - tail_s);
     // The true source of each row, if any.
     let owner: Vec<Option<usize>> = dets
         .iter()
@@ -158,12 +158,18 @@ pub(super) fn score_tracks(
     };
     let (mut true_events, mut recalled) = (0, 0);
     let (mut errors, mut onsets, mut offsets) = (Vec::new(), Vec::new(), Vec::new());
+    let indexed = super::Spans::new(stretches.iter().map(|e| (e.start, e.end)));
     for s in sources {
         for &(a, b) in &s.intervals {
             true_events += 1;
             let overlap = |e: &Stretch| e.end.min(b + tail_s) - e.start.max(a);
-            if let Some(e) = stretches
-                .iter()
+            // The stretches that overlap the interval (start <= b + tail, end >= a),
+            // found through the index, in the order a scan of them all takes.
+            let mut candidates: Vec<usize> = indexed.reaching(b + tail_s, a).collect();
+            candidates.sort_unstable();
+            if let Some(e) = candidates
+                .into_iter()
+                .map(|i| &stretches[i])
                 .filter(|e| matches(e, s, (a, b)))
                 .max_by(|x, y| overlap(x).total_cmp(&overlap(y)))
             {
@@ -177,9 +183,10 @@ pub(super) fn score_tracks(
     let false_events = stretches
         .iter()
         .filter(|e| {
-            !sources
-                .iter()
-                .any(|s| s.intervals.iter().any(|&iv| matches(e, s, iv)))
+            !sources.iter().any(|s| {
+                s.spans.any_reaching(e.end, e.start - tail_s)
+                    && metric.error_deg(&e.sum, &middle(e, s)) < HIT_DEG
+            })
         })
         .count();
     // Several sources at once: the (source, window) pairs with a row, in one pass.
@@ -207,12 +214,7 @@ pub(super) fn score_tracks(
             (w + 1) as f64 * OVERLAP_WINDOW_S,
         );
         let on: Vec<usize> = (0..sources.len())
-            .filter(|&i| {
-                sources[i]
-                    .intervals
-                    .iter()
-                    .any(|&(a, b)| a <= w0 && b >= w1)
-            })
+            .filter(|&i| sources[i].spans.any_reaching(w0, w1))
             .collect();
         if on.len() < 2 {
             continue;
@@ -262,16 +264,12 @@ mod tests {
     fn scores_hand_made_tracks_and_events() {
         // Source 0 at 0 deg, on 1-3 s and 6-8 s; source 1 at 90 deg, on 2-5 s.
         let sources = vec![
-            Source {
-                direction: unit_from_angles(0.0, 0.0),
-                turn: None,
-                intervals: vec![(1.0, 3.0), (6.0, 8.0)],
-            },
-            Source {
-                direction: unit_from_angles(90.0, 0.0),
-                turn: None,
-                intervals: vec![(2.0, 5.0)],
-            },
+            Source::new(
+                unit_from_angles(0.0, 0.0),
+                None,
+                vec![(1.0, 3.0), (6.0, 8.0)],
+            ),
+            Source::new(unit_from_angles(90.0, 0.0), None, vec![(2.0, 5.0)]),
         ];
         let mut rows = Vec::new();
         // Track 1 follows source 0 through 1.2-2.8 s and again 6.5-7.5 s (a new event

@@ -111,6 +111,7 @@ struct GeometryFile {
     speed_of_sound: Option<f64>,
     #[serde(default, deserialize_with = "crate::text::numbers_opt")]
     side: Option<[f64; 3]>,
+    #[serde(default, deserialize_with = "orientation::table_only")]
     orientation: Option<orientation::OrientationEntry>,
     #[serde(default)]
     mic: Vec<MicEntry>,

@@ -23,6 +23,25 @@ pub(super) struct OrientationEntry {
     matrix: Option<[[f64; 3]; 3]>,
 }
 
+/// `[orientation]` as a table only: serde would read a list `[1, 2, 3]` as yaw, pitch
+/// and roll by position, which the file format does not mean.
+pub(super) fn table_only<'de, D>(d: D) -> Result<Option<OrientationEntry>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    struct Table;
+    impl<'de> serde::de::Visitor<'de> for Table {
+        type Value = OrientationEntry;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a table [orientation] with yaw_deg, pitch_deg and roll_deg, or matrix")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+            OrientationEntry::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+        }
+    }
+    d.deserialize_map(Table).map(Some)
+}
+
 fn rows_opt<'de, D>(d: D) -> Result<Option<[[f64; 3]; 3]>, D::Error>
 where
     D: serde::Deserializer<'de>,

@@ -107,6 +107,21 @@ impl Localizer {
         self.recording(Analysis::open(path, &self.geometry, &self.settings.method)?)
     }
 
+    /// Reads the open WAV or FLAC file `file`, named `name` in messages and rows (what
+    /// was opened is what is read, whatever happens to the path meanwhile).
+    pub fn open_file(
+        &self,
+        name: &str,
+        file: std::fs::File,
+    ) -> Result<Recording<'_, AudioStream>, AnalysisError> {
+        self.recording(Analysis::open_file(
+            name,
+            file,
+            &self.geometry,
+            &self.settings.method,
+        )?)
+    }
+
     /// Reads WAV or FLAC bytes from `reader`, named `name` in messages and rows.
     pub fn from_reader(
         &self,

@@ -98,7 +98,8 @@ pub fn read_result(
     input: impl Read,
     mut each: impl FnMut(ResultRecord) -> Result<(), String>,
 ) -> Result<ResultInfo, ReadError> {
-    let mut input = BufReader::with_capacity(1 << 16, Limited(input.take(MAX_RESULT_BYTES + 1)));
+    let input = NoBoms::new(Limited(input.take(MAX_RESULT_BYTES + 1)));
+    let mut input = BufReader::with_capacity(1 << 16, input);
     let first = first_byte(&mut input).map_err(|e| format_error(io_reason(&e)))?;
     let mut info = ResultInfo::default();
     match first {
@@ -183,6 +184,69 @@ fn detections(
     Ok((rows, info))
 }
 
+/// A reader that drops a UTF-8 byte order mark at the start of any line: results
+/// concatenated (`cat a.csv b.csv`) each keep the mark an editor saved them with.
+struct NoBoms<R> {
+    inner: R,
+    /// Whether the next byte starts a line.
+    line_start: bool,
+    /// Bytes of a mark seen so far at a line's start (at most 2).
+    held: Vec<u8>,
+    /// Bytes read, not yet handed on.
+    buf: Vec<u8>,
+    at: usize,
+}
+
+const BOM: &[u8; 3] = b"\xEF\xBB\xBF";
+
+impl<R: Read> NoBoms<R> {
+    fn new(inner: R) -> Self {
+        NoBoms {
+            inner,
+            line_start: true,
+            held: Vec::new(),
+            buf: Vec::new(),
+            at: 0,
+        }
+    }
+}
+
+impl<R: Read> Read for NoBoms<R> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        while self.at == self.buf.len() {
+            let mut raw = [0u8; 1 << 14];
+            let n = self.inner.read(&mut raw)?;
+            self.buf.clear();
+            self.at = 0;
+            if n == 0 {
+                // A line that ended in part of a mark: those bytes are text.
+                self.buf.append(&mut self.held);
+                if self.buf.is_empty() {
+                    return Ok(0);
+                }
+                break;
+            }
+            for &b in &raw[..n] {
+                if self.line_start && b == BOM[self.held.len()] {
+                    self.held.push(b);
+                    if self.held.len() == 3 {
+                        self.held.clear();
+                        self.line_start = false;
+                    }
+                    continue;
+                }
+                self.buf.append(&mut self.held);
+                self.buf.push(b);
+                self.line_start = b == b'\n';
+            }
+        }
+        let n = out.len().min(self.buf.len() - self.at);
+        out[..n].copy_from_slice(&self.buf[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
+    }
+}
+
 /// A reader that fails past [`MAX_RESULT_BYTES`] instead of reading on.
 struct Limited<R>(std::io::Take<R>);
 
@@ -201,10 +265,6 @@ impl<R: Read> Read for Limited<R> {
 
 /// Skips a byte order mark and leading white space; the first byte after them.
 fn first_byte(input: &mut impl BufRead) -> std::io::Result<Option<u8>> {
-    let buf = input.fill_buf()?;
-    if buf.starts_with(b"\xEF\xBB\xBF") {
-        input.consume(3);
-    }
     loop {
         let buf = input.fill_buf()?;
         if buf.is_empty() {

@@ -22,6 +22,38 @@ const SOURCE_KEYS: [&str; 7] = [
     "intervals",
 ];
 
+/// The problems an error line names one by one; the rest are counted.
+const SHOWN_PROBLEMS: usize = 10;
+
+/// The longest piece of the file an error line quotes, in characters.
+const QUOTED_CHARS: usize = 80;
+
+/// `v` as JSON, cut to [`QUOTED_CHARS`] characters (a truth of a million intervals is
+/// not quoted whole in a message).
+fn quoted(v: &Value) -> String {
+    quoted_text(&v.to_string())
+}
+
+/// `text` cut to [`QUOTED_CHARS`] characters.
+fn quoted_text(text: &str) -> String {
+    match text.char_indices().nth(QUOTED_CHARS) {
+        Some((cut, _)) => format!("{}... ({} characters)", &text[..cut], text.chars().count()),
+        None => text.to_string(),
+    }
+}
+
+/// Why the angles `az`, `el` (degrees) are not a direction: an elevation outside
+/// [-90, 90], an azimuth outside [-360, 360].
+fn bad_angles(az: f64, el: f64) -> Option<String> {
+    if !(-90.0..=90.0).contains(&el) {
+        return Some(format!("elevation_deg must be within -90..90, got {el}"));
+    }
+    if !(-360.0..=360.0).contains(&az) {
+        return Some(format!("azimuth_deg must be within -360..360, got {az}"));
+    }
+    None
+}
+
 /// The CSV form's header.
 pub const CSV_HEADER: &str = "source,start_s,end_s,azimuth_deg,elevation_deg";
 
@@ -98,7 +130,7 @@ fn source(i: usize, s: &Value) -> Result<TruthSource, Vec<String>> {
         match v.as_f64().filter(|x| x.is_finite()) {
             Some(x) => Some(x),
             None => {
-                problems.push(format!("{at}: {k} must be a number, got {v}"));
+                problems.push(format!("{at}: {k} must be a number, got {}", quoted(v)));
                 None
             }
         }
@@ -113,7 +145,13 @@ fn source(i: usize, s: &Value) -> Result<TruthSource, Vec<String>> {
         number("z", &mut problems),
     );
     let direction = match (az, el, x, y, z) {
-        (Some(a), Some(e), None, None, None) => Some(unit_from_angles(a, e)),
+        (Some(a), Some(e), None, None, None) => match bad_angles(a, e) {
+            None => Some(unit_from_angles(a, e)),
+            Some(why) => {
+                problems.push(format!("{at}: {why}"));
+                None
+            }
+        },
         (None, None, Some(x), Some(y), Some(z)) => {
             let v = Vector3::new(x, y, z);
             if v.norm() > 0.0 {
@@ -159,7 +197,8 @@ fn source(i: usize, s: &Value) -> Result<TruthSource, Vec<String>> {
 fn intervals(at: &str, v: &Value, problems: &mut Vec<String>) -> Option<Vec<[f64; 2]>> {
     let bad = |problems: &mut Vec<String>| {
         problems.push(format!(
-            "{at}: intervals must be a non-empty list of [start_s, end_s] with 0 <= start_s < end_s, got {v}"
+            "{at}: intervals must be a non-empty list of [start_s, end_s] with 0 <= start_s < end_s, got {}",
+            quoted(v)
         ));
         None
     };
@@ -214,7 +253,11 @@ fn finish(
     problems: Vec<String>,
 ) -> Result<Truth, String> {
     if !problems.is_empty() {
-        return Err(format!("not a truth file: {}", problems.join("; ")));
+        let mut line = problems[..problems.len().min(SHOWN_PROBLEMS)].join("; ");
+        if problems.len() > SHOWN_PROBLEMS {
+            line += &format!("; and {} more problems", problems.len() - SHOWN_PROBLEMS);
+        }
+        return Err(format!("not a truth file: {line}"));
     }
     let last = sources
         .iter()
@@ -248,7 +291,7 @@ fn from_csv(text: &str) -> Result<Truth, String> {
     if header.join(",") != CSV_HEADER {
         return Err(format!(
             "not a truth file: a JSON truth, or CSV with the header `{CSV_HEADER}`, is needed; the first line is `{}`",
-            header.join(",")
+            quoted_text(&header.join(","))
         ));
     }
     let mut labels: Vec<String> = Vec::new();
@@ -279,6 +322,10 @@ fn from_csv(text: &str) -> Result<Truth, String> {
             problems.push(format!(
                 "line {line}: needs 0 <= start_s < end_s, got {start} and {end}"
             ));
+            continue;
+        }
+        if let Some(why) = bad_angles(az, el) {
+            problems.push(format!("line {line}: {why}"));
             continue;
         }
         let u = unit_from_angles(az, el);

@@ -280,6 +280,17 @@ impl Analysis<AudioStream> {
         Self::new(stream, geometry, params)
     }
 
+    /// Reads the open file `file`, named `name` in messages and rows.
+    pub fn open_file(
+        name: &str,
+        file: std::fs::File,
+        geometry: &Geometry,
+        params: &Params,
+    ) -> Result<Self, AnalysisError> {
+        let stream = AudioStream::from_file(name, file).map_err(|e| fail(name, e.into()))?;
+        Self::new(stream, geometry, params)
+    }
+
     /// Reads WAV or FLAC bytes from `reader` (a pipe, a socket, a buffer), named `name`
     /// in messages.
     pub fn from_reader(
@@ -405,8 +416,17 @@ impl<S: SampleSource> Analysis<S> {
     /// When the first sample was recorded, on the recorder's clock, or why that is not
     /// known (a Broadcast WAV `bext` chunk's dated time reference; `--clock`).
     pub fn clock_origin(&self) -> Result<ClockOrigin, AnalysisError> {
+        let rate = self.source.sample_rate();
         let why = match (self.source.clock_origin(), self.source.time_reference()) {
             (Some(origin), _) => return Ok(origin),
+            (None, Some(r)) if !r.within_a_year(rate) => {
+                let why = format!(
+                    "its bext chunk's time reference ({} samples, {:.0} days at {rate} Hz) is not a time: it counts samples from its date's midnight, and this is more than a year",
+                    r.samples,
+                    r.samples as f64 / rate.max(1) as f64 / 86_400.0
+                );
+                return Err(fail(self.name(), ErrorKind::NoClock(why)));
+            }
             (None, Some(_)) => "its bext chunk's origination date is not a date (yyyy-mm-dd)",
             (None, None) => "it has no Broadcast WAV bext chunk before its data (one is written by field recorders and by `bwfmetaedit --Timereference`)",
         };

@@ -41,6 +41,15 @@ impl TimeReference {
     }
 }
 
+impl TimeReference {
+    /// Whether the first sample is within a year of its date's midnight at `rate` Hz:
+    /// a recorder that runs past midnight counts on from the day it started, but a
+    /// reference of 2^64 - 1 samples (millions of years) is no time at all.
+    pub fn within_a_year(&self, rate: u32) -> bool {
+        (self.samples as u128) < 366 * 86_400 * rate.max(1) as u128
+    }
+}
+
 /// When a recording's first sample was taken, on the recorder's clock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ClockOrigin {
@@ -49,8 +58,12 @@ pub struct ClockOrigin {
 }
 
 impl ClockOrigin {
-    /// The origin a time reference gives at `rate` Hz, when it has a date.
+    /// The origin a time reference gives at `rate` Hz, when it has a date and its
+    /// samples from midnight are within a year.
     pub fn new(reference: &TimeReference, rate: u32) -> Option<Self> {
+        if !reference.within_a_year(rate) {
+            return None;
+        }
         let midnight = reference.date?.and_hms_opt(0, 0, 0)?;
         let micros = (reference.samples as u128 * 1_000_000 / rate.max(1) as u128) as i64;
         Some(ClockOrigin {

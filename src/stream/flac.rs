@@ -44,16 +44,103 @@ fn flac_error(e: claxon::Error) -> InputError {
     }
 }
 
+/// The most metadata read ahead to find the first frame (pictures included).
+const MAX_METADATA: usize = 16 << 20;
+
+/// Reads ahead of the decoder to the first frame's header (the metadata blocks kept and
+/// handed back in front of the rest) and returns the sample rate that header gives,
+/// when it gives one (`None`: "as the stream header", a rate code it cannot read, or
+/// metadata past [`MAX_METADATA`]). claxon does not compare the two.
+fn first_frame_rate(mut input: Box<dyn Read>) -> Result<(Box<dyn Read>, Option<u32>), InputError> {
+    use super::source::read_full;
+    let mut kept = vec![0u8; 4];
+    let n = read_full(&mut input, &mut kept).map_err(InputError::Io)?;
+    kept.truncate(n);
+    let back = |kept: Vec<u8>, input: Box<dyn Read>| -> Box<dyn Read> {
+        Box::new(std::io::Cursor::new(kept).chain(input))
+    };
+    if kept != b"fLaC" {
+        return Ok((back(kept, input), None));
+    }
+    loop {
+        let mut head = [0u8; 4];
+        let n = read_full(&mut input, &mut head).map_err(InputError::Io)?;
+        kept.extend_from_slice(&head[..n]);
+        if n < 4 {
+            return Ok((back(kept, input), None));
+        }
+        let len = u32::from_be_bytes([0, head[1], head[2], head[3]]) as usize;
+        if kept.len() + len > MAX_METADATA {
+            return Ok((back(kept, input), None));
+        }
+        let at = kept.len();
+        kept.resize(at + len, 0);
+        let n = read_full(&mut input, &mut kept[at..]).map_err(InputError::Io)?;
+        kept.truncate(at + n);
+        if n < len {
+            return Ok((back(kept, input), None));
+        }
+        if head[0] & 0x80 != 0 {
+            break;
+        }
+    }
+    // The frame header: sync (14 bits) and blocking (2), block size and rate codes,
+    // channels and sample size, the coded frame number (1-7 bytes), then an 8- or
+    // 16-bit block size and an 8- or 16-bit rate when their codes say so.
+    let at = kept.len();
+    kept.resize(at + 16, 0);
+    let n = read_full(&mut input, &mut kept[at..]).map_err(InputError::Io)?;
+    kept.truncate(at + n);
+    let h = &kept[at..];
+    if h.len() < 5 || h[0] != 0xFF || h[1] & 0xFC != 0xF8 {
+        return Ok((back(kept, input), None));
+    }
+    let (size_code, rate_code) = (h[2] >> 4, h[2] & 0x0F);
+    let fixed = [
+        0, 88_200, 176_400, 192_000, 8_000, 16_000, 22_050, 24_000, 32_000, 44_100, 48_000, 96_000,
+    ];
+    let rate = match rate_code {
+        1..=11 => Some(fixed[rate_code as usize]),
+        12..=14 => {
+            let coded = h[4].leading_ones() as usize;
+            let mut i = 4 + coded.max(1);
+            i += match size_code {
+                6 => 1,
+                7 => 2,
+                _ => 0,
+            };
+            match rate_code {
+                12 => h.get(i).map(|&k| k as u32 * 1000),
+                13 => h
+                    .get(i..i + 2)
+                    .map(|b| u16::from_be_bytes([b[0], b[1]]) as u32),
+                _ => h
+                    .get(i..i + 2)
+                    .map(|b| u16::from_be_bytes([b[0], b[1]]) as u32 * 10),
+            }
+        }
+        _ => None,
+    };
+    Ok((back(kept, input), rate))
+}
+
 impl FlacStream {
     /// Reads the stream header from `input` (which starts with `fLaC`); `live` when the
     /// input is a pipe or a device.
     pub fn from_reader(name: &str, input: Box<dyn Read>, live: bool) -> Result<Self, InputError> {
+        let (input, first_frame_rate) = first_frame_rate(input)?;
         let reader = FlacReader::new(input).map_err(flac_error)?;
         let info = reader.streaminfo();
         if info.channels == 0 || info.sample_rate == 0 {
             return Err(InputError::Corrupt(format!(
                 "corrupt FLAC: {} channel(s) at {} Hz",
                 info.channels, info.sample_rate
+            )));
+        }
+        if let Some(rate) = first_frame_rate.filter(|&r| r != info.sample_rate) {
+            return Err(InputError::Corrupt(format!(
+                "corrupt FLAC: the stream header says {} Hz but its frames say {rate} Hz (which one is right cannot be told)",
+                info.sample_rate
             )));
         }
         Ok(FlacStream {

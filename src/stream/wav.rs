@@ -72,6 +72,7 @@ impl WavStream {
         let mut fmt: Option<Vec<u8>> = None;
         let mut ds64_data: Option<u64> = None;
         let mut bext: Option<TimeReference> = None;
+        let mut bext_seen = false;
         let declared = loop {
             let mut head = [0u8; 8];
             if read_full(&mut input, &mut head).map_err(InputError::Io)? < 8 {
@@ -127,6 +128,12 @@ impl WavStream {
                             "truncated WAV: the file ends in the header".into(),
                         ));
                     }
+                    if bext_seen {
+                        return Err(InputError::Corrupt(
+                            "corrupt WAV: two bext chunks (which one dates the recording cannot be told)".into(),
+                        ));
+                    }
+                    bext_seen = true;
                     bext = TimeReference::from_bext(&body);
                     let skip = len + (len % 2) - BEXT_TIME_END as u64;
                     let skipped = io::copy(&mut (&mut input).take(skip), &mut io::sink())

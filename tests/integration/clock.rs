@@ -123,3 +123,30 @@ fn clock_without_a_time_reference_is_one_clear_error() {
         );
     }
 }
+
+#[test]
+fn a_time_reference_past_a_day_is_not_a_time_and_two_bext_chunks_are_refused() {
+    let (dir, wav, geometry) = recording(0.3);
+    let plain = std::fs::read(&wav).unwrap();
+    let far = write(
+        dir.path(),
+        "far.wav",
+        with_bext(&plain, "2026-05-04", u64::MAX),
+    );
+    let out = run(&["analyze", s(&far), "-g", s(&geometry), "--clock"]);
+    assert_eq!(out.status.code(), Some(1));
+    let e = stderr(&out);
+    assert!(e.contains("is not a time"), "{e}");
+    assert!(!e.contains("-95"), "{e}");
+    // Without --clock the recording is analysed as any other.
+    let out = run(&["analyze", s(&far), "-g", s(&geometry)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let twice = write(
+        dir.path(),
+        "twice.wav",
+        with_bext(&with_bext(&plain, "2026-05-04", 48000), "2026-05-05", 96000),
+    );
+    let out = run(&["analyze", s(&twice), "-g", s(&geometry), "--clock"]);
+    assert_ne!(out.status.code(), Some(0));
+    assert!(stderr(&out).contains("two bext chunks"), "{}", stderr(&out));
+}

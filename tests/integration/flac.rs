@@ -46,15 +46,7 @@ fn flac_gives_the_rows_of_the_same_samples_in_wav() {
         (Encoding::Int24, "rec24.wav"),
     ] {
         let dir = tempdir();
-        let sc = scene(
-            prism(),
-            48000,
-            &[(30.0, 10.0, ssl::sim::signals::Signal::WhiteNoise)],
-            0.6,
-            0.005,
-            1,
-        );
-        let wav = render_wav(dir.path(), name, &sc, encoding);
+        let wav = white_noise_wav(dir.path(), name, encoding);
         let flac = as_flac(&wav);
         let geometry = write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
         let analyze = |input: &Path| {
@@ -122,4 +114,70 @@ fn a_damaged_flac_is_one_clear_error_after_the_rows_before_it() {
     let out = run(&["analyze", s(&head), "-g", s(&geometry)]);
     assert_eq!(out.status.code(), Some(1));
     assert!(stderr(&out).contains("head.flac"), "{}", stderr(&out));
+}
+
+/// 0.6 s of white noise from azimuth 30, elevation 10 on the prism at 48 kHz.
+fn white_noise_wav(dir: &Path, name: &str, encoding: Encoding) -> PathBuf {
+    let sc = scene(
+        prism(),
+        48000,
+        &[(30.0, 10.0, ssl::sim::signals::Signal::WhiteNoise)],
+        0.6,
+        0.005,
+        1,
+    );
+    render_wav(dir, name, &sc, encoding)
+}
+
+/// A short FLAC of the prism scene at 48 kHz, its bytes, and the prism's geometry.
+fn short_flac(dir: &Path) -> (Vec<u8>, PathBuf) {
+    let wav = white_noise_wav(dir, "rec.wav", Encoding::Int16);
+    let flac = as_flac(&wav);
+    let geometry = write(dir, "prism.toml", geometry_toml(&prism(), ""));
+    (std::fs::read(flac).unwrap(), geometry)
+}
+
+#[test]
+fn a_flac_behind_an_id3_tag_is_read_as_flac() {
+    let dir = tempdir();
+    let (bytes, geometry) = short_flac(dir.path());
+    // An ID3v2.4 tag of 20 bytes of frames (a syncsafe size), then the FLAC.
+    let mut tagged = b"ID3\x04\x00\x00\x00\x00\x00\x14".to_vec();
+    tagged.extend_from_slice(&[0u8; 20]);
+    tagged.extend_from_slice(&bytes);
+    let plain = write(dir.path(), "plain.flac", &bytes);
+    let with_tag = write(dir.path(), "tagged.flac", &tagged);
+    let rows = |p: &Path| {
+        let o = run(&["analyze", s(p), "-g", s(&geometry)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8(o.stdout).unwrap().replace(s(p), "F")
+    };
+    assert_eq!(rows(&with_tag), rows(&plain));
+    // An ID3 tag before something else is still named for what it is.
+    let mut mp3 = b"ID3\x04\x00\x00\x00\x00\x00\x02\x00\x00".to_vec();
+    mp3.extend_from_slice(&[0xFF, 0xFB, 0x90, 0x00]);
+    let mp3 = write(dir.path(), "x.mp3", &mp3);
+    let o = run(&["analyze", s(&mp3), "-g", s(&geometry)]);
+    assert!(stderr(&o).contains("an MP3 file"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_flac_whose_stream_header_and_frames_disagree_on_the_rate_is_refused() {
+    let dir = tempdir();
+    let (mut bytes, geometry) = short_flac(dir.path());
+    // STREAMINFO's 20-bit rate, bytes 10-12 of its body (after `fLaC` and the block's
+    // 4-byte header): 44100 Hz, while every frame says 48000 Hz.
+    let rate = 44_100u32;
+    let body = 8;
+    bytes[body + 10] = (rate >> 12) as u8;
+    bytes[body + 11] = (rate >> 4) as u8;
+    bytes[body + 12] = (bytes[body + 12] & 0x0F) | ((rate & 0x0F) << 4) as u8;
+    let bad = write(dir.path(), "bad.flac", &bytes);
+    let o = run(&["analyze", s(&bad), "-g", s(&geometry)]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the stream header says 44100 Hz but its frames say 48000 Hz"),
+        "{}",
+        stderr(&o)
+    );
 }

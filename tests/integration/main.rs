@@ -25,6 +25,7 @@ mod live;
 mod machines;
 mod man;
 mod moving;
+mod nothing_lost;
 mod orientation;
 mod outputs;
 mod part_of_a_file;

@@ -110,3 +110,20 @@ fn a_bad_orientation_is_one_clear_error() {
         assert_eq!(e.trim().lines().count(), 1, "{e}");
     }
 }
+
+#[test]
+fn an_orientation_given_as_a_list_is_refused_not_read_as_angles() {
+    let dir = tempdir();
+    let g = write(
+        dir.path(),
+        "g.toml",
+        format!("orientation = [1, 2, 3]\n{}", geometry_toml(&prism(), "")),
+    );
+    let o = run(&["geometry", s(&g)]);
+    assert_ne!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("expected a table [orientation]"),
+        "{}",
+        stderr(&o)
+    );
+}
