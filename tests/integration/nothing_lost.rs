@@ -463,16 +463,21 @@ fn point_12_an_unreadable_subfolder_is_named_and_the_rest_analysed() {
     use std::os::unix::fs::PermissionsExt;
     std::fs::set_permissions(&lost, std::fs::Permissions::from_mode(0o000)).unwrap();
     let out = root.join("out");
-    let g = testdata("prism.toml");
+    let g = root.join("prism.toml");
+    copy(&testdata("prism.toml"), &g);
     let mut cmd;
-    // Root reads any folder: the batch runs as nobody, in folders it may use.
+    // Root reads any folder: the batch runs as nobody, with its own copy of the binary
+    // (the checkout may be in a folder nobody cannot enter).
     if is_root() {
         for p in [root, &inputs, &inputs.join("d")] {
             std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o777)).unwrap();
         }
+        let exe = root.join("ssl");
+        copy(Path::new(env!("CARGO_BIN_EXE_ssl")), &exe);
+        std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
         cmd = Command::new("setpriv");
         cmd.args(["--reuid=65534", "--regid=65534", "--clear-groups"]);
-        cmd.arg(env!("CARGO_BIN_EXE_ssl"));
+        cmd.arg(&exe);
     } else {
         cmd = ssl();
     }
