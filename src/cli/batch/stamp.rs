@@ -141,8 +141,28 @@ pub struct Stamp {
 pub fn recipe(what: &str) -> String {
     let mut h = Fnv::new();
     h.bytes(what.as_bytes());
-    match std::env::current_exe().and_then(std::fs::read) {
-        Ok(exe) => h.words(&exe),
+    // Read in pieces of 64 KiB (a multiple of 8): the executable is tens of MB.
+    let exe = std::env::current_exe().and_then(|p| {
+        let mut file = File::open(p)?;
+        let mut piece = vec![0u8; 64 << 10];
+        let mut exe = Fnv::new();
+        loop {
+            // Whole pieces whatever the reads return, so the hash does not depend on them.
+            let mut n = 0;
+            while n < piece.len() {
+                match std::io::Read::read(&mut file, &mut piece[n..])? {
+                    0 => break,
+                    k => n += k,
+                }
+            }
+            exe.words(&piece[..n]);
+            if n < piece.len() {
+                return Ok(exe.0);
+            }
+        }
+    });
+    match exe {
+        Ok(exe) => h.bytes(&exe.to_le_bytes()),
         // Not readable: the version alone, as before stamps knew the build.
         Err(_) => h.bytes(env!("CARGO_PKG_VERSION").as_bytes()),
     }
