@@ -30,6 +30,9 @@ pub struct Fit {
     reach: Vec<f64>,
     /// A frame's residual is counted up to this (samples).
     cap: f64,
+    /// The dimensions the positions span (3: a direction has length 1; fewer: its
+    /// projection on the array's plane or axis, at most 1).
+    dims: usize,
 }
 
 impl Fit {
@@ -46,6 +49,11 @@ impl Fit {
         let matrix = DMatrix::from_fn(p, 3, |r, c| d[r][c]);
         let svd = matrix.svd(true, true);
         let largest = svd.singular_values.max();
+        let dims = svd
+            .singular_values
+            .iter()
+            .filter(|&&v| v > 1e-6 * largest.max(1e-300))
+            .count();
         let pinv = svd
             .pseudo_inverse(1e-9 * largest.max(1e-300))
             .unwrap_or_else(|_| DMatrix::zeros(3, p));
@@ -58,6 +66,7 @@ impl Fit {
                 .map(|r| Vector3::new(pinv[(0, r)], pinv[(1, r)], pinv[(2, r)]))
                 .collect(),
             d,
+            dims,
         }
     }
 
@@ -113,13 +122,71 @@ impl Fit {
         (w, (sum / lags.len().max(1) as f64).sqrt())
     }
 
+    /// The RMS residual (samples) of `lags` against the nearest direction a far source
+    /// can have: the least-squares solution brought to length 1 (3-D arrays) or to at
+    /// most 1 (a plane's or a line's projection). Unbounded solutions would let any
+    /// order whose positions are a linear image of the true ones fit as well (a box's
+    /// corners under a shear), which sound from afar cannot do.
+    pub fn residual(&self, lags: &[f64]) -> f64 {
+        let (w, _) = self.solve(lags);
+        let n = w.norm();
+        let w = if n > 1e-12 && (self.dims == 3 || n > 1.0) {
+            w / n
+        } else {
+            w
+        };
+        let sum: f64 = self
+            .d
+            .iter()
+            .zip(lags)
+            .map(|(x, l)| (l - x.dot(&w)).powi(2))
+            .sum();
+        (sum / lags.len().max(1) as f64).sqrt()
+    }
+
+    /// Each frame's residual (capped) under `order`.
+    pub fn residuals(
+        &self,
+        frames: &[Frame],
+        order: &[usize],
+        k: usize,
+        buf: &mut Vec<f64>,
+    ) -> Vec<f64> {
+        frames
+            .iter()
+            .map(|f| {
+                self.lags(f, order, k, buf);
+                self.residual(buf).min(self.cap)
+            })
+            .collect()
+    }
+
+    /// How far (a chord on the unit sphere) the direction the delays of `frame` give
+    /// under `order` is from `u`, as far as the array can see: a plane's or a line's
+    /// array compares the projections on its plane or axis (it cannot tell a direction
+    /// from its mirror image across them).
+    pub fn distance_to(&self, frame: &Frame, order: &[usize], k: usize, u: &Vector3<f64>) -> f64 {
+        let mut buf = Vec::new();
+        self.lags(frame, order, k, &mut buf);
+        let w = self.solve(&buf).0;
+        // The projection of u on the array's span: the solution of u's own delays.
+        let own: Vec<f64> = self.d.iter().map(|x| x.dot(u)).collect();
+        let pu = self.solve(&own).0;
+        let w = if self.dims == 3 && w.norm() > 1e-12 {
+            w.normalize()
+        } else {
+            w
+        };
+        (w - pu).norm()
+    }
+
     /// The mean over `frames` of each frame's residual (capped) under `order`.
     pub fn score(&self, frames: &[Frame], order: &[usize], k: usize, buf: &mut Vec<f64>) -> f64 {
         let total: f64 = frames
             .iter()
             .map(|f| {
                 self.lags(f, order, k, buf);
-                self.solve(buf).1.min(self.cap)
+                self.residual(buf).min(self.cap)
             })
             .sum();
         total / frames.len().max(1) as f64

@@ -19,15 +19,25 @@
 //! The constants are in units: samples of residual, decibels, shares of frames.
 
 mod fit;
+mod orders;
 mod scan;
+mod symmetry;
+
+pub use symmetry::symmetries;
 
 use crate::geometry::{units, Geometry};
 use crate::stream::{AudioStream, InputError, SampleSource};
-use fit::{orderings, Fit};
+use fit::Fit;
+use orders::{OrderVerdict, T_NEEDED};
 use serde::Serialize;
 
 /// Fewer clear frames than this and the delays are not checked.
-pub const MIN_CLEAR_FRAMES: usize = 20;
+pub const MIN_CLEAR_FRAMES: usize = orders::MIN_FRAMES;
+/// With `--expect`, a clear frame is of the expected sound when its direction is within
+/// this many degrees of it.
+pub const EXPECT_DEG: f64 = 10.0;
+/// With `--expect`, the frames near the expected direction that settle an order.
+pub const EXPECT_FRAMES: usize = 3;
 /// The file's order fits the geometry when its residual is under this share of a random
 /// order's (the median over every other order).
 pub const RANDOM_SHARE: f64 = 0.7;
@@ -79,14 +89,20 @@ pub enum CheckError {
 /// One thing that does not fit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Finding {
-    /// `silent`, `dead`, `clipped`, `duplicated`, `inverted`, `gain`, `beyond`, `unit`,
-    /// `order`, `moved`, `misfit` or `unclear`.
+    /// `silent`, `dead`, `clipped`, `duplicated`, `inverted`, `beyond`, `unit`,
+    /// `order`, `moved`, `misfit`, `symmetric` or `unclear`; for a remark, `gain`.
     pub kind: String,
     /// What it is, and what to do.
     pub message: String,
-    /// For `order`: the channel (0-based) of each microphone that fits better.
+    /// For `order`: the channel (0-based, as the geometry's `channel` key) of each
+    /// microphone that fits better: of the orders that fit alike, the one that changes
+    /// the fewest channels.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub order: Option<Vec<usize>>,
+    /// For `order`, `symmetric` and `unclear`: every order (as `order`) that fits as well
+    /// or that the recording cannot tell apart, nearest the file's first.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orders: Option<Vec<Vec<usize>>>,
 }
 
 /// What `ssl check` found.
@@ -111,13 +127,28 @@ pub struct CheckReport {
     pub beyond_share: Option<f64>,
     /// The fit's solution length (about 1 when the positions' scale is right).
     pub length: Option<f64>,
-    /// Whether the delays can tell the channels apart: not on an array whose every order
-    /// is a symmetry (a regular tetrahedron), whose channel order is then not checked.
+    /// Whether the delays can tell the channels apart at all: not on an array whose
+    /// every order is a symmetry (a regular tetrahedron).
     pub order_checked: bool,
+    /// How many channel orders the geometry alone cannot tell apart (its symmetries: 1
+    /// when it has none; 8 for a rectangular box, 12 for a regular hexagon).
+    pub symmetries: usize,
     /// What does not fit; empty when the recording fits.
     pub findings: Vec<Finding>,
+    /// What is worth knowing but no fault: a channel's level far from the others
+    /// (directional capsules facing away from the sound are quieter).
+    pub remarks: Vec<Finding>,
     /// No finding.
     pub fits: bool,
+}
+
+/// What `ssl check` is told besides the recording and the geometry.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CheckOptions {
+    /// A sound in the recording comes from this direction (azimuth, elevation in
+    /// degrees, in the geometry's output frame): it settles orders that are mirror
+    /// images or rotations of each other.
+    pub expect_deg: Option<(f64, f64)>,
 }
 
 fn finding(kind: &str, message: String) -> Finding {
@@ -125,24 +156,33 @@ fn finding(kind: &str, message: String) -> Finding {
         kind: kind.into(),
         message,
         order: None,
+        orders: None,
     }
 }
 
 /// Checks the WAV file at `path` (`-` for standard input) against `geometry`.
-pub fn check(path: &str, geometry: &Geometry) -> Result<CheckReport, CheckError> {
+pub fn check(
+    path: &str,
+    geometry: &Geometry,
+    options: &CheckOptions,
+) -> Result<CheckReport, CheckError> {
     let name = if path == "-" { "<stdin>" } else { path }.to_string();
     let mut stream = AudioStream::open(path).map_err(|error| CheckError::Input {
         name: name.clone(),
         error,
     })?;
-    check_source(&mut stream, geometry)
+    check_source(&mut stream, geometry, options)
 }
 
 /// Checks any source of samples against `geometry`.
 pub fn check_source<S: SampleSource>(
     source: &mut S,
     geometry: &Geometry,
+    options: &CheckOptions,
 ) -> Result<CheckReport, CheckError> {
+    let expect = options
+        .expect_deg
+        .map(|(az, el)| crate::method::direction::unit_from_angles(az, el));
     let name = source.name().to_string();
     let k = source.channels();
     let m = geometry.mics.len();
@@ -188,10 +228,12 @@ pub fn check_source<S: SampleSource>(
         .map(|c| (c.max > c.min).then(|| 10.0 * (c.energy / samples).max(1e-30).log10()))
         .collect();
     let mut findings = Vec::new();
+    let mut remarks = Vec::new();
+    // Channels 0-based, as the geometry's `channel` key; mics as `ssl geometry` lists them.
     let mics_on = |c: usize| -> String {
         match geometry.mics.iter().position(|x| x.channel == c) {
-            Some(i) => format!("channel {} (mic {})", c + 1, i + 1),
-            None => format!("channel {}", c + 1),
+            Some(i) => format!("channel {c} (mic {})", i + 1),
+            None => format!("channel {c}"),
         }
     };
     let used: Vec<usize> = geometry.mics.iter().map(|x| x.channel).collect();
@@ -208,6 +250,7 @@ pub fn check_source<S: SampleSource>(
             levels,
             Fitted::default(),
             findings,
+            remarks,
         ));
     }
     // Channels.
@@ -264,10 +307,10 @@ pub fn check_source<S: SampleSource>(
         for &c in used.iter().filter(|c| !dead.contains(c)) {
             let l = levels[c].unwrap_or(median);
             if (l - median).abs() >= GAIN_DB {
-                findings.push(finding(
+                remarks.push(finding(
                     "gain",
                     format!(
-                        "{} is {:.1} dB {} than the median channel (gain mismatch)",
+                        "{} is {:.1} dB {} than the median channel: a gain mismatch, or a directional capsule facing away from the sound (not a fault in itself)",
                         mics_on(c),
                         (l - median).abs(),
                         if l > median { "louder" } else { "quieter" }
@@ -281,9 +324,10 @@ pub fn check_source<S: SampleSource>(
         findings.push(finding(
             "unclear",
             format!(
-                "only {} frame(s) with one clear sound in the first {:.0} s: the delays cannot be checked (record a few hand claps or speech near the array)",
+                "only {} frame(s) with one clear sound in the first {:.0} s, {} needed: the delays cannot be checked (record sharp sounds such as hand claps from several directions around the array, or speech near it)",
                 frames.len(),
-                scan::MAX_SECONDS
+                scan::MAX_SECONDS,
+                MIN_CLEAR_FRAMES
             ),
         ));
         return Ok(report(
@@ -294,6 +338,7 @@ pub fn check_source<S: SampleSource>(
             levels,
             Fitted::default(),
             findings,
+            remarks,
         ));
     }
     // Polarity: a channel whose pairs' peaks are mostly negative.
@@ -315,23 +360,61 @@ pub fn check_source<S: SampleSource>(
             ));
         }
     }
-    // Delays.
+    // Delays. The channel order first: a permutation that explains the delays explains
+    // delays beyond the spacing too, before any unit is blamed.
     let mut buf = Vec::new();
     let own = fit.score(frames, &used, k, &mut buf);
+    let group = symmetry::symmetries(&positions);
+    let strongest: Vec<_> = frames.iter().take(ORDER_FRAMES).cloned().collect();
+    let judged =
+        (dead.is_empty()).then(|| orders::judge(&fit, &strongest, &used, k, &group, FULL_ORDERS));
     let beyond = fit.beyond_share(frames, &used, k);
     let length = fit.length(frames, &used, k);
-    let mut explained = false;
-    if beyond > BEYOND_SHARE || length > LONG_LENGTH {
+    let numbered = |order: &[usize]| -> String {
+        let list: Vec<String> = order.iter().map(|c| c.to_string()).collect();
+        format!("[{}]", list.join(", "))
+    };
+    let plausible = |order: &[usize]| {
+        fit.beyond_share(frames, order, k) <= BEYOND_SHARE
+            && (SHORT_LENGTH..=LONG_LENGTH).contains(&fit.length(frames, order, k))
+    };
+    let mut order_found = false;
+    if let Some(orders::Judged {
+        verdict:
+            OrderVerdict::Better {
+                orders,
+                best,
+                own: base,
+                rivals,
+            },
+        ..
+    }) = &judged
+    {
+        if plausible(&orders[0]) {
+            order_found = true;
+            findings.push(order_finding(
+                &orders[0],
+                orders,
+                rivals,
+                &used,
+                *base / best.max(1e-9),
+                best / rate * 1e6,
+                base / rate * 1e6,
+            ));
+        }
+    }
+    let mut explained = order_found;
+    if !order_found && (beyond > BEYOND_SHARE || length > LONG_LENGTH) {
         explained = true;
         findings.push(finding(
             "beyond",
             format!(
-                "the delays are about {:.1} times longer than the positions allow ({:.0}% of them beyond the microphones' spacing): positions too small (they must be in metres), or the wrong sample rate or speed of sound",
+                "the delays are about {:.1} times longer than the positions allow ({:.0}% of them beyond the microphones' spacing), and no channel order explains them: positions too small (they must be in metres), or the wrong sample rate or speed of sound",
                 length,
                 100.0 * beyond
             ),
         ));
-    } else if length < SHORT_LENGTH {
+    } else if !order_found && length < SHORT_LENGTH {
         explained = true;
         let advice = units::advice(aperture)
             .map(|a| format!("; {a}"))
@@ -344,95 +427,137 @@ pub fn check_source<S: SampleSource>(
             ),
         ));
     }
-    let mut identifiable = true;
-    if !explained && dead.is_empty() {
-        // Every other order (or swap) of the microphones, on the clearest frames: the
-        // best, and the median, which is what an order that does not fit gives.
-        let strongest: Vec<_> = frames.iter().take(ORDER_FRAMES).cloned().collect();
-        let base = fit.score(&strongest, &used, k, &mut buf);
-        let mut best = (f64::INFINITY, used.clone());
-        let mut others = Vec::new();
-        orderings(&used, FULL_ORDERS, |order| {
-            if order != used.as_slice() {
-                let s = fit.score(&strongest, order, k, &mut buf);
-                others.push(s);
-                if s < best.0 {
-                    best = (s, order.to_vec());
+    let identifiable = group.len() < factorial(m.min(FULL_ORDERS + 1));
+    if let (false, Some(judged)) = (explained, &judged) {
+        let moved = matches!(
+            judged.verdict,
+            OrderVerdict::Open { .. } | OrderVerdict::Fits { .. }
+        )
+        .then(|| {
+            moved_twice(
+                &fit,
+                &fit_without(&positions, rate, speed),
+                &strongest,
+                &used,
+                k,
+                rate,
+            )
+        })
+        .flatten();
+        let informative = judged.own < RANDOM_SHARE * judged.random;
+        match &judged.verdict {
+            _ if !informative && !matches!(judged.verdict, OrderVerdict::Fits { .. }) => {
+                findings.push(finding(
+                    "unclear",
+                    format!(
+                        "{}: no channel order explains the delays of the clearest frames better than another ({:.0} us with the file's order, {:.0} us typically): the sound is not clear enough to check the geometry; record sharp sounds (hand claps) from several directions around the array",
+                        found_clear(frames.len()),
+                        judged.own / rate * 1e6,
+                        judged.random / rate * 1e6
+                    ),
+                ));
+            }
+            OrderVerdict::Better { .. } => {
+                // Not plausible: the better order still needs other positions.
+                findings.push(finding(
+                    "misfit",
+                    format!(
+                        "the delays do not fit the geometry: with the file's channel order the far-field fit errs by {:.0} us, and no channel order brings the delays within the positions' reach; check the positions and their unit",
+                        judged.own / rate * 1e6
+                    ),
+                ));
+            }
+            // A moved microphone breaks the array's symmetry and leaves orders open
+            // that are images of the true one: named first.
+            OrderVerdict::Open { .. } if moved.is_some() => {
+                findings.extend(moved.clone());
+            }
+            OrderVerdict::Open {
+                rival,
+                t,
+                needed_frames,
+                rivals,
+            } => {
+                let what = describe_change(rival, &used, &positions, speed);
+                let more = match needed_frames {
+                    Some(n) if *n > frames.len() => format!(
+                        "; about {n} clear frames (sharp sounds such as hand claps, from several directions) would likely tell them apart"
+                    ),
+                    _ => "; more clear sounds, from other directions, are needed to tell them apart".into(),
+                };
+                findings.push(Finding {
+                    kind: "unclear".into(),
+                    message: format!(
+                        "{}: the delays cannot yet tell the file's order from {} orders that differ from it, the nearest {} ({} = {}; t = {:.1}, {T_NEEDED:.0} needed){more}",
+                        found_clear(frames.len()),
+                        rivals.len(),
+                        what,
+                        "order",
+                        numbered(rival),
+                        t
+                    ),
+                    order: None,
+                    orders: Some(rivals.clone()),
+                });
+            }
+            OrderVerdict::Fits { images, weakest_t } => {
+                if judged.own >= RANDOM_SHARE * judged.random {
+                    findings.push(finding(
+                        "misfit",
+                        format!(
+                            "the delays do not fit the geometry: with the file's channel order the far-field fit errs by {:.0} us, hardly better than a random order's {:.0} us; check the positions, their unit and the channel order",
+                            judged.own / rate * 1e6,
+                            judged.random / rate * 1e6
+                        ),
+                    ));
+                } else if let Some(f) = &moved {
+                    findings.push(f.clone());
+                } else if images.len() > 1 {
+                    match settle(&fit, frames, images, k, expect) {
+                        Settled::Own => {}
+                        Settled::Other(order) => {
+                            order_found = true;
+                            findings.push(Finding {
+                                kind: "order".into(),
+                                message: format!(
+                                    "the sound from the expected direction is heard elsewhere with the file's order; order {} (a {} of the array) puts it there: {}",
+                                    numbered(&order),
+                                    image_kind(&order, &used, &positions),
+                                    describe_change(&order, &used, &positions, speed)
+                                ),
+                                order: Some(order.clone()),
+                                orders: Some(vec![order]),
+                            });
+                        }
+                        Settled::Not(why) => findings.push(Finding {
+                            kind: "symmetric".into(),
+                            message: format!(
+                                "the delays fit the file's channel order (every other order told apart, t >= {:.1}), but also {} other order(s) that are mirror images or rotations of this array, which delays can never tell apart: {}{why}; give --expect AZ/EL for a sound in the recording from a known direction to settle it",
+                                weakest_t.min(99.0),
+                                images.len() - 1,
+                                images[1..]
+                                    .iter()
+                                    .take(6)
+                                    .map(|o| numbered(o))
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                                    + if images.len() > 7 { ", ..." } else { "" },
+                            ),
+                            order: None,
+                            orders: Some(images.clone()),
+                        }),
+                    }
                 }
             }
-        });
-        others.sort_by(f64::total_cmp);
-        let random = others
-            .get(others.len() / 2)
-            .copied()
-            .unwrap_or(f64::INFINITY);
-        // A regular tetrahedron's every order is one of its symmetries: its delays cannot
-        // tell its channels apart (nor a wrong order from a right one).
-        identifiable = random > base * (1.0 + 1e-6);
-        let informative = best.0.min(base) < RANDOM_SHARE * random;
-        if !identifiable {
-            // Nothing to compare: the order and the positions are not checked.
-        } else if !informative {
-            findings.push(finding(
-                "unclear",
-                format!(
-                    "no channel order explains the delays of the clearest frames better than another ({:.0} us at best, {:.0} us typically): the sound is not clear enough to check the geometry (record a few hand claps or speech near the array, in a quiet room)",
-                    best.0.min(base) / rate * 1e6,
-                    random / rate * 1e6
-                ),
-            ));
-        } else if best.0 < BETTER_SHARE * base {
-            let changed: Vec<usize> = (0..m).filter(|&i| best.1[i] != used[i]).collect();
-            let moved: Vec<String> = changed
-                .iter()
-                .map(|&i| format!("mic {} on channel {}", i + 1, best.1[i] + 1))
-                .collect();
-            let what = if changed.len() == 2 {
-                let (a, b) = (used[changed[0]], used[changed[1]]);
-                format!(
-                    "channels {} and {} look swapped",
-                    a.min(b) + 1,
-                    a.max(b) + 1
-                )
-            } else {
-                "the channel order looks wrong".to_string()
-            };
-            findings.push(Finding {
-                kind: "order".into(),
-                message: format!(
-                    "{what}: {} fits {:.1} times better (residual {:.0} us against {:.0} us); give each [[mic]] its `channel`",
-                    moved.join(", "),
-                    base / best.0.max(1e-9),
-                    best.0 / rate * 1e6,
-                    base / rate * 1e6
-                ),
-                order: Some(best.1.clone()),
-            });
-        } else if let Some(f) = moved_mic(
-            &fit_without(&positions, rate, speed),
-            &strongest,
-            &used,
-            k,
-            base,
-            rate,
-        ) {
-            findings.push(f);
-        } else if base >= RANDOM_SHARE * random {
-            findings.push(finding(
-                "misfit",
-                format!(
-                    "the delays do not fit the geometry: with the file's channel order the far-field fit errs by {:.0} us, hardly better than a random order's {:.0} us; check the positions, their unit and the channel order",
-                    base / rate * 1e6,
-                    random / rate * 1e6
-                ),
-            ));
         }
     }
+    let _ = order_found;
     let fitted = Fitted {
         residual_us: Some(own / rate * 1e6),
         beyond_share: Some(beyond),
         length: Some(length),
         order_checked: identifiable,
+        symmetries: group.len(),
     };
     Ok(report(
         name,
@@ -442,7 +567,197 @@ pub fn check_source<S: SampleSource>(
         levels,
         fitted,
         findings,
+        remarks,
     ))
+}
+
+fn factorial(n: usize) -> usize {
+    (1..=n).product()
+}
+
+/// "found N clear frames", with what a check needs.
+fn found_clear(n: usize) -> String {
+    format!(
+        "{n} clear frame(s) found (at least {} needed, more from several directions)",
+        orders::MIN_FRAMES
+    )
+}
+
+/// What distinguishes `order` from `used`: the microphones that change channel, and
+/// for a swap of two, how far apart they are and the most a delay changes.
+fn describe_change(
+    order: &[usize],
+    used: &[usize],
+    positions: &[nalgebra::Vector3<f64>],
+    speed: f64,
+) -> String {
+    let changed: Vec<usize> = (0..used.len()).filter(|&i| order[i] != used[i]).collect();
+    if changed.len() == 2 {
+        let (a, b) = (changed[0], changed[1]);
+        let d = (positions[a] - positions[b]).norm();
+        format!(
+            "channels {} and {} swapped (mics {} and {}, {:.1} cm apart: delays change by up to {:.0} us)",
+            used[a],
+            used[b],
+            a + 1,
+            b + 1,
+            100.0 * d,
+            2.0 * d / speed * 1e6
+        )
+    } else {
+        let moves: Vec<String> = changed
+            .iter()
+            .map(|&i| format!("mic {} on channel {}", i + 1, order[i]))
+            .collect();
+        format!(
+            "{} mics on other channels ({})",
+            changed.len(),
+            moves.join(", ")
+        )
+    }
+}
+
+/// Whether `order` is a rotation or a mirror image of `used` on this array.
+fn image_kind(
+    order: &[usize],
+    used: &[usize],
+    positions: &[nalgebra::Vector3<f64>],
+) -> &'static str {
+    // The map taking each mic to the one whose channel it now has.
+    let m = used.len();
+    let s: Vec<usize> = (0..m)
+        .map(|i| used.iter().position(|&c| c == order[i]).unwrap_or(i))
+        .collect();
+    let centre = positions.iter().sum::<nalgebra::Vector3<f64>>() / m as f64;
+    let v: Vec<_> = positions.iter().map(|p| p - centre).collect();
+    // Least squares of the map over the positions, then the sign of its determinant.
+    let mut a = nalgebra::Matrix3::zeros();
+    for i in 0..m {
+        a += v[s[i]] * v[i].transpose();
+    }
+    let svd = a.svd(true, true);
+    match (svd.u, svd.v_t) {
+        (Some(u), Some(vt)) if (u * vt).determinant() < 0.0 => "mirror image",
+        _ => "rotation",
+    }
+}
+
+/// What a sound from a known direction says of orders that are images of each other.
+enum Settled {
+    /// The file's order hears it there.
+    Own,
+    /// Another image does.
+    Other(Vec<usize>),
+    /// Nothing settles it (the reason, for the message; empty without `--expect`).
+    Not(String),
+}
+
+/// The image among `images` (the file's first) whose clear frames' directions fall
+/// nearest `expect`: the one with the most frames within [`EXPECT_DEG`], at least
+/// [`EXPECT_FRAMES`] and twice any other's.
+fn settle(
+    fit: &Fit,
+    frames: &[scan::Frame],
+    images: &[Vec<usize>],
+    k: usize,
+    expect: Option<nalgebra::Vector3<f64>>,
+) -> Settled {
+    let Some(u) = expect else {
+        return Settled::Not(String::new());
+    };
+    let near: Vec<usize> = images
+        .iter()
+        .map(|o| {
+            let chord = 2.0 * (EXPECT_DEG.to_radians() / 2.0).sin();
+            frames
+                .iter()
+                .filter(|f| fit.distance_to(f, o, k, &u) < chord)
+                .count()
+        })
+        .collect();
+    let (best, most) = near
+        .iter()
+        .enumerate()
+        .max_by_key(|(i, n)| (**n, std::cmp::Reverse(*i)))
+        .map(|(i, n)| (i, *n))
+        .unwrap_or((0, 0));
+    let second = near
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != best)
+        .map(|(_, n)| *n)
+        .max()
+        .unwrap_or(0);
+    if most >= EXPECT_FRAMES && second * 10 >= most * 8 {
+        return Settled::Not(format!(
+            " (--expect: {most} and {second} clear frames put the sound there under two of them: the expected direction lies on a mirror of the array, which cannot settle it; give a sound from a direction off the array's mirrors)"
+        ));
+    }
+    if most < EXPECT_FRAMES || most < 2 * second.max(1) {
+        return Settled::Not(format!(
+            " (--expect: {most} clear frame(s) within {EXPECT_DEG:.0} deg of the expected direction under the best of them, {second} under the next: not enough to choose)"
+        ));
+    }
+    if best == 0 {
+        Settled::Own
+    } else {
+        Settled::Other(images[best].clone())
+    }
+}
+
+/// The order finding for `order` (and the images of it in `orders`), with the changes
+/// from `used`, the residuals (us) and ready-to-paste `[[mic]]` tables.
+#[allow(clippy::too_many_arguments)]
+fn order_finding(
+    order: &[usize],
+    orders: &[Vec<usize>],
+    rivals: &[Vec<usize>],
+    used: &[usize],
+    ratio: f64,
+    best_us: f64,
+    own_us: f64,
+) -> Finding {
+    let changed: Vec<usize> = (0..used.len()).filter(|&i| order[i] != used[i]).collect();
+    let what = if changed.len() == 2 {
+        let (a, b) = (used[changed[0]], used[changed[1]]);
+        format!("channels {} and {} look swapped", a.min(b), a.max(b))
+    } else {
+        format!("{} microphones look to be on other channels", changed.len())
+    };
+    let moves: Vec<String> = changed
+        .iter()
+        .map(|&i| format!("mic {} on channel {}", i + 1, order[i]))
+        .collect();
+    let alike = if orders.len() > 1 {
+        format!(
+            "; {} other order(s), images of it under the array's symmetry, fit as well (see `orders`): this one changes the fewest channels",
+            orders.len() - 1
+        )
+    } else {
+        String::new()
+    };
+    let near = if rivals.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; {} other order(s) are not told apart from it by this recording (see `orders`)",
+            rivals.len()
+        )
+    };
+    let mut all = orders.to_vec();
+    all.extend(rivals.iter().cloned());
+    Finding {
+        kind: "order".into(),
+        message: format!(
+            "{what}: {} fits {:.1} times better (residual {:.0} us against {:.0} us){alike}{near}; give each [[mic]] its `channel`",
+            moves.join(", "),
+            ratio,
+            best_us,
+            own_us
+        ),
+        order: Some(order.to_vec()),
+        orders: Some(all),
+    }
 }
 
 /// What the fit measured (nothing when the delays were not checked).
@@ -452,8 +767,10 @@ struct Fitted {
     beyond_share: Option<f64>,
     length: Option<f64>,
     order_checked: bool,
+    symmetries: usize,
 }
 
+#[allow(clippy::too_many_arguments)]
 fn report(
     file: String,
     sample_rate: u32,
@@ -462,6 +779,7 @@ fn report(
     levels: Vec<Option<f64>>,
     fitted: Fitted,
     findings: Vec<Finding>,
+    remarks: Vec<Finding>,
 ) -> CheckReport {
     CheckReport {
         file,
@@ -474,8 +792,10 @@ fn report(
         beyond_share: fitted.beyond_share,
         length: fitted.length,
         order_checked: fitted.order_checked,
+        symmetries: fitted.symmetries.max(1),
         fits: findings.is_empty(),
         findings,
+        remarks,
     }
 }
 
@@ -492,6 +812,31 @@ fn fit_without(positions: &[nalgebra::Vector3<f64>], rate: f64, speed: f64) -> V
         .collect()
 }
 
+/// A microphone that does not fit its position in two looks: [`moved_mic`] on the
+/// clearest frames taken alternately into two halves must name the same one (a
+/// directional capsule's weak channel, or a few odd frames, do not show twice); the
+/// finding is then the one of all the frames.
+fn moved_twice(
+    fit: &Fit,
+    without: &[Fit],
+    frames: &[scan::Frame],
+    used: &[usize],
+    k: usize,
+    rate: f64,
+) -> Option<Finding> {
+    let mut buf = Vec::new();
+    let mut look = |frames: &[scan::Frame]| {
+        let base = fit.score(frames, used, k, &mut buf);
+        moved_mic(without, frames, used, k, base, rate)
+    };
+    let halves: [Vec<scan::Frame>; 2] =
+        [0, 1].map(|h| frames.iter().skip(h).step_by(2).cloned().collect());
+    match (look(&halves[0]), look(&halves[1])) {
+        (Some((a, _)), Some((b, _))) if a == b => look(frames).map(|(_, f)| f),
+        _ => None,
+    }
+}
+
 /// One microphone that does not fit its position: leaving it out brings the others' fit
 /// under [`MOVED_SHARE`] of what leaving out a typical one does, and of the whole array's
 /// `base`. Needs 5 microphones or more (leaving one of 4 out leaves too few pairs to
@@ -503,7 +848,7 @@ fn moved_mic(
     k: usize,
     base: f64,
     rate: f64,
-) -> Option<Finding> {
+) -> Option<(usize, Finding)> {
     let m = used.len();
     if m < 5 {
         return None;
@@ -524,16 +869,17 @@ fn moved_mic(
         .min_by(|a, b| a.1.total_cmp(b.1))
         .map(|(i, v)| (i, *v))?;
     (lowest < MOVED_SHARE * typical && lowest < MOVED_SHARE * base).then(|| {
-        finding(
+        let f = finding(
             "moved",
             format!(
-                "mic {} (channel {}) does not fit its position: without it the others fit {:.1} times better (residual {:.0} us against {:.0} us); it moved, or its position in the geometry is wrong",
+                "mic {} (channel {}) does not fit its position, in both halves of the clear frames: without it the others fit {:.1} times better (residual {:.0} us against {:.0} us); it moved, or its position in the geometry is wrong",
                 worst + 1,
-                used[worst] + 1,
+                used[worst],
                 base / lowest.max(1e-9),
                 lowest / rate * 1e6,
                 base / rate * 1e6
             ),
-        )
+        );
+        (worst, f)
     })
 }

@@ -1,8 +1,9 @@
 //! The command line's arguments (clap). `man/` is generated from these definitions.
 
 use super::values::{
-    band, candidate_share, choice, false_per_hour, non_negative, non_negative_f64, parse_f64,
-    positive, shard, smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval, Shard,
+    band, candidate_share, choice, direction, false_per_hour, non_negative, non_negative_f64,
+    parse_f64, positive, shard, smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
+    Shard,
 };
 use clap::{Args, Parser, Subcommand};
 use ssl::method::{
@@ -384,6 +385,10 @@ pub struct CheckArgs {
     /// Report format
     #[arg(short, long, value_enum, default_value_t = CheckFormat::Text)]
     pub format: CheckFormat,
+
+    /// A sound in the recording comes from this direction (azimuth/elevation in degrees, e.g. 30/10): it settles channel orders that the array's symmetry hides (mirror images, rotations)
+    #[arg(long, value_name = "AZ/EL", value_parser = direction, allow_hyphen_values = true)]
+    pub expect: Option<(f64, f64)>,
 }
 
 /// `ssl check --format`.

@@ -2,7 +2,7 @@
 
 use super::args::{CheckArgs, CheckFormat};
 use anyhow::Result;
-use ssl::check::{check, CheckReport};
+use ssl::check::{check, CheckOptions, CheckReport};
 use ssl::Geometry;
 use std::fmt::Write as _;
 
@@ -13,17 +13,20 @@ pub fn run(args: &CheckArgs) -> Result<bool> {
     for w in &geometry.warnings {
         super::warn(false, &format!("{path}: {w}"));
     }
-    let report = check(&args.recording, &geometry)?;
+    let options = CheckOptions {
+        expect_deg: args.expect,
+    };
+    let report = check(&args.recording, &geometry, &options)?;
     let text = match args.format {
         CheckFormat::Json => serde_json::to_string_pretty(&report)? + "\n",
-        CheckFormat::Text => text(&report),
+        CheckFormat::Text => text(&report, &geometry),
     };
     super::print(text.as_bytes())?;
     Ok(report.fits)
 }
 
 /// The report for people.
-fn text(r: &CheckReport) -> String {
+fn text(r: &CheckReport, geometry: &Geometry) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -35,7 +38,11 @@ fn text(r: &CheckReport) -> String {
         .iter()
         .map(|l| l.map_or("constant".to_string(), |v| format!("{v:.1}")))
         .collect();
-    let _ = writeln!(s, "levels (dBFS, by channel): {}", levels.join(", "));
+    let _ = writeln!(
+        s,
+        "levels (dBFS, by channel 0, 1, ...): {}",
+        levels.join(", ")
+    );
     if let Some(us) = r.residual_us {
         let _ = writeln!(
             s,
@@ -44,15 +51,40 @@ fn text(r: &CheckReport) -> String {
             r.length.unwrap_or(0.0)
         );
     }
-    if r.residual_us.is_some() && !r.order_checked {
-        s += "channel order: not checked (every order of these microphones is a symmetry of the array: delays cannot tell them apart)\n";
+    if r.symmetries > 1 {
+        let _ = writeln!(
+            s,
+            "symmetry: the geometry cannot tell {} channel orders apart (mirror images and rotations of the array)",
+            r.symmetries
+        );
+    }
+    for f in &r.remarks {
+        let _ = writeln!(s, "remark ({}): {}", f.kind, f.message);
     }
     if r.fits {
-        s += "fits: the channels and their delays agree with the geometry\n";
-    } else {
-        for f in &r.findings {
-            let _ = writeln!(s, "misfit ({}): {}", f.kind, f.message);
+        s += "fits: the channels and their delays agree with the geometry and its channel order\n";
+    }
+    for f in &r.findings {
+        let _ = writeln!(s, "misfit ({}): {}", f.kind, f.message);
+        if let Some(order) = &f.order {
+            let _ = writeln!(s, "  the geometry with this order, to paste:");
+            s += &mic_tables(geometry, order);
         }
+    }
+    s
+}
+
+/// `[[mic]]` tables of `geometry` with `order` as their channels, positions as the file
+/// gives them.
+fn mic_tables(geometry: &Geometry, order: &[usize]) -> String {
+    let mut s = String::new();
+    for (i, c) in order.iter().enumerate() {
+        let p = geometry.array_position(i);
+        let _ = writeln!(
+            s,
+            "  [[mic]]\n  position = [{}, {}, {}]\n  channel = {c}",
+            p.x, p.y, p.z
+        );
     }
     s
 }

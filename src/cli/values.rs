@@ -150,3 +150,19 @@ pub(super) fn shard(s: &str) -> std::result::Result<Shard, String> {
     }
     Ok(Shard { index, count })
 }
+
+/// A direction `AZ/EL` in degrees (`--expect 30/10`): azimuth within -360..360,
+/// elevation within -90..90.
+pub(super) fn direction(s: &str) -> std::result::Result<(f64, f64), String> {
+    let bad =
+        || format!("`{s}` is not AZ/EL in degrees (azimuth/elevation, e.g. 30/10 or -120/-20)");
+    let (a, e) = s.split_once('/').ok_or_else(bad)?;
+    let (az, el): (f64, f64) = (
+        a.trim().parse().map_err(|_| bad())?,
+        e.trim().parse().map_err(|_| bad())?,
+    );
+    if !(-360.0..=360.0).contains(&az) || !(-90.0..=90.0).contains(&el) {
+        return Err(bad());
+    }
+    Ok((az, el))
+}
