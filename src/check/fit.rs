@@ -33,6 +33,8 @@ pub struct Fit {
     /// The dimensions the positions span (3: a direction has length 1; fewer: its
     /// projection on the array's plane or axis, at most 1).
     dims: usize,
+    /// Samples per second.
+    rate: f64,
 }
 
 impl Fit {
@@ -67,6 +69,7 @@ impl Fit {
                 .collect(),
             d,
             dims,
+            rate,
         }
     }
 
@@ -142,6 +145,16 @@ impl Fit {
             .map(|(x, l)| (l - x.dot(&w)).powi(2))
             .sum();
         (sum / lags.len().max(1) as f64).sqrt()
+    }
+
+    /// The longest delay the geometry allows (samples).
+    pub fn longest(&self) -> f64 {
+        self.reach.iter().copied().fold(0.0, f64::max)
+    }
+
+    /// The sample rate the delays are counted at (Hz).
+    pub fn rate(&self) -> f64 {
+        self.rate
     }
 
     /// Each frame's residual (capped) under `order`.

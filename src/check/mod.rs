@@ -28,7 +28,7 @@ pub use symmetry::symmetries;
 use crate::geometry::{units, Geometry};
 use crate::stream::{AudioStream, InputError, SampleSource};
 use fit::Fit;
-use orders::{OrderVerdict, T_NEEDED};
+use orders::{OrderVerdict, EVIDENCE_NEEDED};
 use serde::Serialize;
 
 /// Fewer clear frames than this and the delays are not checked.
@@ -36,8 +36,6 @@ pub const MIN_CLEAR_FRAMES: usize = orders::MIN_FRAMES;
 /// With `--expect`, a clear frame is of the expected sound when its direction is within
 /// this many degrees of it.
 pub const EXPECT_DEG: f64 = 10.0;
-/// With `--expect`, the frames near the expected direction that settle an order.
-pub const EXPECT_FRAMES: usize = 3;
 /// The file's order fits the geometry when its residual is under this share of a random
 /// order's (the median over every other order).
 pub const RANDOM_SHARE: f64 = 0.7;
@@ -429,6 +427,11 @@ pub fn check_source<S: SampleSource>(
     }
     let identifiable = group.len() < factorial(m.min(FULL_ORDERS + 1));
     if let (false, Some(judged)) = (explained, &judged) {
+        let spoken: Vec<scan::Frame> = judged
+            .frames
+            .iter()
+            .map(|&i| strongest[i].clone())
+            .collect();
         let moved = matches!(
             judged.verdict,
             OrderVerdict::Open { .. } | OrderVerdict::Fits { .. }
@@ -437,7 +440,7 @@ pub fn check_source<S: SampleSource>(
             moved_twice(
                 &fit,
                 &fit_without(&positions, rate, speed),
-                &strongest,
+                &spoken,
                 &used,
                 k,
                 rate,
@@ -446,12 +449,21 @@ pub fn check_source<S: SampleSource>(
         .flatten();
         let informative = judged.own < RANDOM_SHARE * judged.random;
         match &judged.verdict {
-            _ if !informative && !matches!(judged.verdict, OrderVerdict::Fits { .. }) => {
+            _ if judged.frames.len() < orders::MIN_FRAMES => {
+                findings.push(finding(
+                    "unclear",
+                    format!(
+                        "{}: too few sounds from afar to check the channel order (a room's reverberation, or sources too near the array, blur the rest); record sharp sounds such as hand claps from several directions, a metre or more away",
+                        found_clear(frames.len(), judged.frames.len())
+                    ),
+                ));
+            }
+            _ if !informative && matches!(judged.verdict, OrderVerdict::Better { .. }) => {
                 findings.push(finding(
                     "unclear",
                     format!(
                         "{}: no channel order explains the delays of the clearest frames better than another ({:.0} us with the file's order, {:.0} us typically): the sound is not clear enough to check the geometry; record sharp sounds (hand claps) from several directions around the array",
-                        found_clear(frames.len()),
+                        found_clear(frames.len(), judged.frames.len()),
                         judged.own / rate * 1e6,
                         judged.random / rate * 1e6
                     ),
@@ -488,8 +500,8 @@ pub fn check_source<S: SampleSource>(
                 findings.push(Finding {
                     kind: "unclear".into(),
                     message: format!(
-                        "{}: the delays cannot yet tell the file's order from {} orders that differ from it, the nearest {} ({} = {}; t = {:.1}, {T_NEEDED:.0} needed){more}",
-                        found_clear(frames.len()),
+                        "{}: the delays cannot yet tell the file's order from {} orders that differ from it, the nearest {} ({} = {}; evidence {:.1} nats, {EVIDENCE_NEEDED:.1} needed){more}",
+                        found_clear(frames.len(), judged.frames.len()),
                         rivals.len(),
                         what,
                         "order",
@@ -501,19 +513,20 @@ pub fn check_source<S: SampleSource>(
                 });
             }
             OrderVerdict::Fits { images, weakest_t } => {
-                if judged.own >= RANDOM_SHARE * judged.random {
+                if judged.own > orders::explained_within(rate, fit.longest()) {
                     findings.push(finding(
                         "misfit",
                         format!(
-                            "the delays do not fit the geometry: with the file's channel order the far-field fit errs by {:.0} us, hardly better than a random order's {:.0} us; check the positions, their unit and the channel order",
+                            "the delays do not fit the geometry: with the file's channel order, the best there is, the far-field fit errs by {:.0} us on the direct sounds, more than a far source leaves ({:.0} us; a random order: {:.0} us); check the positions and their unit",
                             judged.own / rate * 1e6,
+                            orders::explained_within(rate, fit.longest()) / rate * 1e6,
                             judged.random / rate * 1e6
                         ),
                     ));
                 } else if let Some(f) = &moved {
                     findings.push(f.clone());
                 } else if images.len() > 1 {
-                    match settle(&fit, frames, images, k, expect) {
+                    match settle(&fit, &spoken, images, k, expect) {
                         Settled::Own => {}
                         Settled::Other(order) => {
                             order_found = true;
@@ -532,7 +545,7 @@ pub fn check_source<S: SampleSource>(
                         Settled::Not(why) => findings.push(Finding {
                             kind: "symmetric".into(),
                             message: format!(
-                                "the delays fit the file's channel order (every other order told apart, t >= {:.1}), but also {} other order(s) that are mirror images or rotations of this array, which delays can never tell apart: {}{why}; give --expect AZ/EL for a sound in the recording from a known direction to settle it",
+                                "the delays fit the file's channel order (every other order told apart by at least {:.1} nats of evidence), but also {} other order(s) that are mirror images or rotations of this array, which delays can never tell apart: {}{why}; give --expect AZ/EL for a sound in the recording from a known direction to settle it",
                                 weakest_t.min(99.0),
                                 images.len() - 1,
                                 images[1..]
@@ -576,9 +589,9 @@ fn factorial(n: usize) -> usize {
 }
 
 /// "found N clear frames", with what a check needs.
-fn found_clear(n: usize) -> String {
+fn found_clear(n: usize, explained: usize) -> String {
     format!(
-        "{n} clear frame(s) found (at least {} needed, more from several directions)",
+        "{n} clear frame(s) found, {explained} of them direct sounds that a far source explains (at least {} needed, from several directions)",
         orders::MIN_FRAMES
     )
 }
@@ -652,9 +665,8 @@ enum Settled {
     Not(String),
 }
 
-/// The image among `images` (the file's first) whose clear frames' directions fall
-/// nearest `expect`: the one with the most frames within [`EXPECT_DEG`], at least
-/// [`EXPECT_FRAMES`] and twice any other's.
+/// The image among `images` (the file's first) whose direct sounds (`frames`) come
+/// nearest `expect`: within [`EXPECT_DEG`], and at most half as far as under any other.
 fn settle(
     fit: &Fit,
     frames: &[scan::Frame],
@@ -665,37 +677,34 @@ fn settle(
     let Some(u) = expect else {
         return Settled::Not(String::new());
     };
-    let near: Vec<usize> = images
+    // Per image, how near its nearest direct sound comes to the expected direction.
+    let near: Vec<f64> = images
         .iter()
         .map(|o| {
-            let chord = 2.0 * (EXPECT_DEG.to_radians() / 2.0).sin();
             frames
                 .iter()
-                .filter(|f| fit.distance_to(f, o, k, &u) < chord)
-                .count()
+                .map(|f| fit.distance_to(f, o, k, &u))
+                .fold(f64::INFINITY, f64::min)
         })
         .collect();
-    let (best, most) = near
-        .iter()
-        .enumerate()
-        .max_by_key(|(i, n)| (**n, std::cmp::Reverse(*i)))
-        .map(|(i, n)| (i, *n))
-        .unwrap_or((0, 0));
-    let second = near
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| *i != best)
-        .map(|(_, n)| *n)
-        .max()
-        .unwrap_or(0);
-    if most >= EXPECT_FRAMES && second * 10 >= most * 8 {
+    let mut ranked: Vec<usize> = (0..images.len()).collect();
+    ranked.sort_by(|&a, &b| near[a].total_cmp(&near[b]).then(a.cmp(&b)));
+    let (best, next) = (ranked[0], ranked.get(1).copied().unwrap_or(ranked[0]));
+    let chord = |deg: f64| 2.0 * (deg.to_radians() / 2.0).sin();
+    let deg = |c: f64| 2.0 * (c / 2.0).min(1.0).asin().to_degrees();
+    if near[best].is_nan() || near[best] >= chord(EXPECT_DEG) {
         return Settled::Not(format!(
-            " (--expect: {most} and {second} clear frames put the sound there under two of them: the expected direction lies on a mirror of the array, which cannot settle it; give a sound from a direction off the array's mirrors)"
+            " (--expect: no direct sound within {EXPECT_DEG:.0} deg of the expected direction under any of them; the nearest is {:.0} deg away)",
+            deg(near[best])
         ));
     }
-    if most < EXPECT_FRAMES || most < 2 * second.max(1) {
+    // The next image must put its nearest sound three times as far, and 3 deg or
+    // more away: else the direction lies on (or near) a mirror of the array.
+    if near[next] < (3.0 * near[best]).max(chord(3.0)) {
         return Settled::Not(format!(
-            " (--expect: {most} clear frame(s) within {EXPECT_DEG:.0} deg of the expected direction under the best of them, {second} under the next: not enough to choose)"
+            " (--expect: two of them put a sound near the expected direction, {:.1} and {:.1} deg away: it lies on or near a mirror of the array, which cannot settle it; give a sound from a direction off the array's mirrors)",
+            deg(near[best]),
+            deg(near[next])
         ));
     }
     if best == 0 {

@@ -1,7 +1,8 @@
 //! Which channel orders the delays of the clearest frames allow: every order of up to
 //! [`super::FULL_ORDERS`] microphones (every swap of two beyond) against the file's, frame
 //! by frame. An order is told apart from another when its residuals are larger frame by
-//! frame with a paired t of at least [`T_NEEDED`]; orders that are images of each other
+//! frame, weighing the evidence ([`evidence`]): at least [`EVIDENCE_NEEDED`] nats;
+//! orders that are images of each other
 //! under the array's symmetries ([`super::symmetry`]) give the same residuals and are
 //! never told apart by delays.
 
@@ -9,12 +10,17 @@ use super::fit::{orderings, Fit};
 use super::scan::Frame;
 use std::collections::HashSet;
 
-/// The paired t (mean difference of two orders' residuals over its standard error)
-/// that tells two orders apart: about one chance in 10^4 of a difference by chance
-/// among 30 frames or more, a few in 10^3 among 8.
-pub const T_NEEDED: f64 = 4.0;
+/// The evidence (natural log of the likelihood ratio) that tells two orders apart:
+/// 9.2 nats, odds of 10^4 to 1.
+pub const EVIDENCE_NEEDED: f64 = 9.2;
+/// The most one frame adds to the evidence (nats): no single frame, which a
+/// reflection may have shaped, decides alone.
+pub const FRAME_EVIDENCE: f64 = 5.0;
+/// The least residual noise assumed (samples RMS): delays are read to about a tenth of
+/// a sample, and the frames' peaks to no better than this.
+pub const SIGMA_FLOOR: f64 = 0.25;
 /// Fewer frames than this and no order is told apart from another.
-pub const MIN_FRAMES: usize = 6;
+pub const MIN_FRAMES: usize = 4;
 
 /// What the delays say of the channel order.
 #[derive(Debug, Clone)]
@@ -47,21 +53,32 @@ pub enum OrderVerdict {
     },
 }
 
-/// Mean, and paired t of `a` minus `b` (0 when they are equal frame by frame).
-fn paired_t(a: &[f64], b: &[f64]) -> (f64, f64) {
+/// The residual noise of the delays (samples RMS): the median of the file's order's
+/// frames' residuals, at least [`SIGMA_FLOOR`].
+fn sigma(own: &[f64]) -> f64 {
+    let mut r = own.to_vec();
+    r.sort_by(f64::total_cmp);
+    r.get(r.len() / 2).copied().unwrap_or(0.0).max(SIGMA_FLOOR)
+}
+
+/// The mean residual difference of `a` over `b` and the evidence for `b` against `a`:
+/// with the pairs' delays off by Gaussian noise of `sigma` samples, each frame's log
+/// likelihood ratio, `pairs (r_a^2 - r_b^2) / (2 sigma^2)`, within
+/// +-[`FRAME_EVIDENCE`], summed over the frames. A swap that changes the delays of a
+/// clap by a few samples is told apart by two claps; a frame whose sound comes from a
+/// direction the swap does not change adds nothing either way.
+fn evidence(a: &[f64], b: &[f64], sigma: f64, pairs: usize) -> (f64, f64) {
     let n = a.len().max(1) as f64;
-    let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
-    let mean = d.iter().sum::<f64>() / n;
-    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-    let se = (var / n).sqrt();
-    let t = if se > 1e-12 {
-        mean / se
-    } else if mean.abs() > 1e-9 {
-        mean.signum() * f64::INFINITY
-    } else {
-        0.0
-    };
-    (mean, t)
+    let mean = a.iter().zip(b).map(|(x, y)| x - y).sum::<f64>() / n;
+    let e = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| {
+            (pairs as f64 * (x * x - y * y) / (2.0 * sigma * sigma))
+                .clamp(-FRAME_EVIDENCE, FRAME_EVIDENCE)
+        })
+        .sum();
+    (mean, e)
 }
 
 /// How many places `order` differs from `base` in.
@@ -83,12 +100,53 @@ pub fn images(order: &[usize], group: &[Vec<usize>], base: &[usize]) -> Vec<Vec<
     out
 }
 
+/// A frame speaks of the order when some order explains its delays within this many
+/// samples (RMS), or [`EXPLAINED_US`] if that is more: the direct sound of a clap does,
+/// its room's tail does not. Chosen by every order alike (the least residual over all
+/// of them), so the choice favours none.
+pub const EXPLAINED_SAMPLES: f64 = 1.0;
+/// The same in time: a large array hears a clap a few metres away with a curved front
+/// that a far-field fit misses by tens of microseconds.
+pub const EXPLAINED_US: f64 = 120.0;
+
+/// The residual (samples) within which a frame is explained at `rate` Hz, on an array
+/// whose longest delay is `longest` samples: [`EXPLAINED_SAMPLES`] or [`EXPLAINED_US`],
+/// but never more than [`EXPLAINED_SHARE`] of the longest delay (a small array's
+/// delays are a few samples, which any order explains within one).
+pub fn explained_within(rate: f64, longest: f64) -> f64 {
+    EXPLAINED_SAMPLES
+        .max(EXPLAINED_US * 1e-6 * rate)
+        .min(EXPLAINED_SHARE * longest)
+}
+
+/// See [`explained_within`].
+pub const EXPLAINED_SHARE: f64 = 0.2;
+
 /// What [`judge`] found: its verdict, the file's order's mean residual and the median
-/// of the other orders' (what an order that does not fit gives), in samples.
+/// of the other orders' (what an order that does not fit gives), in samples, over the
+/// frames that some order explains (their indices in `frames`).
 pub struct Judged {
     pub verdict: OrderVerdict,
     pub own: f64,
     pub random: f64,
+    pub frames: Vec<usize>,
+}
+
+/// The frames some order (of those [`judge`] tries) explains within
+/// [`EXPLAINED_SAMPLES`].
+fn explained(fit: &Fit, frames: &[Frame], used: &[usize], k: usize, max_full: usize) -> Vec<usize> {
+    let mut least = vec![f64::INFINITY; frames.len()];
+    let mut buf = Vec::new();
+    orderings(used, max_full, |order| {
+        for (l, r) in least
+            .iter_mut()
+            .zip(fit.residuals(frames, order, k, &mut buf))
+        {
+            *l = l.min(r);
+        }
+    });
+    let within = explained_within(fit.rate(), fit.longest());
+    (0..frames.len()).filter(|&i| least[i] <= within).collect()
 }
 
 /// The verdict of the delays in `frames` on the order `used` (the channel of each
@@ -101,13 +159,16 @@ pub fn judge(
     group: &[Vec<usize>],
     max_full: usize,
 ) -> Judged {
-    let (verdict, own, mut means) = verdict(fit, frames, used, k, group, max_full);
+    let chosen = explained(fit, frames, used, k, max_full);
+    let kept: Vec<Frame> = chosen.iter().map(|&i| frames[i].clone()).collect();
+    let (verdict, own, mut means) = verdict(fit, &kept, used, k, group, max_full);
     means.sort_by(f64::total_cmp);
     let random = means.get(means.len() / 2).copied().unwrap_or(f64::INFINITY);
     Judged {
         verdict,
         own,
         random,
+        frames: chosen,
     }
 }
 
@@ -122,6 +183,8 @@ fn verdict(
     let mut buf = Vec::new();
     let own = fit.residuals(frames, used, k, &mut buf);
     let own_images = images(used, group, used);
+    let noise = sigma(&own);
+    let pairs = used.len() * (used.len() - 1) / 2;
     let own_class: HashSet<Vec<usize>> = own_images.iter().cloned().collect();
     // One pass: each other order's mean, its t against the file's, and the best.
     let mut best = (f64::INFINITY, used.to_vec(), own.clone());
@@ -141,13 +204,13 @@ fn verdict(
             continue;
         }
         let r = fit.residuals(frames, order, k, &mut buf);
-        let (diff, t) = paired_t(&r, &own);
+        let (diff, t) = evidence(&r, &own, noise, pairs);
         let mean = r.iter().sum::<f64>() / r.len().max(1) as f64;
         all_means.push(mean);
         if mean < best.0 {
             best = (mean, order.clone(), r);
         }
-        if t < T_NEEDED || frames.len() < MIN_FRAMES {
+        if t < EVIDENCE_NEEDED || frames.len() < MIN_FRAMES {
             open.push((order.clone(), if diff < 0.0 { t.min(0.0) } else { t }));
         } else {
             weakest = weakest.min(t);
@@ -156,8 +219,8 @@ fn verdict(
     let own_mean = own.iter().sum::<f64>() / own.len().max(1) as f64;
     // Another order much better, and told apart: the fix, among its images nearest.
     if best.0 < super::BETTER_SHARE * own_mean {
-        let (_, t) = paired_t(&own, &best.2);
-        if t >= T_NEEDED && frames.len() >= MIN_FRAMES {
+        let (_, t) = evidence(&own, &best.2, sigma(&best.2), pairs);
+        if t >= EVIDENCE_NEEDED && frames.len() >= MIN_FRAMES {
             let orders = images(&best.1, group, used);
             let best_class: HashSet<Vec<usize>> = orders.iter().cloned().collect();
             let mut rivals: Vec<Vec<usize>> = candidates
@@ -165,7 +228,7 @@ fn verdict(
                 .filter(|o| !best_class.contains(*o) && !own_class.contains(*o))
                 .filter(|o| {
                     let r = fit.residuals(frames, o, k, &mut buf);
-                    paired_t(&r, &best.2).1 < T_NEEDED
+                    evidence(&r, &best.2, sigma(&best.2), pairs).1 < EVIDENCE_NEEDED
                 })
                 .cloned()
                 .collect();
@@ -193,10 +256,10 @@ fn verdict(
             .then(a.1.total_cmp(&b.1))
     });
     let (rival, t) = open[0].clone();
-    // t grows as the root of the frames: the frames that would likely bring the
-    // nearest open order to T_NEEDED, when it is on its way there.
+    // Evidence grows with the frames: the frames that would likely bring the nearest
+    // open order to EVIDENCE_NEEDED, when it is on its way there.
     let needed_frames = (t > 0.5).then(|| {
-        let n = frames.len().max(MIN_FRAMES) as f64 * (T_NEEDED / t).powi(2);
+        let n = frames.len().max(MIN_FRAMES) as f64 * (EVIDENCE_NEEDED / t);
         n.ceil() as usize
     });
     let mut rivals: Vec<Vec<usize>> = open.into_iter().map(|(o, _)| o).collect();

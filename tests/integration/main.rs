@@ -12,6 +12,7 @@ mod batch;
 mod benchmark;
 mod bounds;
 mod check;
+mod check_orders;
 mod cli;
 mod clock;
 mod docs;
