@@ -376,31 +376,30 @@ pub fn check_source<S: SampleSource>(
         fit.beyond_share(frames, order, k) <= BEYOND_SHARE
             && (SHORT_LENGTH..=LONG_LENGTH).contains(&fit.length(frames, order, k))
     };
-    let mut order_found = false;
-    if let Some(orders::Judged {
-        verdict:
-            OrderVerdict::Better {
-                orders,
-                best,
-                own: base,
-                rivals,
-            },
-        ..
-    }) = &judged
-    {
-        if plausible(&orders[0]) {
-            order_found = true;
-            findings.push(order_finding(
-                &orders[0],
-                orders,
-                rivals,
-                &used,
-                *base / best.max(1e-9),
-                best / rate * 1e6,
-                base / rate * 1e6,
-            ));
-        }
-    }
+    // A permutation that explains the delays, within the positions' reach.
+    let fix = match &judged {
+        Some(orders::Judged {
+            verdict:
+                OrderVerdict::Better {
+                    orders,
+                    best,
+                    own: base,
+                    rivals,
+                },
+            ..
+        }) if plausible(&orders[0]) => Some(order_finding(
+            &orders[0],
+            orders,
+            rivals,
+            &used,
+            *base / best.max(1e-9),
+            best / rate * 1e6,
+            base / rate * 1e6,
+        )),
+        _ => None,
+    };
+    let order_found = fix.is_some();
+    findings.extend(fix);
     let mut explained = order_found;
     if !order_found && (beyond > BEYOND_SHARE || length > LONG_LENGTH) {
         explained = true;
@@ -529,7 +528,6 @@ pub fn check_source<S: SampleSource>(
                     match settle(&fit, &spoken, images, k, expect) {
                         Settled::Own => {}
                         Settled::Other(order) => {
-                            order_found = true;
                             findings.push(Finding {
                                 kind: "order".into(),
                                 message: format!(
@@ -545,8 +543,12 @@ pub fn check_source<S: SampleSource>(
                         Settled::Not(why) => findings.push(Finding {
                             kind: "symmetric".into(),
                             message: format!(
-                                "the delays fit the file's channel order (every other order told apart by at least {:.1} nats of evidence), but also {} other order(s) that are mirror images or rotations of this array, which delays can never tell apart: {}{why}; give --expect AZ/EL for a sound in the recording from a known direction to settle it",
-                                weakest_t.min(99.0),
+                                "the delays fit the file's channel order ({}), but also {} other order(s) that are mirror images or rotations of this array, which delays can never tell apart: {}{why}; give --expect AZ/EL for a sound in the recording from a known direction to settle it",
+                                if weakest_t.is_finite() {
+                                    format!("every other order told apart by at least {weakest_t:.1} nats of evidence")
+                                } else {
+                                    "every order of these microphones is one of them".to_string()
+                                },
                                 images.len() - 1,
                                 images[1..]
                                     .iter()
@@ -564,7 +566,6 @@ pub fn check_source<S: SampleSource>(
             }
         }
     }
-    let _ = order_found;
     let fitted = Fitted {
         residual_us: Some(own / rate * 1e6),
         beyond_share: Some(beyond),

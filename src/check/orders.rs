@@ -132,25 +132,10 @@ pub struct Judged {
     pub frames: Vec<usize>,
 }
 
-/// The frames some order (of those [`judge`] tries) explains within
-/// [`EXPLAINED_SAMPLES`].
-fn explained(fit: &Fit, frames: &[Frame], used: &[usize], k: usize, max_full: usize) -> Vec<usize> {
-    let mut least = vec![f64::INFINITY; frames.len()];
-    let mut buf = Vec::new();
-    orderings(used, max_full, |order| {
-        for (l, r) in least
-            .iter_mut()
-            .zip(fit.residuals(frames, order, k, &mut buf))
-        {
-            *l = l.min(r);
-        }
-    });
-    let within = explained_within(fit.rate(), fit.longest());
-    (0..frames.len()).filter(|&i| least[i] <= within).collect()
-}
-
 /// The verdict of the delays in `frames` on the order `used` (the channel of each
-/// microphone, `k` channels), the array's symmetries being `group`.
+/// microphone, `k` channels), the array's symmetries being `group`. Each order's
+/// residuals are computed once, on every frame; the frames that speak are those some
+/// order explains within [`explained_within`].
 pub fn judge(
     fit: &Fit,
     frames: &[Frame],
@@ -159,9 +144,32 @@ pub fn judge(
     group: &[Vec<usize>],
     max_full: usize,
 ) -> Judged {
-    let chosen = explained(fit, frames, used, k, max_full);
-    let kept: Vec<Frame> = chosen.iter().map(|&i| frames[i].clone()).collect();
-    let (verdict, own, mut means) = verdict(fit, &kept, used, k, group, max_full);
+    let own_images = images(used, group, used);
+    let mut candidates: Vec<Vec<usize>> = Vec::new();
+    orderings(used, max_full, |order| candidates.push(order.to_vec()));
+    // Beyond full orders only swaps are tried: the images of the file's order too.
+    for o in &own_images {
+        if !candidates.contains(o) {
+            candidates.push(o.clone());
+        }
+    }
+    let mut buf = Vec::new();
+    let all: Vec<Vec<f64>> = candidates
+        .iter()
+        .map(|o| fit.residuals(frames, o, k, &mut buf))
+        .collect();
+    let within = explained_within(fit.rate(), fit.longest());
+    let chosen: Vec<usize> = (0..frames.len())
+        .filter(|&f| all.iter().map(|r| r[f]).fold(f64::INFINITY, f64::min) <= within)
+        .collect();
+    let rows: Vec<Vec<f64>> = all
+        .iter()
+        .map(|r| chosen.iter().map(|&f| r[f]).collect())
+        .collect();
+    drop(all);
+    let own = fit.residuals(frames, used, k, &mut buf);
+    let own: Vec<f64> = chosen.iter().map(|&f| own[f]).collect();
+    let (verdict, own, mut means) = verdict(&candidates, &rows, &own, used, group, own_images);
     means.sort_by(f64::total_cmp);
     let random = means.get(means.len() / 2).copied().unwrap_or(f64::INFINITY);
     Judged {
@@ -172,71 +180,63 @@ pub fn judge(
     }
 }
 
+/// The verdict from each candidate order's residuals on the frames that speak (`rows`,
+/// one per candidate) and the file's order's (`own`).
 fn verdict(
-    fit: &Fit,
-    frames: &[Frame],
+    candidates: &[Vec<usize>],
+    rows: &[Vec<f64>],
+    own: &[f64],
     used: &[usize],
-    k: usize,
     group: &[Vec<usize>],
-    max_full: usize,
+    own_images: Vec<Vec<usize>>,
 ) -> (OrderVerdict, f64, Vec<f64>) {
-    let mut buf = Vec::new();
-    let own = fit.residuals(frames, used, k, &mut buf);
-    let own_images = images(used, group, used);
-    let noise = sigma(&own);
+    let n = own.len();
+    let noise = sigma(own);
     let pairs = used.len() * (used.len() - 1) / 2;
     let own_class: HashSet<Vec<usize>> = own_images.iter().cloned().collect();
-    // One pass: each other order's mean, its t against the file's, and the best.
-    let mut best = (f64::INFINITY, used.to_vec(), own.clone());
+    // One pass: each other order's mean, its evidence against the file's, and the best.
+    let mut best: Option<(usize, f64)> = None;
     let mut open: Vec<(Vec<usize>, f64)> = Vec::new();
     let mut weakest = f64::INFINITY;
-    let mut candidates: Vec<Vec<usize>> = Vec::new();
-    orderings(used, max_full, |order| candidates.push(order.to_vec()));
-    // Beyond full orders only swaps are tried: the images of the file's order too.
-    for o in &own_images {
-        if !candidates.contains(o) {
-            candidates.push(o.clone());
-        }
-    }
     let mut all_means = Vec::with_capacity(candidates.len());
-    for order in &candidates {
+    let mean_of = |r: &[f64]| r.iter().sum::<f64>() / r.len().max(1) as f64;
+    for (c, (order, r)) in candidates.iter().zip(rows).enumerate() {
         if own_class.contains(order) {
             continue;
         }
-        let r = fit.residuals(frames, order, k, &mut buf);
-        let (diff, t) = evidence(&r, &own, noise, pairs);
-        let mean = r.iter().sum::<f64>() / r.len().max(1) as f64;
+        let (diff, t) = evidence(r, own, noise, pairs);
+        let mean = mean_of(r);
         all_means.push(mean);
-        if mean < best.0 {
-            best = (mean, order.clone(), r);
+        if best.is_none_or(|(_, m)| mean < m) {
+            best = Some((c, mean));
         }
-        if t < EVIDENCE_NEEDED || frames.len() < MIN_FRAMES {
+        if t < EVIDENCE_NEEDED || n < MIN_FRAMES {
             open.push((order.clone(), if diff < 0.0 { t.min(0.0) } else { t }));
         } else {
             weakest = weakest.min(t);
         }
     }
-    let own_mean = own.iter().sum::<f64>() / own.len().max(1) as f64;
+    let own_mean = mean_of(own);
     // Another order much better, and told apart: the fix, among its images nearest.
-    if best.0 < super::BETTER_SHARE * own_mean {
-        let (_, t) = evidence(&own, &best.2, sigma(&best.2), pairs);
-        if t >= EVIDENCE_NEEDED && frames.len() >= MIN_FRAMES {
-            let orders = images(&best.1, group, used);
+    if let Some((b, best_mean)) = best.filter(|&(_, m)| m < super::BETTER_SHARE * own_mean) {
+        let best_rows = &rows[b];
+        let best_noise = sigma(best_rows);
+        let (_, t) = evidence(own, best_rows, best_noise, pairs);
+        if t >= EVIDENCE_NEEDED && n >= MIN_FRAMES {
+            let orders = images(&candidates[b], group, used);
             let best_class: HashSet<Vec<usize>> = orders.iter().cloned().collect();
             let mut rivals: Vec<Vec<usize>> = candidates
                 .iter()
-                .filter(|o| !best_class.contains(*o) && !own_class.contains(*o))
-                .filter(|o| {
-                    let r = fit.residuals(frames, o, k, &mut buf);
-                    evidence(&r, &best.2, sigma(&best.2), pairs).1 < EVIDENCE_NEEDED
-                })
-                .cloned()
+                .zip(rows)
+                .filter(|(o, _)| !best_class.contains(*o) && !own_class.contains(*o))
+                .filter(|(_, r)| evidence(r, best_rows, best_noise, pairs).1 < EVIDENCE_NEEDED)
+                .map(|(o, _)| o.clone())
                 .collect();
             rivals.sort_by_key(|o| (changes(o, used), o.clone()));
             rivals.truncate(12);
             let verdict = OrderVerdict::Better {
                 orders,
-                best: best.0,
+                best: best_mean,
                 own: own_mean,
                 rivals,
             };
@@ -258,10 +258,8 @@ fn verdict(
     let (rival, t) = open[0].clone();
     // Evidence grows with the frames: the frames that would likely bring the nearest
     // open order to EVIDENCE_NEEDED, when it is on its way there.
-    let needed_frames = (t > 0.5).then(|| {
-        let n = frames.len().max(MIN_FRAMES) as f64 * (EVIDENCE_NEEDED / t);
-        n.ceil() as usize
-    });
+    let needed_frames =
+        (t > 0.5).then(|| (n.max(MIN_FRAMES) as f64 * (EVIDENCE_NEEDED / t)).ceil() as usize);
     let mut rivals: Vec<Vec<usize>> = open.into_iter().map(|(o, _)| o).collect();
     rivals.truncate(12);
     let verdict = OrderVerdict::Open {

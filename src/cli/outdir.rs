@@ -42,7 +42,9 @@ pub enum Entry {
     Missing,
     /// A regular file, with its size.
     File(u64),
-    /// A link, a folder, a FIFO, a device or a socket: never written, read or removed.
+    /// A symbolic link: never followed (removing it removes the link alone).
+    Link,
+    /// A folder, a FIFO, a device or a socket: never written, read or removed.
     Other(&'static str),
 }
 
@@ -241,6 +243,7 @@ impl Folder {
         match rustix::fs::statat(&self.fd, name, AtFlags::SYMLINK_NOFOLLOW) {
             Ok(s) => Ok(match FileType::from_raw_mode(s.st_mode) {
                 FileType::RegularFile => Entry::File(s.st_size as u64),
+                FileType::Symlink => Entry::Link,
                 t => Entry::Other(kind_name(t)),
             }),
             Err(rustix::io::Errno::NOENT) => Ok(Entry::Missing),
@@ -274,12 +277,13 @@ impl Folder {
     /// an error. Folders, FIFOs and devices are left alone.
     pub fn remove(&self, name: &OsStr) -> io::Result<()> {
         match self.entry(name)? {
-            Entry::Missing => Ok(()),
-            Entry::Other(k) if k != "a symbolic link" => Ok(()),
-            _ => match rustix::fs::unlinkat(&self.fd, name, AtFlags::empty()) {
-                Ok(()) | Err(rustix::io::Errno::NOENT) => Ok(()),
-                Err(e) => Err(errno(e)),
-            },
+            Entry::Missing | Entry::Other(_) => Ok(()),
+            Entry::File(_) | Entry::Link => {
+                match rustix::fs::unlinkat(&self.fd, name, AtFlags::empty()) {
+                    Ok(()) | Err(rustix::io::Errno::NOENT) => Ok(()),
+                    Err(e) => Err(errno(e)),
+                }
+            }
         }
     }
 
@@ -295,9 +299,13 @@ impl Folder {
             );
         }
         match self.entry(name) {
-            Ok(Entry::Other(kind)) => bail!(
-                "{}: is {kind}; a batch replaces only regular files, never through a link (remove it, or choose another --out-dir)",
-                shown.display()
+            Ok(e @ (Entry::Link | Entry::Other(_))) => bail!(
+                "{}: is {}; a batch replaces only regular files, never through a link (remove it, or choose another --out-dir)",
+                shown.display(),
+                match e {
+                    Entry::Other(kind) => kind,
+                    _ => kind_name(FileType::Symlink),
+                }
             ),
             Err(e) => bail!(
                 "{}: cannot look at it: {}",
