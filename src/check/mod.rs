@@ -36,6 +36,10 @@ pub const MIN_CLEAR_FRAMES: usize = orders::MIN_FRAMES;
 /// With `--expect`, a clear frame is of the expected sound when its direction is within
 /// this many degrees of it.
 pub const EXPECT_DEG: f64 = 10.0;
+/// With `--expect`, the order settled on puts a direct sound this many degrees nearer
+/// the expected direction than any other image does: a sound nearer a mirror of the
+/// array than half this cannot settle it.
+pub const EXPECT_MARGIN_DEG: f64 = 4.0;
 /// The file's order fits the geometry when its residual is under this share of a random
 /// order's (the median over every other order).
 pub const RANDOM_SHARE: f64 = 0.7;
@@ -43,6 +47,9 @@ pub const RANDOM_SHARE: f64 = 0.7;
 pub const BETTER_SHARE: f64 = 0.5;
 /// A channel this many decibels from the median level is a gain mismatch.
 pub const GAIN_DB: f64 = 6.0;
+/// A channel this many dB under the median channel carries only its own noise: dead. A
+/// directional capsule facing away is 8-20 dB down, never this far over a recording.
+pub const DEAD_DB: f64 = 30.0;
 /// The share of a channel's pairs with a negative peak that makes it inverted.
 pub const INVERTED_SHARE: f64 = 0.6;
 /// The share of samples at full scale that makes a channel clip.
@@ -141,13 +148,32 @@ pub struct CheckReport {
 }
 
 /// What `ssl check` is told besides the recording and the geometry.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct CheckOptions {
-    /// A sound in the recording comes from this direction (azimuth, elevation in
-    /// degrees, in the geometry's output frame): it settles orders that are mirror
-    /// images or rotations of each other.
-    pub expect_deg: Option<(f64, f64)>,
+    /// Sounds in the recording from known directions: they settle orders that are
+    /// mirror images or rotations of each other. The order settled on puts a direct
+    /// sound near each of them.
+    pub expect: Vec<Expected>,
 }
+
+/// A sound from a known direction (`--expect AZ/EL[@T]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Expected {
+    /// Azimuth in degrees, in the geometry's output frame.
+    pub azimuth_deg: f64,
+    /// Elevation in degrees.
+    pub elevation_deg: f64,
+    /// When it starts (seconds into the recording): only direct sounds from
+    /// [`EXPECT_BEFORE_S`] before to [`EXPECT_AFTER_S`] after are taken for it. Without
+    /// it any direct sound is, and with many sounds around a regular array one of them
+    /// may lie near the expected direction under a rotation too.
+    pub at_s: Option<f64>,
+}
+
+/// See [`Expected::at_s`]: a sound given at T is looked for from T - 0.2 s ...
+pub const EXPECT_BEFORE_S: f64 = 0.2;
+/// ... to T + 0.4 s (claps half a second apart stay apart).
+pub const EXPECT_AFTER_S: f64 = 0.4;
 
 fn finding(kind: &str, message: String) -> Finding {
     Finding {
@@ -178,9 +204,16 @@ pub fn check_source<S: SampleSource>(
     geometry: &Geometry,
     options: &CheckOptions,
 ) -> Result<CheckReport, CheckError> {
-    let expect = options
-        .expect_deg
-        .map(|(az, el)| crate::method::direction::unit_from_angles(az, el));
+    let expect: Vec<(nalgebra::Vector3<f64>, Option<f64>)> = options
+        .expect
+        .iter()
+        .map(|e| {
+            (
+                crate::method::direction::unit_from_angles(e.azimuth_deg, e.elevation_deg),
+                e.at_s,
+            )
+        })
+        .collect();
     let name = source.name().to_string();
     let k = source.channels();
     let m = geometry.mics.len();
@@ -251,17 +284,26 @@ pub fn check_source<S: SampleSource>(
             remarks,
         ));
     }
-    // Channels.
+    // Channels: dead when constant, silent, or far under the others.
+    let median_level = {
+        let mut l: Vec<f64> = used.iter().filter_map(|&c| levels[c]).collect();
+        l.sort_by(f64::total_cmp);
+        l.get(l.len() / 2).copied().unwrap_or(-100.0)
+    };
     let dead: Vec<usize> = used
         .iter()
         .copied()
-        .filter(|&c| levels[c].is_none_or(|l| l < -100.0))
+        .filter(|&c| levels[c].is_none_or(|l| l < -100.0 || l < median_level - DEAD_DB))
         .collect();
     for &c in &dead {
-        findings.push(finding(
-            "dead",
-            format!("{} is dead (constant or silent)", mics_on(c)),
-        ));
+        let why = match levels[c] {
+            Some(l) if l >= -100.0 => format!(
+                "{:.0} dB under the median channel: only noise, no microphone",
+                median_level - l
+            ),
+            _ => "constant or silent".into(),
+        };
+        findings.push(finding("dead", format!("{} is dead ({why})", mics_on(c))));
     }
     for &c in &used {
         let share = scan.channels[c].clipped as f64 / samples;
@@ -387,15 +429,28 @@ pub fn check_source<S: SampleSource>(
                     rivals,
                 },
             ..
-        }) if plausible(&orders[0]) => Some(order_finding(
-            &orders[0],
-            orders,
-            rivals,
-            &used,
-            *base / best.max(1e-9),
-            best / rate * 1e6,
-            base / rate * 1e6,
-        )),
+        }) if plausible(&orders[0]) => {
+            // A known direction picks among the fix's images, as it does among the file's.
+            let direct: Vec<scan::Frame> = judged
+                .as_ref()
+                .map(|j| j.frames.iter().map(|&i| strongest[i].clone()).collect())
+                .unwrap_or_default();
+            let settled =
+                match (orders.len() > 1).then(|| settle(&fit, &direct, orders, k, &expect)) {
+                    Some(Settled::Own) => vec![orders[0].clone()],
+                    Some(Settled::Other(o)) => vec![o],
+                    _ => orders.clone(),
+                };
+            Some(order_finding(
+                &settled[0],
+                &settled,
+                rivals,
+                &used,
+                *base / best.max(1e-9),
+                best / rate * 1e6,
+                base / rate * 1e6,
+            ))
+        }
         _ => None,
     };
     let order_found = fix.is_some();
@@ -488,6 +543,26 @@ pub fn check_source<S: SampleSource>(
                 t,
                 needed_frames,
                 rivals,
+            } if *t <= -EVIDENCE_NEEDED => {
+                // Another order explains the delays better, beyond doubt, yet neither
+                // explains them well: the positions are wrong, not (only) the order.
+                findings.push(Finding {
+                    kind: "misfit".into(),
+                    message: format!(
+                        "the delays fit the geometry with no channel order: {} explains them better than the file's order ({:.1} nats of evidence), but no order explains them as well as a far source and true positions would; a microphone is elsewhere than the geometry says, or a position is wrong (with {} orders alike)",
+                        describe_change(rival, &used, &positions, speed),
+                        -t,
+                        rivals.len()
+                    ),
+                    order: None,
+                    orders: Some(rivals.clone()),
+                });
+            }
+            OrderVerdict::Open {
+                rival,
+                t,
+                needed_frames,
+                rivals,
             } => {
                 let what = describe_change(rival, &used, &positions, speed);
                 let more = match needed_frames {
@@ -525,7 +600,7 @@ pub fn check_source<S: SampleSource>(
                 } else if let Some(f) = &moved {
                     findings.push(f.clone());
                 } else if images.len() > 1 {
-                    match settle(&fit, &spoken, images, k, expect) {
+                    match settle(&fit, &spoken, images, k, &expect) {
                         Settled::Own => {}
                         Settled::Other(order) => {
                             findings.push(Finding {
@@ -667,25 +742,36 @@ enum Settled {
 }
 
 /// The image among `images` (the file's first) whose direct sounds (`frames`) come
-/// nearest `expect`: within [`EXPECT_DEG`], and at most half as far as under any other.
+/// nearest each of `expect`: within [`EXPECT_DEG`], and [`EXPECT_MARGIN_DEG`] nearer than under any other.
 fn settle(
     fit: &Fit,
     frames: &[scan::Frame],
     images: &[Vec<usize>],
     k: usize,
-    expect: Option<nalgebra::Vector3<f64>>,
+    expect: &[(nalgebra::Vector3<f64>, Option<f64>)],
 ) -> Settled {
-    let Some(u) = expect else {
+    if expect.is_empty() {
         return Settled::Not(String::new());
-    };
-    // Per image, how near its nearest direct sound comes to the expected direction.
+    }
+    // Per image, how near its nearest direct sound (in each expected sound's time, when
+    // given) comes to each expected direction; the farthest of them counts.
     let near: Vec<f64> = images
         .iter()
         .map(|o| {
-            frames
+            expect
                 .iter()
-                .map(|f| fit.distance_to(f, o, k, &u))
-                .fold(f64::INFINITY, f64::min)
+                .map(|(u, at)| {
+                    frames
+                        .iter()
+                        .filter(|f| {
+                            at.is_none_or(|t| {
+                                (t - EXPECT_BEFORE_S..=t + EXPECT_AFTER_S).contains(&f.start_s)
+                            })
+                        })
+                        .map(|f| fit.distance_to(f, o, k, u))
+                        .fold(f64::INFINITY, f64::min)
+                })
+                .fold(0.0, f64::max)
         })
         .collect();
     let mut ranked: Vec<usize> = (0..images.len()).collect();
@@ -695,13 +781,13 @@ fn settle(
     let deg = |c: f64| 2.0 * (c / 2.0).min(1.0).asin().to_degrees();
     if near[best].is_nan() || near[best] >= chord(EXPECT_DEG) {
         return Settled::Not(format!(
-            " (--expect: no direct sound within {EXPECT_DEG:.0} deg of the expected direction under any of them; the nearest is {:.0} deg away)",
+            " (--expect: under none of them is there a direct sound within {EXPECT_DEG:.0} deg of each expected direction (in its time, when given); the nearest comes {:.0} deg away)",
             deg(near[best])
         ));
     }
-    // The next image must put its nearest sound three times as far, and 3 deg or
-    // more away: else the direction lies on (or near) a mirror of the array.
-    if near[next] < (3.0 * near[best]).max(chord(3.0)) {
+    // The next image must put its nearest sound EXPECT_MARGIN_DEG farther: else the
+    // direction lies on (or near) a mirror of the array.
+    if deg(near[next]) < deg(near[best]) + EXPECT_MARGIN_DEG {
         return Settled::Not(format!(
             " (--expect: two of them put a sound near the expected direction, {:.1} and {:.1} deg away: it lies on or near a mirror of the array, which cannot settle it; give a sound from a direction off the array's mirrors)",
             deg(near[best]),

@@ -42,6 +42,8 @@ pub struct ChannelStats {
 pub struct Frame {
     /// How clear: the pairs' mean |peak| within reach.
     pub clarity: f32,
+    /// Where the frame starts in the recording (seconds).
+    pub start_s: f64,
     /// Delays of the highest peaks (samples).
     pub lags: Vec<f64>,
     /// Their values (negative: the pair's channels are of opposite polarity).
@@ -240,6 +242,7 @@ pub fn scan<S: SampleSource>(source: &mut S, n: usize, reach: usize) -> Result<S
         if clarity >= CLEAR_PEAK && channels.len() > 1 {
             heap.push(Reverse(Frame {
                 clarity,
+                start_s: (samples - got as u64) as f64 / source.sample_rate() as f64,
                 lags,
                 peaks,
                 near,

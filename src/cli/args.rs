@@ -1,7 +1,7 @@
 //! The command line's arguments (clap). `man/` is generated from these definitions.
 
 use super::values::{
-    band, candidate_share, choice, direction, false_per_hour, non_negative, non_negative_f64,
+    band, candidate_share, choice, expected, false_per_hour, non_negative, non_negative_f64,
     parse_f64, positive, shard, smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
     Shard,
 };
@@ -386,9 +386,9 @@ pub struct CheckArgs {
     #[arg(short, long, value_enum, default_value_t = CheckFormat::Text)]
     pub format: CheckFormat,
 
-    /// A sound in the recording comes from this direction (azimuth/elevation in degrees, e.g. 30/10): it settles channel orders that the array's symmetry hides (mirror images, rotations)
-    #[arg(long, value_name = "AZ/EL", value_parser = direction, allow_hyphen_values = true)]
-    pub expect: Option<(f64, f64)>,
+    /// A sound in the recording comes from this direction (azimuth/elevation in degrees, e.g. 30/10), starting T seconds in when @T is given (30/10@2.5): it settles channel orders that the array's symmetry hides (mirror images, rotations). Repeat it for several sounds; give the time when the recording has sounds from many directions, as claps around a regular array
+    #[arg(long, value_name = "AZ/EL[@T]", value_parser = expected, allow_hyphen_values = true)]
+    pub expect: Vec<ssl::check::Expected>,
 }
 
 /// `ssl check --format`.

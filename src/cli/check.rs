@@ -14,7 +14,7 @@ pub fn run(args: &CheckArgs) -> Result<bool> {
         super::warn(false, &format!("{path}: {w}"));
     }
     let options = CheckOptions {
-        expect_deg: args.expect,
+        expect: args.expect.clone(),
     };
     let report = check(&args.recording, &geometry, &options)?;
     let text = match args.format {

@@ -151,12 +151,18 @@ pub(super) fn shard(s: &str) -> std::result::Result<Shard, String> {
     Ok(Shard { index, count })
 }
 
-/// A direction `AZ/EL` in degrees (`--expect 30/10`): azimuth within -360..360,
+/// A sound from a known direction, `AZ/EL` in degrees with an optional `@T` start in
+/// seconds (`--expect 30/10`, `--expect -120/-20@3.5`): azimuth within -360..360,
 /// elevation within -90..90.
-pub(super) fn direction(s: &str) -> std::result::Result<(f64, f64), String> {
-    let bad =
-        || format!("`{s}` is not AZ/EL in degrees (azimuth/elevation, e.g. 30/10 or -120/-20)");
-    let (a, e) = s.split_once('/').ok_or_else(bad)?;
+pub(super) fn expected(s: &str) -> std::result::Result<ssl::check::Expected, String> {
+    let bad = || {
+        format!("`{s}` is not AZ/EL in degrees with an optional @T in seconds (e.g. 30/10, or -120/-20@3.5 for a sound that starts 3.5 s in)")
+    };
+    let (dir, at) = match s.split_once('@') {
+        Some((d, t)) => (d, Some(t)),
+        None => (s, None),
+    };
+    let (a, e) = dir.split_once('/').ok_or_else(bad)?;
     let (az, el): (f64, f64) = (
         a.trim().parse().map_err(|_| bad())?,
         e.trim().parse().map_err(|_| bad())?,
@@ -164,5 +170,19 @@ pub(super) fn direction(s: &str) -> std::result::Result<(f64, f64), String> {
     if !(-360.0..=360.0).contains(&az) || !(-90.0..=90.0).contains(&el) {
         return Err(bad());
     }
-    Ok((az, el))
+    let at_s = match at {
+        Some(t) => {
+            let t: f64 = t.trim().parse().map_err(|_| bad())?;
+            if !t.is_finite() || t < 0.0 {
+                return Err(bad());
+            }
+            Some(t)
+        }
+        None => None,
+    };
+    Ok(ssl::check::Expected {
+        azimuth_deg: az,
+        elevation_deg: el,
+        at_s,
+    })
 }

@@ -278,3 +278,72 @@ fn too_few_clear_sounds_say_how_many_were_found_and_needed() {
     assert_eq!(v["findings"][0]["kind"], "unclear", "{v}");
     assert!(message.contains("needed"), "{message}");
 }
+
+#[test]
+fn a_known_clap_with_its_time_picks_the_swap_among_its_images_and_only_in_its_time() {
+    let dir = tempdir();
+    let mics = ring(6, 0.0463, 0.0, 0.0);
+    let wav = room_claps(dir.path(), &mics, 16000);
+    // Every swap: the clap from 15/10 at 0.3 s names the swap itself, alone.
+    for (a, b) in [(0, 1), (0, 3), (1, 4), (2, 5), (4, 5)] {
+        let mut claimed = mics.clone();
+        claimed.swap(a, b);
+        let (code, v) = check(dir.path(), &wav, &claimed, &["--expect", "15/10@0.3"]);
+        let mut fix: Vec<usize> = (0..6).collect();
+        fix.swap(a, b);
+        assert_eq!(code, 1, "{v}");
+        assert_eq!(order_of(&v), Some((fix.clone(), vec![fix])), "{a}-{b}: {v}");
+    }
+    // Given at 1.3 s, when the clap there comes from 85/-40: nothing near 15/10 then,
+    // so nothing is settled, and the report says why.
+    let (code, v) = check(dir.path(), &wav, &mics, &["--expect", "15/10@1.3"]);
+    assert_eq!((code, kinds(&v)), (1, vec!["symmetric".to_string()]), "{v}");
+    let message = v["findings"][0]["message"].as_str().unwrap();
+    assert!(message.contains("in its time"), "{message}");
+    // Two known sounds, each in its time: a fit.
+    let (code, v) = check(
+        dir.path(),
+        &wav,
+        &mics,
+        &["--expect", "15/10@0.3", "--expect", "85/-40@1.3"],
+    );
+    assert_eq!(code, 0, "{v}");
+}
+
+#[test]
+fn a_channel_of_noise_far_under_the_others_is_dead_not_inverted() {
+    let dir = tempdir();
+    let mics = ring(6, 0.0463, 0.0, 0.0);
+    let wav = room_claps(dir.path(), &mics, 16000);
+    let mut reader = hound::WavReader::open(&wav).unwrap();
+    let spec = reader.spec();
+    let samples: Vec<i16> = reader.samples::<i16>().map(Result::unwrap).collect();
+    let dead = dir.path().join("dead.wav");
+    let mut w = hound::WavWriter::create(&dead, spec).unwrap();
+    // Channel 1 unplugged: a preamp's hiss, a few LSB.
+    let mut state = 1u32;
+    for (i, x) in samples.iter().enumerate() {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        let hiss = (state >> 29) as i16 - 4;
+        w.write_sample(if i % 6 == 1 { hiss } else { *x }).unwrap();
+    }
+    w.finalize().unwrap();
+    let (code, v) = check(dir.path(), &dead, &mics, &["--expect", "15/10@0.3"]);
+    assert_eq!(code, 1, "{v}");
+    assert_eq!(kinds(&v), vec!["dead".to_string()], "{v}");
+}
+
+#[test]
+fn a_microphone_elsewhere_than_the_geometry_says_never_fits_nor_gets_an_order() {
+    let dir = tempdir();
+    let mics = ring(6, 0.0463, 0.0, 0.0);
+    let wav = room_claps(dir.path(), &mics, 16000);
+    // Mic 2 written 2 cm along the circle from where it is: the array's rotations are no
+    // longer images of the file's order, and none of them may be offered as the fix.
+    let mut claimed = mics.clone();
+    let along = Vector3::new(-claimed[1].y, claimed[1].x, 0.0).normalize();
+    claimed[1] += along * 0.02;
+    let (code, v) = check(dir.path(), &wav, &claimed, &["--expect", "15/10@0.3"]);
+    assert_eq!((code, v["fits"].as_bool()), (1, Some(false)), "{v}");
+    assert!(!kinds(&v).contains(&"order".to_string()), "{v}");
+}
