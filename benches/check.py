@@ -180,6 +180,8 @@ def outcome(fault, fix, report):
             if fix in o.get("orders", []):
                 return "caught, fix among equals"
             return "WRONG FIX"
+        if any(f["kind"] == "misfit" and fix in f.get("orders", []) for f in report["findings"]):
+            return "caught, named among what fits"
         if "unclear" in kinds:
             return "unclear"
         if "symmetric" in kinds:

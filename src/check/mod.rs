@@ -43,7 +43,8 @@ pub const EXPECT_MARGIN_DEG: f64 = 4.0;
 /// The file's order fits the geometry when its residual is under this share of a random
 /// order's (the median over every other order).
 pub const RANDOM_SHARE: f64 = 0.7;
-/// Another channel order is named when its residual is under this share of the file's.
+/// Below 5 microphones, another channel order is named when its residual is under this
+/// share of the file's (see `beats_one_moved`).
 pub const BETTER_SHARE: f64 = 0.5;
 /// A channel this many decibels from the median level is a gain mismatch.
 pub const GAIN_DB: f64 = 6.0;
@@ -418,7 +419,14 @@ pub fn check_source<S: SampleSource>(
         fit.beyond_share(frames, order, k) <= BEYOND_SHARE
             && (SHORT_LENGTH..=LONG_LENGTH).contains(&fit.length(frames, order, k))
     };
-    // A permutation that explains the delays, within the positions' reach.
+    // The direct sounds the order was judged on, and the fits without each microphone.
+    let direct: Vec<scan::Frame> = judged
+        .as_ref()
+        .map(|j| j.frames.iter().map(|&i| strongest[i].clone()).collect())
+        .unwrap_or_default();
+    let without = fit_without(&positions, rate, speed);
+    // A permutation that explains the delays, within the positions' reach, better than
+    // one microphone elsewhere would.
     let fix = match &judged {
         Some(orders::Judged {
             verdict:
@@ -429,12 +437,18 @@ pub fn check_source<S: SampleSource>(
                     rivals,
                 },
             ..
-        }) if plausible(&orders[0]) => {
+        }) if plausible(&orders[0])
+            && beats_one_moved(
+                &fit,
+                &without,
+                &direct,
+                &orders[0],
+                &used,
+                k,
+                *best < BETTER_SHARE * *base,
+            ) =>
+        {
             // A known direction picks among the fix's images, as it does among the file's.
-            let direct: Vec<scan::Frame> = judged
-                .as_ref()
-                .map(|j| j.frames.iter().map(|&i| strongest[i].clone()).collect())
-                .unwrap_or_default();
             let settled =
                 match (orders.len() > 1).then(|| settle(&fit, &direct, orders, k, &expect)) {
                     Some(Settled::Own) => vec![orders[0].clone()],
@@ -455,8 +469,19 @@ pub fn check_source<S: SampleSource>(
     };
     let order_found = fix.is_some();
     findings.extend(fix);
+    // A wrong unit scales every order's delays alike and cannot make another order
+    // explain them better than the file's: when one does, beyond doubt, the lengths
+    // are not blamed on a unit.
+    let beaten = matches!(&judged, Some(orders::Judged { verdict: OrderVerdict::Open { t, .. }, .. }) if *t <= -EVIDENCE_NEEDED)
+        || matches!(
+            &judged,
+            Some(orders::Judged {
+                verdict: OrderVerdict::Better { .. },
+                ..
+            })
+        );
     let mut explained = order_found;
-    if !order_found && (beyond > BEYOND_SHARE || length > LONG_LENGTH) {
+    if !order_found && !beaten && (beyond > BEYOND_SHARE || length > LONG_LENGTH) {
         explained = true;
         findings.push(finding(
             "beyond",
@@ -466,7 +491,7 @@ pub fn check_source<S: SampleSource>(
                 100.0 * beyond
             ),
         ));
-    } else if !order_found && length < SHORT_LENGTH {
+    } else if !order_found && !beaten && length < SHORT_LENGTH {
         explained = true;
         let advice = units::advice(aperture)
             .map(|a| format!("; {a}"))
@@ -486,21 +511,9 @@ pub fn check_source<S: SampleSource>(
             .iter()
             .map(|&i| strongest[i].clone())
             .collect();
-        let moved = matches!(
-            judged.verdict,
-            OrderVerdict::Open { .. } | OrderVerdict::Fits { .. }
-        )
-        .then(|| {
-            moved_twice(
-                &fit,
-                &fit_without(&positions, rate, speed),
-                &spoken,
-                &used,
-                k,
-                rate,
-            )
-        })
-        .flatten();
+        let moved = (!order_found)
+            .then(|| moved_twice(&fit, &without, &spoken, &used, k, rate))
+            .flatten();
         let informative = judged.own < RANDOM_SHARE * judged.random;
         match &judged.verdict {
             _ if judged.frames.len() < orders::MIN_FRAMES => {
@@ -523,8 +536,24 @@ pub fn check_source<S: SampleSource>(
                     ),
                 ));
             }
+            OrderVerdict::Better { .. } if moved.is_some() => {
+                findings.extend(moved.clone());
+            }
+            OrderVerdict::Better { orders, .. } if plausible(&orders[0]) => {
+                // Better, but not beyond one microphone elsewhere: named, not offered.
+                findings.push(Finding {
+                    kind: "misfit".into(),
+                    message: format!(
+                        "the delays do not fit the geometry: with the file's channel order the far-field fit errs by {:.0} us; {} explains them better, but not beyond what one microphone elsewhere than the geometry says would (each channel left out in turn, the sounds of one direction weighed as one); check the positions, or record sounds from more directions",
+                        judged.own / rate * 1e6,
+                        describe_change(&orders[0], &used, &positions, speed)
+                    ),
+                    order: None,
+                    orders: Some(orders.clone()),
+                });
+            }
             OrderVerdict::Better { .. } => {
-                // Not plausible: the better order still needs other positions.
+                // The better order still needs other positions.
                 findings.push(finding(
                     "misfit",
                     format!(
@@ -895,6 +924,117 @@ fn report(
     }
 }
 
+/// Whether `order` explains the direct sounds better than the file's order `used` with
+/// any one channel left out of both: a swap survives this (no one channel left out
+/// mends the file's order), a microphone elsewhere than the geometry says does not
+/// (leaving its channel out mends the file's order, while a permutation only bends the
+/// others to it). Both sides of each comparison hear the same channels, so that what
+/// one channel's noise or echoes add is not taken for evidence; and the frames of one
+/// direction (within [`SAME_DIRECTION`]) weigh as one frame, since an error of the
+/// positions or of the capsules errs alike for every sound from there. Weighed as
+/// [`orders::judge`] weighs orders, [`EVIDENCE_NEEDED`] nats and the odds of
+/// [`near_orders`] more. Below 5 microphones one left out leaves too few pairs to
+/// weigh: a permutation must then halve the file's residual (`halved`).
+fn beats_one_moved(
+    fit: &Fit,
+    without: &[Fit],
+    frames: &[scan::Frame],
+    order: &[usize],
+    used: &[usize],
+    k: usize,
+    halved: bool,
+) -> bool {
+    let m = used.len();
+    if m < 5 {
+        return halved;
+    }
+    let mut buf = Vec::new();
+    let groups = directions(fit, frames, &[used, order], k);
+    let mut left_out = |o: &[usize], channel: usize| -> Vec<f64> {
+        let skip = o.iter().position(|&c| c == channel).unwrap_or(0);
+        let rest: Vec<usize> = (0..m).filter(|&i| i != skip).map(|i| o[i]).collect();
+        without[skip].residuals(frames, &rest, k, &mut buf)
+    };
+    let pairs = (m - 1) * (m - 2) / 2;
+    let needed = EVIDENCE_NEEDED + near_orders(m, orders::changes(order, used)).ln();
+    used.iter().all(|&channel| {
+        let (mine, theirs) = (left_out(used, channel), left_out(order, channel));
+        let sigma = orders::sigma(&theirs);
+        let mut by_group = vec![0.0; groups.iter().max().map_or(0, |g| g + 1)];
+        for ((x, y), &g) in mine.iter().zip(&theirs).zip(&groups) {
+            // A residual beyond OUTLIER_SIGMAS is an echo's or a stray peak's: as
+            // unlikely under either order, it weighs nothing.
+            let cap = OUTLIER_SIGMAS * sigma;
+            by_group[g] += orders::frame_evidence(x.min(cap), y.min(cap), sigma, pairs);
+        }
+        let t: f64 = by_group
+            .iter()
+            .map(|e| e.clamp(-orders::FRAME_EVIDENCE, orders::FRAME_EVIDENCE))
+            .sum();
+        t >= needed
+    })
+}
+
+/// A frame's residual beyond this many noise sigmas is an outlier's (an echo, a stray
+/// peak): it weighs no more than one this far off.
+pub const OUTLIER_SIGMAS: f64 = 3.0;
+
+/// Frames whose directions are within this chord of each other (on the unit sphere,
+/// or of the array's span for a plane or a line; 0.35 is 20 degrees) are of one
+/// direction.
+pub const SAME_DIRECTION: f64 = 0.35;
+
+/// Each frame's direction group: frames within [`SAME_DIRECTION`] of a group's first
+/// frame under each of `orders` join it, in frame order (a wrong order bends
+/// directions together; the right one among `orders` keeps them apart).
+fn directions(fit: &Fit, frames: &[scan::Frame], orders: &[&[usize]], k: usize) -> Vec<usize> {
+    let mut buf = Vec::new();
+    let mut seeds: Vec<Vec<nalgebra::Vector3<f64>>> = Vec::new();
+    frames
+        .iter()
+        .map(|f| {
+            let ws: Vec<nalgebra::Vector3<f64>> = orders
+                .iter()
+                .map(|o| {
+                    fit.lags(f, o, k, &mut buf);
+                    let w = fit.solve(&buf).0;
+                    // A plane's or a line's array sees the projection on its span.
+                    if w.norm() > 1.0 {
+                        w.normalize()
+                    } else {
+                        w
+                    }
+                })
+                .collect();
+            seeds
+                .iter()
+                .position(|s| {
+                    s.iter()
+                        .zip(&ws)
+                        .all(|(a, b)| (a - b).norm() < SAME_DIRECTION)
+                })
+                .unwrap_or_else(|| {
+                    seeds.push(ws);
+                    seeds.len() - 1
+                })
+        })
+        .collect()
+}
+
+/// How many orders of `m` channels differ from one in at most `c` places: the orders a
+/// fix changing `c` channels was chosen among. Naming one needs that many times the
+/// odds (a prior that spreads a mistake's chance over them alike), so that the best of
+/// many orders that fit a wrong geometry by chance is not taken for a wiring mistake.
+fn near_orders(m: usize, c: usize) -> f64 {
+    // Derangements: d(0) = 1, d(1) = 0, d(j) = (j - 1) (d(j - 1) + d(j - 2)).
+    let mut d = vec![1.0f64, 0.0];
+    for j in 2..=c.max(1) {
+        d.push((j - 1) as f64 * (d[j - 1] + d[j - 2]));
+    }
+    let choose = |j: usize| (0..j).fold(1.0, |a, i| a * (m - i) as f64 / (i + 1) as f64);
+    (0..=c.min(m)).map(|j| choose(j) * d[j]).sum()
+}
+
 /// Per microphone, the fit of the others without it.
 fn fit_without(positions: &[nalgebra::Vector3<f64>], rate: f64, speed: f64) -> Vec<Fit> {
     (0..positions.len())
@@ -978,4 +1118,23 @@ fn moved_mic(
         );
         (worst, f)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The count of orders within `c` changes, against every order of up to 7 counted.
+    #[test]
+    fn near_orders_counts_what_a_brute_force_counts() {
+        for m in 1..=7 {
+            let base: Vec<usize> = (0..m).collect();
+            let mut by_changes = vec![0usize; m + 1];
+            fit::orderings(&base, m, |o| by_changes[orders::changes(o, &base)] += 1);
+            for c in 0..=m {
+                let want: usize = by_changes[..=c].iter().sum();
+                assert_eq!(near_orders(m, c), want as f64, "m {m} c {c}");
+            }
+        }
+    }
 }

@@ -55,7 +55,7 @@ pub enum OrderVerdict {
 
 /// The residual noise of the delays (samples RMS): the median of the file's order's
 /// frames' residuals, at least [`SIGMA_FLOOR`].
-fn sigma(own: &[f64]) -> f64 {
+pub(super) fn sigma(own: &[f64]) -> f64 {
     let mut r = own.to_vec();
     r.sort_by(f64::total_cmp);
     r.get(r.len() / 2).copied().unwrap_or(0.0).max(SIGMA_FLOOR)
@@ -67,18 +67,20 @@ fn sigma(own: &[f64]) -> f64 {
 /// +-[`FRAME_EVIDENCE`], summed over the frames. A swap that changes the delays of a
 /// clap by a few samples is told apart by two claps; a frame whose sound comes from a
 /// direction the swap does not change adds nothing either way.
-fn evidence(a: &[f64], b: &[f64], sigma: f64, pairs: usize) -> (f64, f64) {
+pub(super) fn evidence(a: &[f64], b: &[f64], sigma: f64, pairs: usize) -> (f64, f64) {
     let n = a.len().max(1) as f64;
     let mean = a.iter().zip(b).map(|(x, y)| x - y).sum::<f64>() / n;
     let e = a
         .iter()
         .zip(b)
-        .map(|(x, y)| {
-            (pairs as f64 * (x * x - y * y) / (2.0 * sigma * sigma))
-                .clamp(-FRAME_EVIDENCE, FRAME_EVIDENCE)
-        })
+        .map(|(&x, &y)| frame_evidence(x, y, sigma, pairs))
         .sum();
     (mean, e)
+}
+
+/// One frame's evidence for residual `y` against `x` (see [`evidence`]).
+pub(super) fn frame_evidence(x: f64, y: f64, sigma: f64, pairs: usize) -> f64 {
+    (pairs as f64 * (x * x - y * y) / (2.0 * sigma * sigma)).clamp(-FRAME_EVIDENCE, FRAME_EVIDENCE)
 }
 
 /// How many places `order` differs from `base` in.
@@ -218,7 +220,7 @@ fn verdict(
     }
     let own_mean = mean_of(own);
     // Another order much better, and told apart: the fix, among its images nearest.
-    if let Some((b, best_mean)) = best.filter(|&(_, m)| m < super::BETTER_SHARE * own_mean) {
+    if let Some((b, best_mean)) = best.filter(|&(_, m)| m < own_mean) {
         let best_rows = &rows[b];
         let best_noise = sigma(best_rows);
         let (_, t) = evidence(own, best_rows, best_noise, pairs);

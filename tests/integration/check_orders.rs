@@ -109,7 +109,10 @@ fn ring(k: usize, r: f64, z: f64, turn: f64) -> Vec<Vector3<f64>> {
 
 /// The right order (settled into a fit by `--expect 15/10`), then every swap of two
 /// channels, on `mics` at `rate`, the claps `distance` metres away.
-fn every_swap(name: &str, mics: Vec<Vector3<f64>>, rate: u32, distance: f64) {
+/// Every swap of two of `mics` is caught and its fix proposed; with `or_named`, a swap
+/// may instead be named in a `misfit` (its `orders`) that the claps' few directions
+/// cannot tell from a moved microphone.
+fn every_swap(name: &str, mics: Vec<Vector3<f64>>, rate: u32, distance: f64, or_named: bool) {
     let dir = tempdir();
     let wav = room_claps_at(dir.path(), &mics, rate, distance);
     let m = mics.len();
@@ -140,7 +143,17 @@ fn every_swap(name: &str, mics: Vec<Vector3<f64>>, rate: u32, distance: f64) {
             assert_eq!(v["fits"], false, "{name} swap {a}-{b}");
             let mut fix: Vec<usize> = (0..m).collect();
             fix.swap(a, b);
+            let named = v["findings"].as_array().unwrap().iter().any(|f| {
+                f["kind"] == "misfit"
+                    && serde_json::from_value::<Vec<Vec<usize>>>(f["orders"].clone())
+                        .is_ok_and(|o| o.contains(&fix))
+            });
+            assert!(
+                !kinds(&v).iter().any(|k| k == "unit" || k == "beyond"),
+                "{name} swap {a}-{b}: blamed on the positions' scale: {v}"
+            );
             match order_of(&v) {
+                None if or_named && named => {}
                 Some((order, orders)) => {
                     assert!(
                         order == fix || orders.contains(&fix),
@@ -163,24 +176,36 @@ fn every_swap(name: &str, mics: Vec<Vector3<f64>>, rate: u32, distance: f64) {
 
 #[test]
 fn every_swap_on_a_six_mic_circle_is_caught_and_the_swap_is_the_fix() {
-    every_swap("circle 6", ring(6, 0.0463, 0.0, 0.0), 16000, 2.2);
+    every_swap("circle 6", ring(6, 0.0463, 0.0, 0.0), 16000, 2.2, false);
 }
 
 #[test]
 fn every_swap_on_a_32_cm_two_ring_array_is_caught() {
     let mut mics = ring(4, 0.16, 0.0, 0.0);
     mics.extend(ring(4, 0.08, 0.0, 45.0));
-    every_swap("two rings", mics, 16000, 2.2);
+    every_swap("two rings", mics, 16000, 2.2, false);
 }
 
 #[test]
 fn every_swap_on_the_prism_is_caught() {
-    every_swap("prism", prism(), 48000, 4.0);
+    every_swap("prism", prism(), 48000, 4.0, false);
 }
 
 #[test]
 fn every_swap_on_an_eight_mic_circle_at_16_khz_is_an_order_not_a_unit() {
-    every_swap("circle 8", ring(8, 0.045, 0.0, 0.0), 16000, 2.2);
+    every_swap("circle 8", ring(8, 0.045, 0.0, 0.0), 16000, 2.2, false);
+}
+
+/// The real 8-mic line: an end-to-end swap made the delays short, and `check`
+/// blamed the unit. Every swap of a 3 cm line at 16 kHz (delays of a sample or two
+/// between neighbours) is an order, proposed or named: eight claps give a line only
+/// four cone angles, too few to tell some swaps from a moved microphone.
+#[test]
+fn every_swap_on_an_eight_mic_line_of_3_cm_is_an_order_not_a_unit() {
+    let mics: Vec<Vector3<f64>> = (0..8)
+        .map(|i| Vector3::new(0.03 * i as f64 - 0.105, 0.0, 0.0))
+        .collect();
+    every_swap("line 8", mics, 16000, 2.2, true);
 }
 
 #[test]
