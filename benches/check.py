@@ -15,6 +15,10 @@ right order is checked without it too.
     python3 -m venv v && v/bin/pip install numpy scipy pyroomacoustics
     v/bin/python benches/check.py --ssl target/release/ssl --work /tmp/check-bench [--seed 1]
 
+With `--rs-mnmf DIR` (a checkout of polimi-ispl/rs-mnmf) it adds a real array: the
+measured room responses of 8 microphones of its 3 cm line, claps and its talkers
+through them, three draws of each.
+
 Prints the table (markdown) and the cases that went wrong.
 """
 
@@ -198,6 +202,117 @@ def outcome(fault, fix, report):
     return "caught as " + "+".join(sorted(set(kinds)))
 
 
+def rs_scene(root, kind, seed):
+    """A real 8-mic line: the measured room responses of polimi-ispl/rs-mnmf (channels
+    12-19 of its first 32-mic line, 3 cm apart, resampled to 16 kHz) from its nine
+    loudspeakers: 8 claps from 8 of them, or 3 of its talkers from 3. Returns the
+    recording, the rate, the directions (array frame: the line along y) and the
+    positions."""
+    import scipy.io
+    from scipy.signal import fftconvolve, resample_poly
+
+    rng = np.random.default_rng(seed)
+    src = os.path.join(root, "data", "sources")
+    mics = list(range(12, 20))
+    rate = 16000
+    rirs = [resample_poly(read_any(os.path.join(src, f"rir_source_{k}.wav"))[:, mics], 1, 3, axis=0)
+            for k in range(1, 10)]
+    loc = scipy.io.loadmat(os.path.join(src, "source_location.mat"))["sourceLocation"]
+    zc = (mics[0] + mics[-1]) / 2 * 0.03
+    pos = np.array([[0.0, m * 0.03 - zc, 0.0] for m in mics])
+    dirs_all = [(np.degrees(np.arctan2(loc[k][1] - zc, loc[k][0])) % 360.0, 0.0) for k in range(9)]
+    count = 8 if kind == "claps" else 3
+    which = rng.choice(9, count, replace=False)
+    parts, t = [], 0.3
+    for k in which:
+        if kind == "claps":
+            sig = clap(rate, rng)
+            step = 0.5
+        else:
+            g = ("male", "female")[rng.integers(2)]
+            x = read_any(os.path.join(root, "data", "audio", g, f"{rng.integers(1, 4)}.wav"))[:, 0]
+            start = rng.integers(0, len(x) - int(1.6 * rate))
+            sig = x[start:start + int(1.6 * rate)]
+            sig = sig / (np.std(sig) + 1e-12)
+            step = 1.9
+        parts.append((sig, k, t))
+        t += step
+    out = np.zeros((int((t + 1.0) * rate), len(mics)))
+    for sig, k, t0 in parts:
+        y = fftconvolve(sig[:, None], rirs[k], axes=0)
+        i = int(t0 * rate)
+        out[i:i + len(y)] += y[: len(out) - i]
+    out = out / np.max(np.abs(out)) * 0.5
+    out += rng.standard_normal(out.shape) * 10 ** (-70 / 20)
+    return out.astype(np.float32), rate, [dirs_all[k] for k in which], pos
+
+
+def read_any(path):
+    """A WAV (PCM 16/24/32 or float) as float frames x channels."""
+    from scipy.io import wavfile
+
+    r, x = wavfile.read(path)
+    if x.dtype.kind == "i":
+        x = x / float(np.iinfo(x.dtype).max)
+    return x.reshape(len(x), -1).astype(float)
+
+
+def faults(args, table, wrong, name, tag, d, x, rate, pos, expect, seed):
+    """Every fault made on `x` (the recording of `pos`, the right geometry), checked,
+    and counted into `table` (and `wrong`)."""
+    m = len(pos)
+    good = os.path.join(d, "array.toml")
+    open(good, "w").write(geometry_toml(pos, name))
+    cases = []  # (fault, fix, wav, geometry, expect)
+
+    def wav(label, y):
+        p = os.path.join(d, label + ".wav")
+        write_wav(p, y, rate)
+        return p
+
+    rec = wav("rec", x)
+    cases.append(("none", None, rec, good, expect))
+    cases.append(("none (no --expect)", None, rec, good, None))
+    for i in range(m):
+        for j in range(i + 1, m):
+            y = x.copy()
+            y[:, [i, j]] = y[:, [j, i]]
+            fix = list(range(m))
+            fix[i], fix[j] = j, i
+            cases.append(("swap", fix, wav(f"swap{i}{j}", y), good, expect))
+    y = x.copy()
+    y[:, 0] = -y[:, 0]
+    cases.append(("inverted", None, wav("inverted", y), good, expect))
+    y = x.copy()
+    y[:, 1] = np.random.default_rng(seed).standard_normal(len(y)) * 10 ** (-70 / 20)
+    cases.append(("dead", None, wav("dead", y), good, expect))
+    y = x.copy()
+    y[:, 3] = y[:, 2]
+    cases.append(("duplicated", None, wav("duplicated", y), good, expect))
+    moved = pos.copy()
+    nearest = min(np.linalg.norm(pos[1] - p) for k, p in enumerate(pos) if k != 1)
+    step = np.cross(pos[1] - pos.mean(axis=0), [0.0, 0.0, 1.0])
+    if np.linalg.norm(step) < 1e-9:
+        step = np.array([1.0, 0.0, 0.0])
+    moved[1] += step / np.linalg.norm(step) * 0.3 * nearest
+    g = os.path.join(d, "moved.toml")
+    open(g, "w").write(geometry_toml(moved, name))
+    cases.append(("moved", None, rec, g, expect))
+    for f in (10, 100):
+        g = os.path.join(d, f"units{f}.toml")
+        open(g, "w").write(geometry_toml(pos * f, name))
+        cases.append((f"units x{f}", None, rec, g, expect))
+    for fault, fix, w, g, e in cases:
+        report = check(args.ssl, w, g, e)
+        fault_key = "swap" if fault == "swap" else fault
+        o = outcome("none" if fault.startswith("none") else fault_key, fix, report)
+        row = table.setdefault((name, fault), {})
+        row[o] = row.get(o, 0) + 1
+        if o.startswith("FITS") or o.startswith("WRONG") or o.startswith("false alarm"):
+            msgs = "; ".join(f["kind"] + ": " + f["message"][:160] for f in report["findings"])
+            wrong.append(f"{tag} {fault} {os.path.basename(w)} {os.path.basename(g)}: {o}: {msgs}")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--ssl", required=True)
@@ -207,6 +322,7 @@ def main():
     ap.add_argument("--rt60", default="0.2,0.45,0.7")
     ap.add_argument("--kinds", default="claps,speech")
     ap.add_argument("--arrays", default="")
+    ap.add_argument("--rs-mnmf", default=None, help="a checkout of polimi-ispl/rs-mnmf: adds its measured 8-mic line")
     args = ap.parse_args()
     os.makedirs(args.work, exist_ok=True)
     speech = [read_wav(os.path.join(args.speech, f)) for f in sorted(os.listdir(args.speech)) if f.endswith(".wav")]
@@ -217,7 +333,6 @@ def main():
         name, pos, rate, _ = array
         if args.arrays and name not in args.arrays.split(","):
             continue
-        m = len(pos)
         for rt60 in [float(v) for v in args.rt60.split(",")]:
             for kind in args.kinds.split(","):
                 seed += 1
@@ -227,56 +342,18 @@ def main():
                 x, rate, dirs = scene(array, rt60, kind, seed, speech, d)
                 expect = dirs[0]
                 json.dump(dirs, open(os.path.join(d, "directions.json"), "w"))
-                good = os.path.join(d, "array.toml")
-                open(good, "w").write(geometry_toml(pos, name))
-                cases = []  # (fault, fix, wav, geometry, expect)
-
-                def wav(label, y):
-                    p = os.path.join(d, label + ".wav")
-                    write_wav(p, y, rate)
-                    return p
-
-                rec = wav("rec", x)
-                cases.append(("none", None, rec, good, expect))
-                cases.append(("none (no --expect)", None, rec, good, None))
-                for i in range(m):
-                    for j in range(i + 1, m):
-                        y = x.copy()
-                        y[:, [i, j]] = y[:, [j, i]]
-                        fix = list(range(m))
-                        fix[i], fix[j] = j, i
-                        cases.append(("swap", fix, wav(f"swap{i}{j}", y), good, expect))
-                y = x.copy()
-                y[:, 0] = -y[:, 0]
-                cases.append(("inverted", None, wav("inverted", y), good, expect))
-                y = x.copy()
-                y[:, 1] = np.random.default_rng(seed).standard_normal(len(y)) * 10 ** (-70 / 20)
-                cases.append(("dead", None, wav("dead", y), good, expect))
-                y = x.copy()
-                y[:, 3] = y[:, 2]
-                cases.append(("duplicated", None, wav("duplicated", y), good, expect))
-                moved = pos.copy()
-                nearest = min(np.linalg.norm(pos[1] - p) for k, p in enumerate(pos) if k != 1)
-                step = np.cross(pos[1] - pos.mean(axis=0), [0.0, 0.0, 1.0])
-                if np.linalg.norm(step) < 1e-9:
-                    step = np.array([1.0, 0.0, 0.0])
-                moved[1] += step / np.linalg.norm(step) * 0.3 * nearest
-                g = os.path.join(d, "moved.toml")
-                open(g, "w").write(geometry_toml(moved, name))
-                cases.append(("moved", None, rec, g, expect))
-                for f in (10, 100):
-                    g = os.path.join(d, f"units{f}.toml")
-                    open(g, "w").write(geometry_toml(pos * f, name))
-                    cases.append((f"units x{f}", None, rec, g, expect))
-                for fault, fix, w, g, e in cases:
-                    report = check(args.ssl, w, g, e)
-                    fault_key = "swap" if fault == "swap" else fault
-                    o = outcome("none" if fault.startswith("none") else fault_key, fix, report)
-                    row = table.setdefault((name, fault), {})
-                    row[o] = row.get(o, 0) + 1
-                    if o.startswith("FITS") or o.startswith("WRONG") or o.startswith("false alarm"):
-                        msgs = "; ".join(f["kind"] + ": " + f["message"][:160] for f in report["findings"])
-                        wrong.append(f"{tag} {fault} {os.path.basename(w)} {os.path.basename(g)}: {o}: {msgs}")
+                faults(args, table, wrong, name, tag, d, x, rate, pos, expect, seed)
+                print(f"{tag}: done", file=sys.stderr, flush=True)
+    if args.rs_mnmf:
+        for kind in args.kinds.split(","):
+            for draw in range(3):
+                seed += 1
+                tag = f"rs-mnmf-line-8-{kind}-{draw}"
+                d = os.path.join(args.work, tag)
+                os.makedirs(d, exist_ok=True)
+                x, rate, dirs, pos = rs_scene(args.rs_mnmf, kind, seed)
+                json.dump(dirs, open(os.path.join(d, "directions.json"), "w"))
+                faults(args, table, wrong, "rs-mnmf line-8 (measured)", tag, d, x, rate, pos, dirs[0], seed)
                 print(f"{tag}: done", file=sys.stderr, flush=True)
     print("| array | fault | what `ssl check` said (cases) |")
     print("|---|---|---|")
