@@ -116,8 +116,8 @@ pub enum Command {
     )]
     Simulate(SimulateArgs),
     #[command(
-        about = "Score detections against a simulation's truth",
-        long_about = "Score detections against a simulation's truth.\n\n\
+        about = "Score detections against a truth (a simulation's or your own)",
+        long_about = "Score detections against a truth (a simulation's or your own).\n\n\
         RESULT is the output of `ssl analyze` in any format. Per source and overall: mean and median \
         angular error of detections in frames inside the source's active intervals, the share of those \
         frames with a detection within 10 degrees, the share of source events (active intervals) \

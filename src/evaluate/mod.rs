@@ -1,4 +1,4 @@
-//! Scoring detections against a simulation's truth (`ssl evaluate`).
+//! Scoring detections against a truth, a simulation's or a hand-written one (`ssl evaluate`).
 //!
 //! Frames are those of the analysis: frame `f` is centred at `(f + 1) * hop` seconds and
 //! spans one hop either side, the hop being read off the detections (`time_s / (frame +

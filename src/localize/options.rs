@@ -66,7 +66,7 @@ pub struct Options {
     pub interpolation: Option<Interpolation>,
     /// When the reverberation's diffuse part is removed from the cross-spectra.
     pub dereverb: Dereverb,
-    /// Dereverberate the input first (WPE; about 24 times the time).
+    /// Dereverberate the input first (WPE; about 15 times the rest of the analysis).
     pub wpe: bool,
     /// Where to start (seconds from the start of the recording).
     pub start_s: f64,
@@ -114,8 +114,8 @@ impl Default for Options {
             track: true,
             frame_size: None,
             frame_ms: None,
-            alpha: 0.4,
-            gamma: 0.3,
+            alpha: crate::method::weighting::ALPHA,
+            gamma: crate::method::weighting::GAMMA,
             weighting: true,
             peaks: DEFAULT_PEAKS,
             tolerance: None,

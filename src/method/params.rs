@@ -224,8 +224,8 @@ impl Default for Params {
         Params {
             frame_size: None,
             frame_ms: None,
-            alpha: 0.4,
-            gamma: 0.3,
+            alpha: crate::method::weighting::ALPHA,
+            gamma: crate::method::weighting::GAMMA,
             weighting: true,
             peaks: DEFAULT_PEAKS,
             tolerance: DEFAULT_TOLERANCE,

@@ -105,7 +105,7 @@ impl crate::named::Named for ConfirmBy {
         (
             ConfirmBy::Rules,
             "rules",
-            "By the rules of ssl 0.2.0 (2 detections over the threshold within --confirm-s, or runs of candidates), to reproduce its results",
+            "By the rules ssl confirmed sources with before it weighed evidence (release 0.2.0: 2 detections over the threshold within --confirm-s, or runs of candidates), to reproduce results made with them",
         ),
     ];
 }

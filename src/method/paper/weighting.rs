@@ -12,6 +12,13 @@
 
 use multiversion::multiversion;
 
+/// `alpha` of eq. (4): the share of the noise estimate `X_n` subtracted from `X`
+/// (`w = (X - alpha X_n) / X`).
+pub const ALPHA: f32 = 0.4;
+/// `gamma` of eq. (5): the exponent of the bin's SNR that enhances strong bins
+/// (`w_e = w (X / X_n)^gamma`).
+pub const GAMMA: f32 = 0.3;
+
 /// Time constant of the smoothing of `X` before minimum tracking (seconds).
 pub const SMOOTH_TAU_S: f64 = 0.04;
 /// The minimum window is tracked as this many sub-windows (so it slides in steps of
