@@ -18,6 +18,7 @@
 //!
 //! The constants are in units: samples of residual, decibels, shares of frames.
 
+mod channels;
 mod fit;
 mod orders;
 mod scan;
@@ -32,42 +33,42 @@ use orders::{OrderVerdict, EVIDENCE_NEEDED};
 use serde::Serialize;
 
 /// Fewer clear frames than this and the delays are not checked.
-pub const MIN_CLEAR_FRAMES: usize = orders::MIN_FRAMES;
+pub(crate) const MIN_CLEAR_FRAMES: usize = orders::MIN_FRAMES;
 /// With `--expect`, a clear frame is of the expected sound when its direction is within
 /// this many degrees of it.
-pub const EXPECT_DEG: f64 = 10.0;
+pub(crate) const EXPECT_DEG: f64 = 10.0;
 /// With `--expect`, the order settled on puts a direct sound this many degrees nearer
 /// the expected direction than any other image does: a sound nearer a mirror of the
 /// array than half this cannot settle it.
-pub const EXPECT_MARGIN_DEG: f64 = 4.0;
+pub(crate) const EXPECT_MARGIN_DEG: f64 = 4.0;
 /// The file's order fits the geometry when its residual is under this share of a random
 /// order's (the median over every other order).
-pub const RANDOM_SHARE: f64 = 0.7;
+pub(crate) const RANDOM_SHARE: f64 = 0.7;
 /// Below 5 microphones, another channel order is named when its residual is under this
 /// share of the file's (see `beats_one_moved`).
-pub const BETTER_SHARE: f64 = 0.5;
+pub(crate) const BETTER_SHARE: f64 = 0.5;
 /// A channel this many decibels from the median level is a gain mismatch.
-pub const GAIN_DB: f64 = 6.0;
+pub(crate) const GAIN_DB: f64 = 6.0;
 /// A channel this many dB under the median channel carries only its own noise: dead. A
 /// directional capsule facing away is 8-20 dB down, never this far over a recording.
-pub const DEAD_DB: f64 = 30.0;
+pub(crate) const DEAD_DB: f64 = 30.0;
 /// The share of a channel's pairs with a negative peak that makes it inverted.
-pub const INVERTED_SHARE: f64 = 0.6;
+pub(crate) const INVERTED_SHARE: f64 = 0.6;
 /// The share of samples at full scale that makes a channel clip.
-pub const CLIPPED_SHARE: f64 = 1e-3;
+pub(crate) const CLIPPED_SHARE: f64 = 1e-3;
 /// The share of delays beyond a pair's reach that makes the geometry too small.
-pub const BEYOND_SHARE: f64 = 0.2;
+pub(crate) const BEYOND_SHARE: f64 = 0.2;
 /// Solutions shorter than this (1 is right) make the positions too large.
-pub const SHORT_LENGTH: f64 = 0.3;
+pub(crate) const SHORT_LENGTH: f64 = 0.3;
 /// Solutions longer than this make the positions too small.
-pub const LONG_LENGTH: f64 = 1.5;
+pub(crate) const LONG_LENGTH: f64 = 1.5;
 /// Orders are all tried up to this many microphones; swaps of two beyond.
-pub const FULL_ORDERS: usize = 8;
+pub(crate) const FULL_ORDERS: usize = 8;
 /// The frame length (seconds), rounded up to a power of two samples.
-pub const FRAME_S: f64 = 0.06;
+pub(crate) const FRAME_S: f64 = 0.06;
 /// A microphone is named as moved when leaving it out brings the fit under this share
 /// of leaving out a typical one.
-pub const MOVED_SHARE: f64 = 0.6;
+pub(crate) const MOVED_SHARE: f64 = 0.6;
 /// Frames used to compare orders (the clearest).
 const ORDER_FRAMES: usize = 60;
 
@@ -164,17 +165,16 @@ pub struct Expected {
     pub azimuth_deg: f64,
     /// Elevation in degrees.
     pub elevation_deg: f64,
-    /// When it starts (seconds into the recording): only direct sounds from
-    /// [`EXPECT_BEFORE_S`] before to [`EXPECT_AFTER_S`] after are taken for it. Without
-    /// it any direct sound is, and with many sounds around a regular array one of them
+    /// When it starts (seconds into the recording): only the direct sounds that start
+    /// near then are taken for it. Without it any direct sound is, and with many sounds around a regular array one of them
     /// may lie near the expected direction under a rotation too.
     pub at_s: Option<f64>,
 }
 
 /// See [`Expected::at_s`]: a sound given at T is looked for from T - 0.2 s ...
-pub const EXPECT_BEFORE_S: f64 = 0.2;
+pub(crate) const EXPECT_BEFORE_S: f64 = 0.2;
 /// ... to T + 0.4 s (claps half a second apart stay apart).
-pub const EXPECT_AFTER_S: f64 = 0.4;
+pub(crate) const EXPECT_AFTER_S: f64 = 0.4;
 
 fn finding(kind: &str, message: String) -> Finding {
     Finding {
@@ -259,21 +259,12 @@ pub fn check_source<S: SampleSource>(
         .iter()
         .map(|c| (c.max > c.min).then(|| 10.0 * (c.energy / samples).max(1e-30).log10()))
         .collect();
-    let mut findings = Vec::new();
-    let mut remarks = Vec::new();
-    // Channels 0-based, as the geometry's `channel` key; mics as `ssl geometry` lists them.
-    let mics_on = |c: usize| -> String {
-        match geometry.mics.iter().position(|x| x.channel == c) {
-            Some(i) => format!("channel {c} (mic {})", i + 1),
-            None => format!("channel {c}"),
-        }
-    };
     let used: Vec<usize> = geometry.mics.iter().map(|x| x.channel).collect();
     if used.iter().all(|&c| levels[c].is_none()) {
-        findings.push(finding(
+        let findings = vec![finding(
             "silent",
             "the file is silent (every channel constant): there is nothing to check".into(),
-        ));
+        )];
         return Ok(report(
             name,
             source.sample_rate(),
@@ -282,84 +273,10 @@ pub fn check_source<S: SampleSource>(
             levels,
             Fitted::default(),
             findings,
-            remarks,
+            Vec::new(),
         ));
     }
-    // Channels: dead when constant, silent, or far under the others.
-    let median_level = {
-        let mut l: Vec<f64> = used.iter().filter_map(|&c| levels[c]).collect();
-        l.sort_by(f64::total_cmp);
-        l.get(l.len() / 2).copied().unwrap_or(-100.0)
-    };
-    let dead: Vec<usize> = used
-        .iter()
-        .copied()
-        .filter(|&c| levels[c].is_none_or(|l| l < -100.0 || l < median_level - DEAD_DB))
-        .collect();
-    for &c in &dead {
-        let why = match levels[c] {
-            Some(l) if l >= -100.0 => format!(
-                "{:.0} dB under the median channel: only noise, no microphone",
-                median_level - l
-            ),
-            _ => "constant or silent".into(),
-        };
-        findings.push(finding("dead", format!("{} is dead ({why})", mics_on(c))));
-    }
-    for &c in &used {
-        let share = scan.channels[c].clipped as f64 / samples;
-        if share > CLIPPED_SHARE {
-            findings.push(finding(
-                "clipped",
-                format!(
-                    "{} clips: {:.2}% of its samples are at full scale (lower the gain)",
-                    mics_on(c),
-                    100.0 * share
-                ),
-            ));
-        }
-    }
-    for (a, &i) in used.iter().enumerate() {
-        for &j in &used[a + 1..] {
-            let (lo, hi) = (i.min(j), i.max(j));
-            let (ei, ej) = (scan.channels[lo].energy, scan.channels[hi].energy);
-            let rho = scan.cross[crate::method::pairs::pair_index(lo, hi, k)] / (ei * ej).sqrt();
-            if ei > 0.0 && ej > 0.0 && rho > 0.9995 {
-                findings.push(finding(
-                    "duplicated",
-                    format!(
-                        "{} and {} carry the same signal (duplicated channel)",
-                        mics_on(lo),
-                        mics_on(hi)
-                    ),
-                ));
-            }
-        }
-    }
-    let live: Vec<f64> = used
-        .iter()
-        .filter(|c| !dead.contains(c))
-        .filter_map(|&c| levels[c])
-        .collect();
-    if live.len() >= 3 {
-        let mut sorted = live.clone();
-        sorted.sort_by(f64::total_cmp);
-        let median = sorted[sorted.len() / 2];
-        for &c in used.iter().filter(|c| !dead.contains(c)) {
-            let l = levels[c].unwrap_or(median);
-            if (l - median).abs() >= GAIN_DB {
-                remarks.push(finding(
-                    "gain",
-                    format!(
-                        "{} is {:.1} dB {} than the median channel: a gain mismatch, or a directional capsule facing away from the sound (not a fault in itself)",
-                        mics_on(c),
-                        (l - median).abs(),
-                        if l > median { "louder" } else { "quieter" }
-                    ),
-                ));
-            }
-        }
-    }
+    let (mut findings, remarks, dead) = channels::levels(geometry, &scan, &levels, &used);
     let frames = &scan.frames;
     if frames.len() < MIN_CLEAR_FRAMES {
         findings.push(finding(
@@ -382,138 +299,202 @@ pub fn check_source<S: SampleSource>(
             remarks,
         ));
     }
-    // Polarity: a channel whose pairs' peaks are mostly negative.
-    for &c in used.iter().filter(|c| !dead.contains(c)) {
-        let (mut negative, mut all) = (0usize, 0usize);
-        for f in frames {
-            for &o in used.iter().filter(|&&o| o != c && !dead.contains(&o)) {
-                let v = f.near_peaks[crate::method::pairs::pair_index(c.min(o), c.max(o), k)];
-                if v.abs() > 0.1 {
-                    negative += usize::from(v < 0.0);
-                    all += 1;
-                }
-            }
-        }
-        if all > 0 && negative as f64 / all as f64 > INVERTED_SHARE {
-            findings.push(finding(
-                "inverted",
-                format!("{} is polarity-inverted: its correlation with the others peaks negative (swap its wires or negate it)", mics_on(c)),
-            ));
-        }
-    }
+    findings.extend(channels::inverted(geometry, frames, &used, &dead, k));
     // Delays. The channel order first: a permutation that explains the delays explains
     // delays beyond the spacing too, before any unit is blamed.
-    let mut buf = Vec::new();
-    let own = fit.score(frames, &used, k, &mut buf);
-    let group = symmetry::symmetries(&positions);
-    let strongest: Vec<_> = frames.iter().take(ORDER_FRAMES).cloned().collect();
-    let judged =
-        (dead.is_empty()).then(|| orders::judge(&fit, &strongest, &used, k, &group, FULL_ORDERS));
-    let beyond = fit.beyond_share(frames, &used, k);
-    let length = fit.length(frames, &used, k);
-    let numbered = |order: &[usize]| -> String {
-        let list: Vec<String> = order.iter().map(|c| c.to_string()).collect();
-        format!("[{}]", list.join(", "))
+    let delays = Delays {
+        fit,
+        positions,
+        used,
+        k,
+        rate,
+        speed,
+        aperture,
+        frames,
+        expect,
     };
-    let plausible = |order: &[usize]| {
+    let (more, fitted) = delays.findings(&dead);
+    findings.extend(more);
+    Ok(report(
+        name,
+        source.sample_rate(),
+        k,
+        &scan,
+        levels,
+        fitted,
+        findings,
+        remarks,
+    ))
+}
+
+/// What the delays of the clear frames are judged with.
+struct Delays<'a> {
+    /// The far-field fit of the geometry's positions.
+    fit: Fit,
+    positions: Vec<nalgebra::Vector3<f64>>,
+    /// The channel of each microphone, in the geometry's order.
+    used: Vec<usize>,
+    /// The recording's channels.
+    k: usize,
+    rate: f64,
+    speed: f64,
+    aperture: f64,
+    frames: &'a [scan::Frame],
+    /// `--expect`: known directions, and when their sounds start.
+    expect: Vec<(nalgebra::Vector3<f64>, Option<f64>)>,
+}
+
+impl Delays<'_> {
+    /// The findings of the delays (none when every channel is live and fits) and the
+    /// fit's figures.
+    fn findings(&self, dead: &[usize]) -> (Vec<Finding>, Fitted) {
+        let (fit, frames, used, k) = (&self.fit, self.frames, &self.used, self.k);
+        let mut findings = Vec::new();
+        let mut buf = Vec::new();
+        let own = fit.score(frames, used, k, &mut buf);
+        let group = symmetry::symmetries(&self.positions);
+        let strongest: Vec<_> = frames.iter().take(ORDER_FRAMES).cloned().collect();
+        let judged =
+            (dead.is_empty()).then(|| orders::judge(fit, &strongest, used, k, &group, FULL_ORDERS));
+        let beyond = fit.beyond_share(frames, used, k);
+        let length = fit.length(frames, used, k);
+        // The direct sounds the order was judged on, and the fits without each microphone.
+        let direct: Vec<scan::Frame> = judged
+            .as_ref()
+            .map(|j| j.frames.iter().map(|&i| strongest[i].clone()).collect())
+            .unwrap_or_default();
+        let without = fit_without(&self.positions, self.rate, self.speed);
+        let fix = self.fix(judged.as_ref(), &direct, &without);
+        let order_found = fix.is_some();
+        findings.extend(fix);
+        let scale = (!order_found)
+            .then(|| self.scale(judged.as_ref(), beyond, length))
+            .flatten();
+        let explained = order_found || scale.is_some();
+        findings.extend(scale);
+        if let (false, Some(judged)) = (explained, &judged) {
+            findings.extend(self.verdict(judged, &direct, &without));
+        }
+        let fitted = Fitted {
+            residual_us: Some(own / self.rate * 1e6),
+            beyond_share: Some(beyond),
+            length: Some(length),
+            order_checked: group.len() < factorial(used.len().min(FULL_ORDERS + 1)),
+            symmetries: group.len(),
+        };
+        (findings, fitted)
+    }
+
+    /// Whether `order` keeps the delays within the positions' reach.
+    fn plausible(&self, order: &[usize]) -> bool {
+        let (fit, frames, k) = (&self.fit, self.frames, self.k);
         fit.beyond_share(frames, order, k) <= BEYOND_SHARE
             && (SHORT_LENGTH..=LONG_LENGTH).contains(&fit.length(frames, order, k))
-    };
-    // The direct sounds the order was judged on, and the fits without each microphone.
-    let direct: Vec<scan::Frame> = judged
-        .as_ref()
-        .map(|j| j.frames.iter().map(|&i| strongest[i].clone()).collect())
-        .unwrap_or_default();
-    let without = fit_without(&positions, rate, speed);
-    // A permutation that explains the delays, within the positions' reach, better than
-    // one microphone elsewhere would.
-    let fix = match &judged {
-        Some(orders::Judged {
-            verdict:
-                OrderVerdict::Better {
-                    orders,
-                    best,
-                    own: base,
-                    rivals,
-                },
-            ..
-        }) if plausible(&orders[0])
-            && beats_one_moved(
-                &fit,
-                &without,
-                &direct,
-                &orders[0],
-                &used,
-                k,
-                *best < BETTER_SHARE * *base,
-            ) =>
-        {
-            // A known direction picks among the fix's images, as it does among the file's.
-            let settled =
-                match (orders.len() > 1).then(|| settle(&fit, &direct, orders, k, &expect)) {
-                    Some(Settled::Own) => vec![orders[0].clone()],
-                    Some(Settled::Other(o)) => vec![o],
-                    _ => orders.clone(),
-                };
-            Some(order_finding(
-                &settled[0],
-                &settled,
-                rivals,
-                &used,
-                *base / best.max(1e-9),
-                best / rate * 1e6,
-                base / rate * 1e6,
-            ))
-        }
-        _ => None,
-    };
-    let order_found = fix.is_some();
-    findings.extend(fix);
-    // A wrong unit scales every order's delays alike and cannot make another order
-    // explain them better than the file's: when one does, beyond doubt, the lengths
-    // are not blamed on a unit.
-    let beaten = matches!(&judged, Some(orders::Judged { verdict: OrderVerdict::Open { t, .. }, .. }) if *t <= -EVIDENCE_NEEDED)
-        || matches!(
-            &judged,
-            Some(orders::Judged {
-                verdict: OrderVerdict::Better { .. },
-                ..
-            })
-        );
-    let mut explained = order_found;
-    if !order_found && !beaten && (beyond > BEYOND_SHARE || length > LONG_LENGTH) {
-        explained = true;
-        findings.push(finding(
-            "beyond",
-            format!(
-                "the delays are about {:.1} times longer than the positions allow ({:.0}% of them beyond the microphones' spacing), and no channel order explains them: positions too small (they must be in metres), or the wrong sample rate or speed of sound",
-                length,
-                100.0 * beyond
-            ),
-        ));
-    } else if !order_found && !beaten && length < SHORT_LENGTH {
-        explained = true;
-        let advice = units::advice(aperture)
-            .map(|a| format!("; {a}"))
-            .unwrap_or_default();
-        findings.push(finding(
-            "unit",
-            format!(
-                "the delays are about {:.0} times shorter than the positions imply: positions too large (they must be in metres){advice}",
-                1.0 / length.max(1e-9)
-            ),
-        ));
     }
-    let identifiable = group.len() < factorial(m.min(FULL_ORDERS + 1));
-    if let (false, Some(judged)) = (explained, &judged) {
-        let spoken: Vec<scan::Frame> = judged
-            .frames
-            .iter()
-            .map(|&i| strongest[i].clone())
-            .collect();
-        let moved = (!order_found)
-            .then(|| moved_twice(&fit, &without, &spoken, &used, k, rate))
-            .flatten();
+
+    /// A permutation that explains the delays, within the positions' reach, better than
+    /// one microphone elsewhere would: the order finding.
+    fn fix(
+        &self,
+        judged: Option<&orders::Judged>,
+        direct: &[scan::Frame],
+        without: &[Fit],
+    ) -> Option<Finding> {
+        let (fit, used, k, rate, expect) = (&self.fit, &self.used, self.k, self.rate, &self.expect);
+        match judged {
+            Some(orders::Judged {
+                verdict:
+                    OrderVerdict::Better {
+                        orders,
+                        best,
+                        own: base,
+                        rivals,
+                    },
+                ..
+            }) if self.plausible(&orders[0])
+                && beats_one_moved(
+                    fit,
+                    without,
+                    direct,
+                    &orders[0],
+                    used,
+                    k,
+                    *best < BETTER_SHARE * *base,
+                ) =>
+            {
+                // A known direction picks among the fix's images, as it does among the file's.
+                let settled =
+                    match (orders.len() > 1).then(|| settle(fit, direct, orders, k, expect)) {
+                        Some(Settled::Own) => vec![orders[0].clone()],
+                        Some(Settled::Other(o)) => vec![o],
+                        _ => orders.clone(),
+                    };
+                Some(order_finding(
+                    &settled[0],
+                    &settled,
+                    rivals,
+                    used,
+                    *base / best.max(1e-9),
+                    best / rate * 1e6,
+                    base / rate * 1e6,
+                ))
+            }
+            _ => None,
+        }
+    }
+
+    /// The positions' scale, when no order explains the delays: `beyond` (too long) or
+    /// `unit` (too short). A wrong unit scales every order's delays alike and cannot make
+    /// another order explain them better than the file's: when one does, beyond doubt,
+    /// the lengths are not blamed on a unit.
+    fn scale(&self, judged: Option<&orders::Judged>, beyond: f64, length: f64) -> Option<Finding> {
+        let beaten = matches!(judged, Some(orders::Judged { verdict: OrderVerdict::Open { t, .. }, .. }) if *t <= -EVIDENCE_NEEDED)
+            || matches!(
+                judged,
+                Some(orders::Judged {
+                    verdict: OrderVerdict::Better { .. },
+                    ..
+                })
+            );
+        if beaten {
+            None
+        } else if beyond > BEYOND_SHARE || length > LONG_LENGTH {
+            Some(finding(
+                "beyond",
+                format!(
+                    "the delays are about {:.1} times longer than the positions allow ({:.0}% of them beyond the microphones' spacing), and no channel order explains them: positions too small (they must be in metres), or the wrong sample rate or speed of sound",
+                    length,
+                    100.0 * beyond
+                ),
+            ))
+        } else if length < SHORT_LENGTH {
+            let advice = units::advice(self.aperture)
+                .map(|a| format!("; {a}"))
+                .unwrap_or_default();
+            Some(finding(
+                "unit",
+                format!(
+                    "the delays are about {:.0} times shorter than the positions imply: positions too large (they must be in metres){advice}",
+                    1.0 / length.max(1e-9)
+                ),
+            ))
+        } else {
+            None
+        }
+    }
+
+    /// What the order's verdict says when no order was offered and the scale is not
+    /// blamed: a moved microphone, a misfit, an open question, or the symmetry.
+    fn verdict(
+        &self,
+        judged: &orders::Judged,
+        spoken: &[scan::Frame],
+        without: &[Fit],
+    ) -> Vec<Finding> {
+        let (fit, frames, used, k, rate) = (&self.fit, self.frames, &self.used, self.k, self.rate);
+        let (positions, speed) = (&self.positions, self.speed);
+        let mut findings = Vec::new();
+        let moved = moved_twice(fit, without, spoken, used, k, rate);
         let informative = judged.own < RANDOM_SHARE * judged.random;
         match &judged.verdict {
             _ if judged.frames.len() < orders::MIN_FRAMES => {
@@ -539,14 +520,14 @@ pub fn check_source<S: SampleSource>(
             OrderVerdict::Better { .. } if moved.is_some() => {
                 findings.extend(moved.clone());
             }
-            OrderVerdict::Better { orders, .. } if plausible(&orders[0]) => {
+            OrderVerdict::Better { orders, .. } if self.plausible(&orders[0]) => {
                 // Better, but not beyond one microphone elsewhere: named, not offered.
                 findings.push(Finding {
                     kind: "misfit".into(),
                     message: format!(
                         "the delays do not fit the geometry: with the file's channel order the far-field fit errs by {:.0} us; {} explains them better, but not beyond what one microphone elsewhere than the geometry says would (each channel left out in turn, the sounds of one direction weighed as one); check the positions, or record sounds from more directions",
                         judged.own / rate * 1e6,
-                        describe_change(&orders[0], &used, &positions, speed)
+                        describe_change(&orders[0], used, positions, speed)
                     ),
                     order: None,
                     orders: Some(orders.clone()),
@@ -579,7 +560,7 @@ pub fn check_source<S: SampleSource>(
                     kind: "misfit".into(),
                     message: format!(
                         "the delays fit the geometry with no channel order: {} explains them better than the file's order ({:.1} nats of evidence), but no order explains them as well as a far source and true positions would; a microphone is elsewhere than the geometry says, or a position is wrong (with {} orders alike)",
-                        describe_change(rival, &used, &positions, speed),
+                        describe_change(rival, used, positions, speed),
                         -t,
                         rivals.len()
                     ),
@@ -593,7 +574,7 @@ pub fn check_source<S: SampleSource>(
                 needed_frames,
                 rivals,
             } => {
-                let what = describe_change(rival, &used, &positions, speed);
+                let what = describe_change(rival, used, positions, speed);
                 let more = match needed_frames {
                     Some(n) if *n > frames.len() => format!(
                         "; about {n} clear frames (sharp sounds such as hand claps, from several directions) would likely tell them apart"
@@ -616,77 +597,85 @@ pub fn check_source<S: SampleSource>(
                 });
             }
             OrderVerdict::Fits { images, weakest_t } => {
-                if judged.own > orders::explained_within(rate, fit.longest()) {
-                    findings.push(finding(
-                        "misfit",
-                        format!(
-                            "the delays do not fit the geometry: with the file's channel order, the best there is, the far-field fit errs by {:.0} us on the direct sounds, more than a far source leaves ({:.0} us; a random order: {:.0} us); check the positions and their unit",
-                            judged.own / rate * 1e6,
-                            orders::explained_within(rate, fit.longest()) / rate * 1e6,
-                            judged.random / rate * 1e6
-                        ),
-                    ));
-                } else if let Some(f) = &moved {
-                    findings.push(f.clone());
-                } else if images.len() > 1 {
-                    match settle(&fit, &spoken, images, k, &expect) {
-                        Settled::Own => {}
-                        Settled::Other(order) => {
-                            findings.push(Finding {
-                                kind: "order".into(),
-                                message: format!(
-                                    "the sound from the expected direction is heard elsewhere with the file's order; order {} (a {} of the array) puts it there: {}",
-                                    numbered(&order),
-                                    image_kind(&order, &used, &positions),
-                                    describe_change(&order, &used, &positions, speed)
-                                ),
-                                order: Some(order.clone()),
-                                orders: Some(vec![order]),
-                            });
-                        }
-                        Settled::Not(why) => findings.push(Finding {
-                            kind: "symmetric".into(),
-                            message: format!(
-                                "the delays fit the file's channel order ({}), but also {} other order(s) that are mirror images or rotations of this array, which delays can never tell apart: {}{why}; give --expect AZ/EL for a sound in the recording from a known direction to settle it",
-                                if weakest_t.is_finite() {
-                                    format!("every other order told apart by at least {weakest_t:.1} nats of evidence")
-                                } else {
-                                    "every order of these microphones is one of them".to_string()
-                                },
-                                images.len() - 1,
-                                images[1..]
-                                    .iter()
-                                    .take(6)
-                                    .map(|o| numbered(o))
-                                    .collect::<Vec<_>>()
-                                    .join(", ")
-                                    + if images.len() > 7 { ", ..." } else { "" },
-                            ),
-                            order: None,
-                            orders: Some(images.clone()),
-                        }),
-                    }
-                }
+                findings.extend(self.fits(judged, images, *weakest_t, moved, spoken));
             }
         }
+        findings
     }
-    let fitted = Fitted {
-        residual_us: Some(own / rate * 1e6),
-        beyond_share: Some(beyond),
-        length: Some(length),
-        order_checked: identifiable,
-        symmetries: group.len(),
-    };
-    Ok(report(
-        name,
-        source.sample_rate(),
-        k,
-        &scan,
-        levels,
-        fitted,
-        findings,
-        remarks,
-    ))
+
+    /// When the file's order fits as well as its images: a misfit if even it leaves
+    /// more than a far source does, a moved microphone, or the image a known sound
+    /// settles on (`order`) or cannot settle (`symmetric`).
+    fn fits(
+        &self,
+        judged: &orders::Judged,
+        images: &[Vec<usize>],
+        weakest_t: f64,
+        moved: Option<Finding>,
+        spoken: &[scan::Frame],
+    ) -> Vec<Finding> {
+        let (fit, used, k, rate) = (&self.fit, &self.used, self.k, self.rate);
+        let (positions, speed, expect) = (&self.positions, self.speed, &self.expect);
+        let mut findings = Vec::new();
+        if judged.own > orders::explained_within(rate, fit.longest()) {
+            findings.push(finding(
+                "misfit",
+                format!(
+                    "the delays do not fit the geometry: with the file's channel order, the best there is, the far-field fit errs by {:.0} us on the direct sounds, more than a far source leaves ({:.0} us; a random order: {:.0} us); check the positions and their unit",
+                    judged.own / rate * 1e6,
+                    orders::explained_within(rate, fit.longest()) / rate * 1e6,
+                    judged.random / rate * 1e6
+                ),
+            ));
+        } else if let Some(f) = moved {
+            findings.push(f);
+        } else if images.len() > 1 {
+            match settle(fit, spoken, images, k, expect) {
+                Settled::Own => {}
+                Settled::Other(order) => {
+                    findings.push(Finding {
+                        kind: "order".into(),
+                        message: format!(
+                            "the sound from the expected direction is heard elsewhere with the file's order; order {} (a {} of the array) puts it there: {}",
+                            numbered(&order),
+                            image_kind(&order, used, positions),
+                            describe_change(&order, used, positions, speed)
+                        ),
+                        order: Some(order.clone()),
+                        orders: Some(vec![order]),
+                    });
+                }
+                Settled::Not(why) => findings.push(Finding {
+                    kind: "symmetric".into(),
+                    message: format!(
+                        "the delays fit the file's channel order ({}), but also {} other order(s) that are mirror images or rotations of this array, which delays can never tell apart: {}{why}; give --expect AZ/EL for a sound in the recording from a known direction to settle it",
+                        if weakest_t.is_finite() {
+                            format!("every other order told apart by at least {weakest_t:.1} nats of evidence")
+                        } else {
+                            "every order of these microphones is one of them".to_string()
+                        },
+                        images.len() - 1,
+                        images[1..]
+                            .iter()
+                            .take(6)
+                            .map(|o| numbered(o))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                            + if images.len() > 7 { ", ..." } else { "" },
+                    ),
+                    order: None,
+                    orders: Some(images.to_vec()),
+                }),
+            }
+        }
+        findings
+    }
+}
+
+/// An order as the list of each microphone's channel: "[0, 2, 1]".
+fn numbered(order: &[usize]) -> String {
+    let list: Vec<String> = order.iter().map(|c| c.to_string()).collect();
+    format!("[{}]", list.join(", "))
 }
 
 fn factorial(n: usize) -> usize {
@@ -977,12 +966,12 @@ fn beats_one_moved(
 
 /// A frame's residual beyond this many noise sigmas is an outlier's (an echo, a stray
 /// peak): it weighs no more than one this far off.
-pub const OUTLIER_SIGMAS: f64 = 3.0;
+pub(crate) const OUTLIER_SIGMAS: f64 = 3.0;
 
 /// Frames whose directions are within this chord of each other (on the unit sphere,
 /// or of the array's span for a plane or a line; 0.35 is 20 degrees) are of one
 /// direction.
-pub const SAME_DIRECTION: f64 = 0.35;
+pub(crate) const SAME_DIRECTION: f64 = 0.35;
 
 /// Each frame's direction group: frames within [`SAME_DIRECTION`] of a group's first
 /// frame under each of `orders` join it, in frame order (a wrong order bends

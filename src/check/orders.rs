@@ -12,15 +12,15 @@ use std::collections::HashSet;
 
 /// The evidence (natural log of the likelihood ratio) that tells two orders apart:
 /// 9.2 nats, odds of 10^4 to 1.
-pub const EVIDENCE_NEEDED: f64 = 9.2;
+pub(crate) const EVIDENCE_NEEDED: f64 = 9.2;
 /// The most one frame adds to the evidence (nats): no single frame, which a
 /// reflection may have shaped, decides alone.
-pub const FRAME_EVIDENCE: f64 = 5.0;
+pub(crate) const FRAME_EVIDENCE: f64 = 5.0;
 /// The least residual noise assumed (samples RMS): delays are read to about a tenth of
 /// a sample, and the frames' peaks to no better than this.
-pub const SIGMA_FLOOR: f64 = 0.25;
+pub(crate) const SIGMA_FLOOR: f64 = 0.25;
 /// Fewer frames than this and no order is told apart from another.
-pub const MIN_FRAMES: usize = 4;
+pub(crate) const MIN_FRAMES: usize = 4;
 
 /// What the delays say of the channel order.
 #[derive(Debug, Clone)]
@@ -106,10 +106,10 @@ pub fn images(order: &[usize], group: &[Vec<usize>], base: &[usize]) -> Vec<Vec<
 /// samples (RMS), or [`EXPLAINED_US`] if that is more: the direct sound of a clap does,
 /// its room's tail does not. Chosen by every order alike (the least residual over all
 /// of them), so the choice favours none.
-pub const EXPLAINED_SAMPLES: f64 = 1.0;
+pub(crate) const EXPLAINED_SAMPLES: f64 = 1.0;
 /// The same in time: a large array hears a clap a few metres away with a curved front
 /// that a far-field fit misses by tens of microseconds.
-pub const EXPLAINED_US: f64 = 120.0;
+pub(crate) const EXPLAINED_US: f64 = 120.0;
 
 /// The residual (samples) within which a frame is explained at `rate` Hz, on an array
 /// whose longest delay is `longest` samples: [`EXPLAINED_SAMPLES`] or [`EXPLAINED_US`],
@@ -122,7 +122,7 @@ pub fn explained_within(rate: f64, longest: f64) -> f64 {
 }
 
 /// See [`explained_within`].
-pub const EXPLAINED_SHARE: f64 = 0.2;
+pub(crate) const EXPLAINED_SHARE: f64 = 0.2;
 
 /// What [`judge`] found: its verdict, the file's order's mean residual and the median
 /// of the other orders' (what an order that does not fit gives), in samples, over the

@@ -11,16 +11,16 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 /// At most this many seconds are read: enough for a clear sound, bounded for an archive.
-pub const MAX_SECONDS: f64 = 600.0;
+pub(crate) const MAX_SECONDS: f64 = 600.0;
 /// The clearest frames kept.
-pub const KEPT_FRAMES: usize = 300;
+pub(crate) const KEPT_FRAMES: usize = 300;
 /// A frame counts as clear when its pairs' PHAT peaks reach this on average (plain
 /// PHAT peaks at 1; incoherent noise in a 1024-point frame at about 0.12).
-pub const CLEAR_PEAK: f32 = 0.05;
+pub(crate) const CLEAR_PEAK: f32 = 0.05;
 /// How fast a bin's background floor may rise, per frame.
 const FLOOR_RISE: f32 = 1.05;
 /// A sample this close to full scale counts as clipped.
-pub const CLIP_LEVEL: f32 = 0.999;
+pub(crate) const CLIP_LEVEL: f32 = 0.999;
 
 /// Per channel, what the pass measured.
 #[derive(Debug, Clone, Default)]
