@@ -211,6 +211,20 @@ fn draw_file<DB: DrawingBackend>(
         .iter()
         .map(|&(t, a, e, i)| (t, a, e, colour(i), file.detections[i as usize].source))
         .collect();
+    let title = file_title(file, kept.len(), truth);
+    let area = area.titled(&title, ("sans-serif", 15)).map_err(draw_err)?;
+    let third = area.dim_in_pixel().0 / 3;
+    let (azimuth, rest) = area.split_horizontally(third);
+    let (elevation, sky) = rest.split_horizontally(third);
+    // Azimuth and elevation against time.
+    for (panel, which) in [(&azimuth, 0usize), (&elevation, 1)] {
+        draw_against_time(panel, which, duration, file, &points, truth)?;
+    }
+    draw_sky(&sky, file, &points, truth)
+}
+
+/// A file's panel title: its counts, and its scores against the truth.
+fn file_title(file: &PlotFile, kept: usize, truth: Option<(&Truth, &Report)>) -> String {
     let mut title = format!(
         "{}: {} detections{}",
         file.name,
@@ -221,8 +235,8 @@ fn draw_file<DB: DrawingBackend>(
             format!(", {} events", file.events.len())
         }
     );
-    if kept.len() < file.detections.len() {
-        title += &format!(" ({} marks per panel, binned)", kept.len());
+    if kept < file.detections.len() {
+        title += &format!(" ({} marks per panel, binned)", kept);
     }
     if let Some((_, report)) = truth {
         title += &format!(
@@ -243,71 +257,89 @@ fn draw_file<DB: DrawingBackend>(
     } else if !file.detections.is_empty() {
         title += "; colour: tracked source";
     }
-    let area = area.titled(&title, ("sans-serif", 15)).map_err(draw_err)?;
-    let third = area.dim_in_pixel().0 / 3;
-    let (azimuth, rest) = area.split_horizontally(third);
-    let (elevation, sky) = rest.split_horizontally(third);
-    // Azimuth and elevation against time.
-    for (panel, which, range, label) in [
-        (&azimuth, 0usize, -180.0..180.0, "azimuth (deg)"),
-        (&elevation, 1, -90.0..90.0, "elevation (deg)"),
-    ] {
-        let mut chart = ChartBuilder::on(panel)
-            .margin(8)
-            .x_label_area_size(36)
-            .y_label_area_size(48)
-            .build_cartesian_2d(0.0..duration, range)
-            .map_err(draw_err)?;
-        chart
-            .configure_mesh()
-            .x_desc("time (s)")
-            .y_desc(label)
-            .max_light_lines(0)
-            .bold_line_style(RGBColor(225, 225, 225))
-            .x_labels(8)
-            .y_labels(9)
-            .x_label_formatter(&|v| plain(*v))
-            .y_label_formatter(&|v| format!("{v:.0}"))
-            .draw()
-            .map_err(draw_err)?;
-        let value = |a: f64, e: f64| if which == 0 { a } else { e };
-        if let Some((t, _)) = truth {
-            for s in &t.sources {
-                for &[a, b] in &s.active {
-                    for piece in truth_path(s, a, b) {
-                        chart
-                            .draw_series(LineSeries::new(
-                                piece.iter().map(|&(t, az, el)| (t, value(az, el))),
-                                BLACK.mix(0.45).stroke_width(2),
-                            ))
-                            .map_err(draw_err)?;
-                    }
+    title
+}
+
+/// Azimuth (`which` 0) or elevation (1) against time: the truth's lines, the events'
+/// bars and the detections' marks.
+fn draw_against_time<DB: DrawingBackend>(
+    panel: &DrawingArea<DB, plotters::coord::Shift>,
+    which: usize,
+    duration: f64,
+    file: &PlotFile,
+    points: &[Mark],
+    truth: Option<(&Truth, &Report)>,
+) -> Result<(), PlotError> {
+    let (range, label) = if which == 0 {
+        (-180.0..180.0, "azimuth (deg)")
+    } else {
+        (-90.0..90.0, "elevation (deg)")
+    };
+    let mut chart = ChartBuilder::on(panel)
+        .margin(8)
+        .x_label_area_size(36)
+        .y_label_area_size(48)
+        .build_cartesian_2d(0.0..duration, range)
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc(label)
+        .max_light_lines(0)
+        .bold_line_style(RGBColor(225, 225, 225))
+        .x_labels(8)
+        .y_labels(9)
+        .x_label_formatter(&|v| plain(*v))
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .draw()
+        .map_err(draw_err)?;
+    let value = |a: f64, e: f64| if which == 0 { a } else { e };
+    if let Some((t, _)) = truth {
+        for s in &t.sources {
+            for &[a, b] in &s.active {
+                for piece in truth_path(s, a, b) {
+                    chart
+                        .draw_series(LineSeries::new(
+                            piece.iter().map(|&(t, az, el)| (t, value(az, el))),
+                            BLACK.mix(0.45).stroke_width(2),
+                        ))
+                        .map_err(draw_err)?;
                 }
             }
         }
-        for e in &file.events {
-            let v = value(e.azimuth_deg, e.elevation_deg);
-            let c = track_colour(e.source);
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [
-                        (e.start_s, v - 2.5),
-                        (e.end_s.max(e.start_s + duration / 400.0), v + 2.5),
-                    ],
-                    c.mix(0.35).filled(),
-                )))
-                .map_err(draw_err)?;
-        }
+    }
+    for e in &file.events {
+        let v = value(e.azimuth_deg, e.elevation_deg);
+        let c = track_colour(e.source);
         chart
-            .draw_series(
-                points
-                    .iter()
-                    .map(|&(t, a, e, c, _)| Circle::new((t, value(a, e)), 2, c.filled())),
-            )
+            .draw_series(std::iter::once(Rectangle::new(
+                [
+                    (e.start_s, v - 2.5),
+                    (e.end_s.max(e.start_s + duration / 400.0), v + 2.5),
+                ],
+                c.mix(0.35).filled(),
+            )))
             .map_err(draw_err)?;
     }
+    chart
+        .draw_series(
+            points
+                .iter()
+                .map(|&(t, a, e, c, _)| Circle::new((t, value(a, e)), 2, c.filled())),
+        )
+        .map_err(draw_err)?;
+    Ok(())
+}
+
+/// The sky map: events at their mean direction, detections by source, the truth.
+fn draw_sky<DB: DrawingBackend>(
+    sky: &DrawingArea<DB, plotters::coord::Shift>,
+    file: &PlotFile,
+    points: &[Mark],
+    truth: Option<(&Truth, &Report)>,
+) -> Result<(), PlotError> {
     // The sky map.
-    let mut chart = ChartBuilder::on(&sky)
+    let mut chart = ChartBuilder::on(sky)
         .margin(8)
         .x_label_area_size(36)
         .y_label_area_size(48)

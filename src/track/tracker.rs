@@ -270,6 +270,42 @@ impl Tracker {
                 .map(|d| d.score)
                 .fold(0.0, f64::max),
         };
+        // Where each detection's row goes, and the tracks and candidates already joined.
+        let mut used = std::mem::take(&mut self.used);
+        used.clear();
+        used.resize(detections.len(), None);
+        let mut taken = std::mem::take(&mut self.taken);
+        taken.clear();
+        self.associate(time_s, detections, frame, &mut used, &mut taken);
+        self.ride(time_s, detections, &mut used, &mut taken);
+        self.taken = taken;
+        self.start(time_s, detections, frame, &mut used);
+        // Rows wait in the frame's order of its detections.
+        for (d, slot) in detections.iter().zip(&used) {
+            if let Some(slot) = *slot {
+                self.waiting.push_back((*d, slot));
+            }
+        }
+        self.used = used;
+        self.release();
+        // Rows still to come: the waiting ones, then later frames'.
+        let from_s = self
+            .waiting
+            .front()
+            .map_or(time_s + 1e-9, |(d, _)| d.time_s);
+        self.smoother.settle(from_s, &mut self.ready);
+    }
+
+    /// Joins the frame's detections (not its riders) to the tracks and candidates
+    /// within their gates, nearest pairs first, one detection to each.
+    fn associate(
+        &mut self,
+        time_s: f64,
+        detections: &[Detection],
+        frame: Frame,
+        used: &mut [Option<Slot>],
+        taken: &mut Vec<(bool, u64)>,
+    ) {
         // Nearest first: every (detection, track or candidate) within its gate.
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
@@ -297,11 +333,6 @@ impl Tracker {
             }
         }
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut used = std::mem::take(&mut self.used);
-        used.clear();
-        used.resize(detections.len(), None);
-        let mut taken = std::mem::take(&mut self.taken);
-        taken.clear();
         for &(_, i, slot) in &pairs {
             let key = match slot {
                 Slot::Track(id) => (true, id),
@@ -315,8 +346,19 @@ impl Tracker {
             used[i] = Some(self.join(&detections[i], slot, frame));
             taken.push(key);
         }
-        // Riders: rows of the talking tracks near them that the frame's other detections
-        // left, nearest first.
+        self.pairs = pairs;
+    }
+
+    /// Riders: rows of the talking tracks near them that the frame's other detections
+    /// left, nearest first; the tracks themselves are left as they were.
+    fn ride(
+        &mut self,
+        time_s: f64,
+        detections: &[Detection],
+        used: &mut [Option<Slot>],
+        taken: &mut Vec<(bool, u64)>,
+    ) {
+        let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
         for (i, d) in detections.iter().enumerate().filter(|(_, d)| d.rider) {
             for t in self.tracks.iter().filter(|t| t.event.is_some()) {
@@ -345,7 +387,17 @@ impl Tracker {
             taken.push((true, id));
         }
         self.pairs = pairs;
-        self.taken = taken;
+    }
+
+    /// The detections nothing took start candidates, unless they are riders or a live
+    /// track's outliers.
+    fn start(
+        &mut self,
+        time_s: f64,
+        detections: &[Detection],
+        frame: Frame,
+        used: &mut [Option<Slot>],
+    ) {
         for (d, placed) in detections.iter().zip(used.iter_mut()) {
             if placed.is_some() {
                 continue;
@@ -379,20 +431,6 @@ impl Tracker {
             });
             *placed = Some(self.join(d, Slot::Candidate(key, 0), frame));
         }
-        // Rows wait in the frame's order of its detections.
-        for (d, slot) in detections.iter().zip(&used) {
-            if let Some(slot) = *slot {
-                self.waiting.push_back((*d, slot));
-            }
-        }
-        self.used = used;
-        self.release();
-        // Rows still to come: the waiting ones, then later frames'.
-        let from_s = self
-            .waiting
-            .front()
-            .map_or(time_s + 1e-9, |(d, _)| d.time_s);
-        self.smoother.settle(from_s, &mut self.ready);
     }
 
     /// Adds `d` to a track or a candidate (confirming the candidate when it has enough);
