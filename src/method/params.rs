@@ -306,7 +306,7 @@ pub const DEFAULT_PEAKS: usize = 8;
 /// detection count and mean error to the truth as it was (to 0.01 deg), with the
 /// search 2-3 times faster and 3 frames of 1405 at the budget instead of 2
 /// (docs/experiments.md, 2026-12-03 evening).
-pub const DEFAULT_MAX_WORK: u64 = 4_000_000;
+pub(crate) const DEFAULT_MAX_WORK: u64 = 4_000_000;
 
 /// The most sources one frame can give ([`Params::max_sources`]).
 pub const MAX_SOURCES: usize = 4;

@@ -8,7 +8,7 @@
 //! the headline figures of `ssl evaluate` in the row's title.
 //!
 //! Large results stay small: a file with more than [`MAX_MARKS`] detections draws at most
-//! one mark per cell of a grid of [`TIME_BINS`] columns by 1 deg (azimuth and elevation),
+//! one mark per cell of a grid of `TIME_BINS` columns by 1 deg (azimuth and elevation),
 //! the first detection of the cell setting its colour; while more than [`MAX_MARKS`]
 //! cells are occupied the cells double in size. The same input gives the same bytes. A
 //! legend on the sky map says which colour is which source, and what black is.
@@ -23,7 +23,7 @@ use plotters::prelude::*;
 use std::collections::BTreeMap;
 
 /// Columns of the time grid a file's marks are binned on.
-pub const TIME_BINS: usize = 1200;
+pub(crate) const TIME_BINS: usize = 1200;
 /// The most marks one panel draws.
 pub const MAX_MARKS: usize = 20_000;
 

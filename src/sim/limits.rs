@@ -14,27 +14,27 @@ pub const MAX_DURATION_S: f64 = 3600.0;
 /// FFT convolutions of whole sources, in memory: up to about 80 bytes per sample and
 /// channel (2.7 GB measured for a reverberant scene with a fan and diffuse noise at this
 /// limit).
-pub const MAX_CHANNEL_SAMPLES: f64 = (1u64 << 25) as f64;
+pub(crate) const MAX_CHANNEL_SAMPLES: f64 = (1u64 << 25) as f64;
 /// Sources in one scene.
 pub const MAX_SOURCES: usize = 1000;
 /// The farthest a source or fan may be from the array (metres).
 pub const MAX_DISTANCE_M: f64 = 1000.0;
 /// The largest room dimension (metres).
-pub const MAX_ROOM_M: f64 = 1000.0;
+pub(crate) const MAX_ROOM_M: f64 = 1000.0;
 /// Image sources one scene may render, over all responses (about a minute of work).
-pub const MAX_IMAGES: f64 = 2e9;
+pub(crate) const MAX_IMAGES: f64 = 2e9;
 
 /// Samples one scene may convolve, over all microphones: every active interval of every
 /// source and every fan, each with the length of its responses added (a convolution
 /// costs its input plus its response). About a minute of work on one core (100 ns a
 /// sample measured, with 1000 and 3000 free-field fans); shared with [`MAX_IMAGES`].
-pub const MAX_CONVOLVED_SAMPLES: f64 = 6e8;
+pub(crate) const MAX_CONVOLVED_SAMPLES: f64 = 6e8;
 
 /// The fastest a moving source turns (degrees per second, either way): one turn a
 /// second. Its responses are rendered every degree, so a second of it costs 360 of them.
-pub const MAX_TURN_DEG_S: f64 = 360.0;
+pub(crate) const MAX_TURN_DEG_S: f64 = 360.0;
 /// The speed of sound accepted (m/s): the geometry's range, one for every input.
-pub const SPEED_RANGE: (f64, f64) = crate::geometry::SPEED_OF_SOUND_RANGE;
+pub(crate) const SPEED_RANGE: (f64, f64) = crate::geometry::SPEED_OF_SOUND_RANGE;
 
 macro_rules! require {
     ($ok:expr, $($arg:tt)*) => {

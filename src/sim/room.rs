@@ -7,7 +7,7 @@
 //! a direction-averaged decay model, which misses the direct sound and the sparse early
 //! reflections where a T20 is read. A requested RT60 is therefore met the way a user would
 //! check it: `beta` is adjusted until the Schroeder T20 of a simulated impulse response
-//! between two reference points of the room ([`REFERENCE_POINTS`]) equals the request.
+//! between two reference points of the room (`REFERENCE_POINTS`) equals the request.
 //! Other source and receiver positions measure within about 10% of it. Each image contributes
 //! a tap of gain `beta^reflections / distance` at
 //! its fractional delay, spread over a Hann-windowed sinc ([`SINC_HALF_WIDTH`] samples
@@ -24,7 +24,7 @@ pub const SINC_HALF_WIDTH: usize = 16;
 
 /// Where [`Room::with_rt60`] measures the decay: source and receiver as fractions of
 /// the room's dimensions.
-pub const REFERENCE_POINTS: ([f64; 3], [f64; 3]) = ([0.3, 0.6, 0.45], [0.65, 0.35, 0.4]);
+pub(crate) const REFERENCE_POINTS: ([f64; 3], [f64; 3]) = ([0.3, 0.6, 0.45], [0.65, 0.35, 0.4]);
 
 /// A shoebox room with one wall reflection coefficient.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -10,7 +10,7 @@ use crate::geometry::toml_line;
 use crate::stream::read_text;
 
 /// The largest scene file read.
-pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+pub(crate) const MAX_SCENE_BYTES: u64 = 16 << 20;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 

@@ -176,11 +176,11 @@ pub(super) fn render_source(
 }
 
 /// Blocks over which a recording's sounding part is found (seconds).
-pub const SOUNDING_BLOCK_S: f64 = 0.01;
+pub(crate) const SOUNDING_BLOCK_S: f64 = 0.01;
 
 /// A block sounds when its power is at least this far (dB) under the mean power of
 /// the whole interval.
-pub const SOUNDING_DB: f64 = -30.0;
+pub(crate) const SOUNDING_DB: f64 = -30.0;
 
 /// The samples `[from, to)` of `x` from its first to its last block of
 /// [`SOUNDING_BLOCK_S`] whose power is within [`SOUNDING_DB`] of `x`'s mean power; none

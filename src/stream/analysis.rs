@@ -28,7 +28,7 @@ const BEYOND_SHARE: f64 = 0.03;
 /// with reverberation and noise, are half as coherent or less.
 const NARROW_BAND_MARGIN: f64 = 2.0;
 /// Below this largest delay (samples), the array's delays are called coarse.
-pub const COARSE_DELAY_SAMPLES: f64 = 10.0;
+pub(crate) const COARSE_DELAY_SAMPLES: f64 = 10.0;
 
 /// A recording opened for analysis with one geometry and set of parameters.
 ///

@@ -17,14 +17,14 @@ use super::evidence::CANDIDATE_RATE_PER_S;
 use nalgebra::Vector3;
 
 /// A cell's size (degrees of azimuth and of elevation): the candidates' gate.
-pub const CELL_DEG: f64 = 5.0;
+pub(crate) const CELL_DEG: f64 = 5.0;
 
 /// How long the map remembers (seconds): a fan switched off is forgotten in about this.
-pub const MEMORY_S: f64 = 30.0;
+pub(crate) const MEMORY_S: f64 = 30.0;
 
 /// The prior's weight (seconds of observation): for candidates under the threshold,
 /// one look of clutter ([`CANDIDATE_RATE_PER_S`]).
-pub const PRIOR_S: f64 = 1.0 / CANDIDATE_RATE_PER_S;
+pub(crate) const PRIOR_S: f64 = 1.0 / CANDIDATE_RATE_PER_S;
 
 const AZIMUTHS: usize = (360.0 / CELL_DEG) as usize;
 const ELEVATIONS: usize = (180.0 / CELL_DEG) as usize;

@@ -11,8 +11,8 @@
 //! - A look with a detection adds `ln(f1(m) / f0(m)) + ln(P_D / (r x look))`: the
 //!   ratio of its margin `m` (score over the frame's threshold) under the two
 //!   hypotheses' laws, and of the chance that a source is heard in a look
-//!   ([`P_DETECT`]) to the chance that clutter falls in the candidate's gate in one
-//!   (`r`, a rate per second: [`Clutter::rate`](super::clutter::Clutter::rate)).
+//!   (`P_DETECT`) to the chance that clutter falls in the candidate's gate in one
+//!   (`r`, a rate per second: the clutter map's rate).
 //! - A look without one adds `ln(1 - P_D)`: a source would probably have been heard.
 //! - A candidate is a source once its sum reaches `ln(N / F)`, `N` candidates an hour
 //!   ([`CANDIDATES_PER_HOUR`]) of which at most `F` false
@@ -21,21 +21,21 @@
 //!
 //! Margins follow Pareto laws from the candidates' floor `m0` (the share of the
 //! threshold candidates are reported down to): `f(m) = a m0^a / m^(a + 1)`, exponent
-//! [`SOURCE_PARETO`] for sources and [`CLUTTER_PARETO`] for clutter. Every constant
+//! `SOURCE_PARETO` for sources and `CLUTTER_PARETO` for clutter. Every constant
 //! was measured on training draws (`benches/draws.py --seed 900`), none on the scenes
 //! the method is scored on (docs/experiments.md, 2026-12-02).
 
 /// The chance a source is heard in a look: the share of 64 ms looks of training speech
 /// (prism, 48 kHz, RT60 0.3-0.8 s) with a detection within 10 deg of the talker.
-pub const P_DETECT: f64 = 0.65;
+pub(crate) const P_DETECT: f64 = 0.65;
 
 /// The Pareto exponent of a source's margins (fitted by maximum likelihood on 4702
 /// training detections of speech, claps and knocks, above the candidates' floor).
-pub const SOURCE_PARETO: f64 = 1.6;
+pub(crate) const SOURCE_PARETO: f64 = 1.6;
 
 /// The Pareto exponent of clutter's margins (41 training detections more than 30 deg
 /// from every source, background and rooms): clutter rarely stands far over the floor.
-pub const CLUTTER_PARETO: f64 = 5.3;
+pub(crate) const CLUTTER_PARETO: f64 = 5.3;
 
 /// Clutter over the threshold with no source active (per second, in a candidate's
 /// gate): the training background (six minutes of fans near and far, diffuse noise and
@@ -43,7 +43,7 @@ pub const CLUTTER_PARETO: f64 = 5.3;
 pub const QUIET_RATE_PER_S: f64 = 1.0 / 360.0;
 
 /// Clutter under the threshold (candidates) with no source active, before the
-/// [`Clutter`](super::clutter::Clutter) map has learnt a place (per second, in a candidate's gate).
+/// clutter map has learnt a place (per second, in a candidate's gate).
 pub const CANDIDATE_RATE_PER_S: f64 = 0.2;
 
 /// Clutter beside an active source (per second, in a candidate's gate): a talker's
@@ -63,7 +63,7 @@ pub const REJECT_NATS: f64 = -3.0;
 
 /// A talking track heard within this long (seconds) makes the detections beside it
 /// suspect: four looks, so that a talker missed in a look or two (a third of looks,
-/// [`P_DETECT`]) still counts as talking; a loudspeaker in turn after a 0.5 s pause
+/// `P_DETECT`) still counts as talking; a loudspeaker in turn after a 0.5 s pause
 /// does not.
 pub const ACTIVE_S: f64 = 0.25;
 

@@ -17,7 +17,7 @@ use nalgebra::Vector3;
 
 /// A candidate within this many degrees of a talking track's azimuth (measured in the
 /// horizontal plane)...
-pub const IMAGE_AZIMUTH_DEG: f64 = 6.0;
+pub(crate) const IMAGE_AZIMUTH_DEG: f64 = 6.0;
 
 /// ...and at least this many degrees from its elevation is its vertical reflection.
 pub const IMAGE_ELEVATION_DEG: f64 = 20.0;
@@ -27,7 +27,7 @@ pub const IMAGE_TALKING_S: f64 = 0.5;
 
 /// Azimuths are compared only for directions at most this far from the horizontal
 /// plane (degrees): near the zenith an azimuth means little.
-pub const IMAGE_MAX_ELEVATION_DEG: f64 = 80.0;
+pub(crate) const IMAGE_MAX_ELEVATION_DEG: f64 = 80.0;
 
 /// Whether `candidate` looks like a vertical reflection of a source heard from
 /// `source`: the same azimuth (within [`IMAGE_AZIMUTH_DEG`]), an elevation at least

@@ -25,7 +25,7 @@
 //!   joins no track starts a candidate, and the candidate becomes a track once the
 //!   evidence of what joins it passes a threshold set by
 //!   [`TrackParams::false_per_hour`] ([`evidence`]: a sequential probability ratio test
-//!   per candidate, with a map of where clutter comes from, [`clutter`]); it is
+//!   per candidate, with a map of where clutter comes from, `clutter.rs`); it is
 //!   dropped once the evidence is against it, or when its detections have waited
 //!   [`TrackParams::delay_s`]. A track's gate is then narrow right after a pause unless
 //!   its speed has been measured, and a stretch of activity ends after a silence as
@@ -46,7 +46,7 @@
 //!   [`TrackParams::keep_unconfirmed`] gives them out without an id), and a candidate
 //!   with none left is forgotten. A candidate at the azimuth of a talking track but far
 //!   from its elevation is that talker's floor or ceiling image and is dropped instead
-//!   ([`image`]). A confirmed candidate near a track that has fallen silent
+//!   (`image.rs`). A confirmed candidate near a track that has fallen silent
 //!   (within the gate) takes that track's id again: a talker who pauses and speaks again
 //!   from the same place keeps one id;
 //! - **activity:** a track whose last detection is more than [`TrackParams::end_s`] old
@@ -68,10 +68,10 @@
 //! Measured in docs/tracking.md.
 
 mod candidate;
-pub mod clutter;
+pub(crate) mod clutter;
 mod event;
 pub mod evidence;
-pub mod image;
+pub(crate) mod image;
 mod motion;
 mod output;
 pub mod smoother;

@@ -26,6 +26,6 @@ pub struct TrackStats {
     /// [`TrackParams::keep_unconfirmed`](super::TrackParams::keep_unconfirmed).
     pub unconfirmed: u64,
     /// Of those, the detections of candidates taken for a talking track's floor or
-    /// ceiling image (see [`super::image`]).
+    /// ceiling image (see `image.rs`).
     pub reflections: u64,
 }

@@ -33,11 +33,11 @@ use multiversion::multiversion;
 /// real-speech grid and a fan next to the array in free field: 2.0 lost more speech
 /// events at 0 dB SNR (50% against 62% at RT60 0.2 s), 1.2 taught too rarely and let the
 /// fan through in 263 of 750 frames.
-pub const GATE: f64 = STEADY_FRAME;
+pub(crate) const GATE: f64 = STEADY_FRAME;
 
 /// One frame in this many of those within [`GATE`] teaches the background (4 cost 4% more
 /// time on the 10-minute recording of docs/speed.md than 8, for no gain measured).
-pub const STRIDE: u64 = 8;
+pub(crate) const STRIDE: u64 = 8;
 
 /// In a steady room the estimate has learnt from four frames after this many (32 at
 /// [`STRIDE`] 8: 0.5 s at 16 kHz, 0.34 s at 48 kHz); before that a steady source beside

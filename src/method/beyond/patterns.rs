@@ -58,19 +58,19 @@ use std::collections::HashMap;
 
 /// A frame teaches its first source's pattern when that source scores at least this many
 /// times any other of the frame.
-pub const DOMINANT: f64 = 2.0;
+pub(crate) const DOMINANT: f64 = 2.0;
 
 /// A source within this many degrees of a remembered talker is that talker.
-pub const SLOT_DEG: f64 = 10.0;
+pub(crate) const SLOT_DEG: f64 = 10.0;
 
 /// Time constant (seconds) of a talker's pattern once learned from enough frames.
-pub const PATTERN_S: f64 = 2.0;
+pub(crate) const PATTERN_S: f64 = 2.0;
 
 /// The most talkers remembered.
-pub const SLOTS: usize = 6;
+pub(crate) const SLOTS: usize = 6;
 
 /// The share of a frame's first source a remembered talker's direction moves by.
-pub const FOLLOW: f64 = 0.3;
+pub(crate) const FOLLOW: f64 = 0.3;
 
 /// What the second look finds within the vertical plane of a source found in the frame
 /// ([`IMAGE_PLANE_DEG`](super::frame_sources::IMAGE_PLANE_DEG)) and this many degrees
@@ -82,19 +82,19 @@ pub const IMAGE_ELEVATION_DEG: f64 = 10.0;
 
 /// A remembered talker is heard lately when it was a frame's first source at most this
 /// long ago (seconds).
-pub const TALKING_S: f64 = 0.5;
+pub(crate) const TALKING_S: f64 = 0.5;
 
 /// What the second look finds scores at least this share of its score in the longer
 /// average in the correlations averaged over the frame's span (pairs that cannot tell
 /// it from a source found left out): a source that stopped leaves the span long before
 /// the longer average.
-pub const NOW_SHARE: f64 = 0.5;
+pub(crate) const NOW_SHARE: f64 = 0.5;
 
 /// ...and at least this share of the frame's candidates' floor there. Without these two,
 /// `tests/integration/accuracy.rs` failed: after each noise burst or train of clicks ended, rows of
 /// it came in the next one's first 0.05-0.1 s (its span scored 0.12-0.21 of the floor;
 /// the second talkers of the tracking benchmark 0.21-0.72, the lowest tenth cut).
-pub const NOW_FLOOR: f64 = 0.25;
+pub(crate) const NOW_FLOOR: f64 = 0.25;
 
 /// The direction found is heard in the frame's span when each pair's correlation there
 /// peaks within this many samples of its delay (not the consistency tolerance: with 50
@@ -102,26 +102,26 @@ pub const NOW_FLOOR: f64 = 0.25;
 /// in `tests/integration/accuracy.rs`, its pairs' best values over five lags adding up to the floor;
 /// with one sample the tracking benchmark's prism at 48 kHz finds 0-4 points fewer of
 /// two talkers' windows than with the tolerance, docs/tracking.md).
-pub const NOW_SAMPLES: f64 = 1.0;
+pub(crate) const NOW_SAMPLES: f64 = 1.0;
 
 /// A talker whose direction now is further than this (degrees) from its direction
 /// averaged as the longer average is, is moving: its pattern, smeared along its way, is
 /// not removed (else what is left of it was taken for a second talker: the tracking
 /// benchmark's prism made two tracks of a talker turning at 15 and 60 deg/s).
-pub const STILL_DEG: f64 = 2.0;
+pub(crate) const STILL_DEG: f64 = 2.0;
 
 /// A pattern is removed once learned from this many frames (3 found 0-10 points more
 /// windows than 8 on the tracking benchmark's prism).
-pub const MIN_LEARNED: u32 = 3;
+pub(crate) const MIN_LEARNED: u32 = 3;
 
 /// A frame teaches its first source's pattern only when that source scores at least
 /// this share of the threshold (0.5 found as many windows as 1 on the tracking
 /// benchmark's prism, 0-14 points more on the small arrays at 48 kHz).
-pub const LEARN_MARGIN: f64 = 0.5;
+pub(crate) const LEARN_MARGIN: f64 = 0.5;
 
 /// Patterns are learned only when the array's longest delay is at least this many
 /// samples.
-pub const MIN_LAGS: usize = 8;
+pub(crate) const MIN_LAGS: usize = 8;
 
 /// The longer average's scale under which it is multiplied out.
 const RESCALE: f32 = 1e-6;

@@ -32,21 +32,21 @@ use multiversion::multiversion;
 use nalgebra::Vector3;
 
 /// Directions in the grid.
-pub const GRID_POINTS: usize = 1000;
+pub(crate) const GRID_POINTS: usize = 1000;
 
 /// The largest angle (radians) from any direction to its nearest grid point, with a
 /// margin: for a Fibonacci lattice of `n` points about `0.7 sqrt(4 pi / n)`.
-pub const COVER_RAD: f64 = 0.085;
+pub(crate) const COVER_RAD: f64 = 0.085;
 
 /// Half-width (samples, beyond the tolerance) of what is cleared around a found
 /// source's delay before the next is looked for.
 pub const CLEAR_SAMPLES: f32 = 1.0;
 
 /// Further sources are looked for this far (degrees) from those found.
-pub const EXCLUDE_DEG: f64 = 15.0;
+pub(crate) const EXCLUDE_DEG: f64 = 15.0;
 
 /// The grid points ordered by their response before the best apart are picked.
-pub const TOP_POINTS: usize = 64;
+pub(crate) const TOP_POINTS: usize = 64;
 
 /// A further source in a frame scores at least this share of the first: a strong
 /// source's side lobes, left after its delays are cleared, add up to 10-12% of its score
@@ -55,10 +55,10 @@ pub const FURTHER_SHARE: f64 = 0.2;
 
 /// The most pairs the grid reads, the longest baselines (every pair of arrays up to 12
 /// microphones; 32 microphones have 496). The refinement reads them all.
-pub const GRID_PAIRS: usize = 66;
+pub(crate) const GRID_PAIRS: usize = 66;
 
 /// Grid points refined per search: the best, apart by [`SEPARATION_DEG`].
-pub const REFINED: usize = 6;
+pub(crate) const REFINED: usize = 6;
 
 /// Grid points refined in one search are at least this far apart (degrees).
 pub const SEPARATION_DEG: f64 = 10.0;

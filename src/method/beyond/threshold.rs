@@ -98,7 +98,7 @@ impl Threshold {
 /// The share of the diffuse coherence a frame's threshold allows for, per pair
 /// (measured: 0.25 let a 4.6 cm square at 48 kHz report its background 144 times a
 /// minute; 0.5 none; 1.0 lost a third of the speech events at 8 kHz; docs/field.md).
-pub const DIFFUSE_MARGIN: f64 = 0.5;
+pub(crate) const DIFFUSE_MARGIN: f64 = 0.5;
 
 /// The weight eq. (4) gives a bin at the level of the noise estimate, `X = X_n + R`,
 /// with the late reverberation `R = reverb_level X` of a steady sound.

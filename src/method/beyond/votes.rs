@@ -48,32 +48,32 @@ use nalgebra::{DMatrix, Vector3};
 
 /// Lowest bin frequency that votes (Hz): below it a delay is a small share of a cycle
 /// and its phase mostly noise.
-pub const LOW_HZ: f64 = 300.0;
+pub(crate) const LOW_HZ: f64 = 300.0;
 
 /// A bin votes when its power is at least this times the noise estimate's (which holds
 /// the late reverberation too): 4 added half as many windows of two talkers on a 6-mic
 /// circle.
-pub const SNR_FLOOR: f32 = 2.0;
+pub(crate) const SNR_FLOOR: f32 = 2.0;
 
 /// A bin votes when its pairs' path differences fit one plane wave within this share of
 /// their mean length (RMS).
-pub const MAX_RESIDUAL: f64 = 0.15;
+pub(crate) const MAX_RESIDUAL: f64 = 0.15;
 
 /// Votes within this (degrees) of a peak count toward it.
-pub const PEAK_DEG: f64 = 8.0;
+pub(crate) const PEAK_DEG: f64 = 8.0;
 
 /// After a peak, the votes within this (degrees) are set aside.
-pub const APART_DEG: f64 = 20.0;
+pub(crate) const APART_DEG: f64 = 20.0;
 
 /// A peak's least weight (the sum of its votes' `log10` power ratios).
-pub const MIN_MASS: f64 = 5.0;
+pub(crate) const MIN_MASS: f64 = 5.0;
 
 /// A peak's least weight as a share of the first's.
-pub const PEAK_SHARE: f64 = 0.3;
+pub(crate) const PEAK_SHARE: f64 = 0.3;
 
 /// An array votes when at least this many bins can (the prism's pairs, 36-71 cm, are
 /// shorter than half a wavelength only up to about 340 Hz).
-pub const MIN_BINS: usize = 8;
+pub(crate) const MIN_BINS: usize = 8;
 
 /// The most pairs a bin uses (larger arrays use the shortest).
 const MAX_PAIRS: usize = 66;

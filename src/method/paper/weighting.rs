@@ -20,12 +20,12 @@ pub const ALPHA: f32 = 0.4;
 pub const GAMMA: f32 = 0.3;
 
 /// Time constant of the smoothing of `X` before minimum tracking (seconds).
-pub const SMOOTH_TAU_S: f64 = 0.04;
+pub(crate) const SMOOTH_TAU_S: f64 = 0.04;
 /// The minimum window is tracked as this many sub-windows (so it slides in steps of
 /// `min_window_s / SUBWINDOWS`).
-pub const SUBWINDOWS: usize = 8;
+pub(crate) const SUBWINDOWS: usize = 8;
 /// Time constant of the signal-presence probability (seconds).
-pub const PRESENCE_TAU_S: f64 = 0.01;
+pub(crate) const PRESENCE_TAU_S: f64 = 0.01;
 
 /// The noise estimator's settings. The defaults were chosen by measurement (docs/method.md,
 /// "Choices and evidence"): Cohen's speech settings (ratio 5, 0.5 s) let a steady source
