@@ -106,50 +106,10 @@ pub(super) fn score_tracks(
     for &t in tracks {
         *rows_of_track.entry(t).or_default() += 1;
     }
-    let mut per_source = Vec::new();
-    for (i, _) in sources.iter().enumerate() {
-        let mut by_track: BTreeMap<u64, usize> = BTreeMap::new();
-        for (o, &t) in owner.iter().zip(tracks) {
-            if *o == Some(i) {
-                *by_track.entry(t).or_default() += 1;
-            }
-        }
-        let dominant = by_track
-            .iter()
-            .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)))
-            .map(|(&t, &n)| (t, n));
-        per_source.push(SourceTracks {
-            index: i,
-            rows: by_track.values().sum(),
-            dominant_track: dominant.map(|d| d.0),
-            purity: dominant.map(|(t, n)| n as f64 / rows_of_track[&t] as f64),
-            tracks: by_track.len(),
-        });
-    }
+    let per_source = source_tracks(sources.len(), &owner, tracks, &rows_of_track);
     let with_rows: Vec<&SourceTracks> = per_source.iter().filter(|s| s.rows > 0).collect();
     // Events read off the rows.
-    let end_s = TrackParams::default().end_s;
-    let mut open: BTreeMap<u64, Stretch> = BTreeMap::new();
-    let mut stretches = Vec::new();
-    for (d, &t) in dets.iter().zip(tracks) {
-        match open.get_mut(&t) {
-            Some(s) if d.time_s - s.end <= end_s => {
-                s.end = d.time_s;
-                s.sum += d.direction;
-            }
-            _ => {
-                let new = Stretch {
-                    start: d.time_s,
-                    end: d.time_s,
-                    sum: d.direction,
-                };
-                if let Some(done) = open.insert(t, new) {
-                    stretches.push(done);
-                }
-            }
-        }
-    }
-    stretches.extend(open.into_values());
+    let stretches = stretches(dets, tracks);
     // An event's mean direction against its source's at the event's middle (a moving
     // source's events are long only when it moves little).
     let middle = |e: &Stretch, s: &Source| s.at((e.start + e.end) / 2.0);
@@ -189,39 +149,7 @@ pub(super) fn score_tracks(
             })
         })
         .count();
-    // Several sources at once: the (source, window) pairs with a row, in one pass.
-    // The window [w * W, (w + 1) * W) holding t, with the bounds computed as below.
-    let window_of = |t: f64| {
-        let w = (t / OVERLAP_WINDOW_S).floor() as i64;
-        if t >= (w + 1) as f64 * OVERLAP_WINDOW_S {
-            w + 1
-        } else if t < w as f64 * OVERLAP_WINDOW_S {
-            w - 1
-        } else {
-            w
-        }
-    };
-    let seen: std::collections::BTreeSet<(usize, i64)> = dets
-        .iter()
-        .zip(&owner)
-        .filter_map(|(d, o)| o.map(|i| (i, window_of(d.time_s))))
-        .collect();
-    let (mut overlap_pairs, mut overlap_detected) = (0, 0);
-    let windows = (duration_s / OVERLAP_WINDOW_S).floor() as i64;
-    for w in 0..windows {
-        let (w0, w1) = (
-            w as f64 * OVERLAP_WINDOW_S,
-            (w + 1) as f64 * OVERLAP_WINDOW_S,
-        );
-        let on: Vec<usize> = (0..sources.len())
-            .filter(|&i| sources[i].spans.any_reaching(w0, w1))
-            .collect();
-        if on.len() < 2 {
-            continue;
-        }
-        overlap_pairs += on.len();
-        overlap_detected += on.iter().filter(|&&i| seen.contains(&(i, w))).count();
-    }
+    let (overlap_pairs, overlap_detected) = overlaps(sources, dets, &owner, duration_s);
     let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
     TrackReport {
         tracks: rows_of_track.len(),
@@ -244,6 +172,109 @@ pub(super) fn score_tracks(
         overlap_pairs,
         overlap_detected,
     }
+}
+
+/// Per true source: its rows (those whose direction is its), the track most of them
+/// are in and that track's share of them, and how many tracks they are spread over.
+fn source_tracks(
+    sources: usize,
+    owner: &[Option<usize>],
+    tracks: &[u64],
+    rows_of_track: &BTreeMap<u64, usize>,
+) -> Vec<SourceTracks> {
+    let mut per_source = Vec::new();
+    for i in 0..sources {
+        let mut by_track: BTreeMap<u64, usize> = BTreeMap::new();
+        for (o, &t) in owner.iter().zip(tracks) {
+            if *o == Some(i) {
+                *by_track.entry(t).or_default() += 1;
+            }
+        }
+        let dominant = by_track
+            .iter()
+            .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)))
+            .map(|(&t, &n)| (t, n));
+        per_source.push(SourceTracks {
+            index: i,
+            rows: by_track.values().sum(),
+            dominant_track: dominant.map(|d| d.0),
+            purity: dominant.map(|(t, n)| n as f64 / rows_of_track[&t] as f64),
+            tracks: by_track.len(),
+        });
+    }
+    per_source
+}
+
+/// The events read off the rows: each track's runs of rows no more than the tracker's
+/// end time apart, with the sum of their directions.
+fn stretches(dets: &[Det], tracks: &[u64]) -> Vec<Stretch> {
+    let end_s = TrackParams::default().end_s;
+    let mut open: BTreeMap<u64, Stretch> = BTreeMap::new();
+    let mut stretches = Vec::new();
+    for (d, &t) in dets.iter().zip(tracks) {
+        match open.get_mut(&t) {
+            Some(s) if d.time_s - s.end <= end_s => {
+                s.end = d.time_s;
+                s.sum += d.direction;
+            }
+            _ => {
+                let new = Stretch {
+                    start: d.time_s,
+                    end: d.time_s,
+                    sum: d.direction,
+                };
+                if let Some(done) = open.insert(t, new) {
+                    stretches.push(done);
+                }
+            }
+        }
+    }
+    stretches.extend(open.into_values());
+    stretches
+}
+
+/// Several sources at once: the (source, window of [`OVERLAP_WINDOW_S`]) pairs where
+/// two or more sources sound, and those of them with a row of the source.
+fn overlaps(
+    sources: &[Source],
+    dets: &[Det],
+    owner: &[Option<usize>],
+    duration_s: f64,
+) -> (usize, usize) {
+    // The (source, window) pairs with a row, in one pass.
+    // The window [w * W, (w + 1) * W) holding t, with the bounds computed as below.
+    let window_of = |t: f64| {
+        let w = (t / OVERLAP_WINDOW_S).floor() as i64;
+        if t >= (w + 1) as f64 * OVERLAP_WINDOW_S {
+            w + 1
+        } else if t < w as f64 * OVERLAP_WINDOW_S {
+            w - 1
+        } else {
+            w
+        }
+    };
+    let seen: std::collections::BTreeSet<(usize, i64)> = dets
+        .iter()
+        .zip(owner)
+        .filter_map(|(d, o)| o.map(|i| (i, window_of(d.time_s))))
+        .collect();
+    let (mut overlap_pairs, mut overlap_detected) = (0, 0);
+    let windows = (duration_s / OVERLAP_WINDOW_S).floor() as i64;
+    for w in 0..windows {
+        let (w0, w1) = (
+            w as f64 * OVERLAP_WINDOW_S,
+            (w + 1) as f64 * OVERLAP_WINDOW_S,
+        );
+        let on: Vec<usize> = (0..sources.len())
+            .filter(|&i| sources[i].spans.any_reaching(w0, w1))
+            .collect();
+        if on.len() < 2 {
+            continue;
+        }
+        overlap_pairs += on.len();
+        overlap_detected += on.iter().filter(|&&i| seen.contains(&(i, w))).count();
+    }
+    (overlap_pairs, overlap_detected)
 }
 
 #[cfg(test)]
