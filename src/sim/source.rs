@@ -35,18 +35,7 @@ pub(super) fn render_source(
         fail!(SceneError::Invalid, "{what} is at the array centre");
     }
     let level = 10f64.powf(s.level_db / 20.0);
-    let signal = match s.signal {
-        SignalKind::White => Some(Signal::WhiteNoise),
-        SignalKind::Pink => Some(Signal::PinkNoise),
-        SignalKind::Speech => Some(Signal::SpeechLike),
-        SignalKind::Clicks => Some(Signal::Clicks {
-            per_second: s.rate.unwrap_or(10.0),
-        }),
-        SignalKind::Tone => Some(Signal::Tone {
-            hz: s.frequency.unwrap_or(1000.0),
-        }),
-        SignalKind::File => None,
-    };
+    let signal = generated(s);
     let recording = match (&s.signal, &s.file) {
         (SignalKind::File, Some(f)) => {
             // The longest interval plays the most of it.
@@ -103,24 +92,7 @@ pub(super) fn render_source(
     }
     let mut active = Vec::new();
     for ([a, b], start, n) in spans {
-        let mut dry = vec![0.0; n];
-        // A recording's own leading and trailing silence is not part of the truth.
-        let mut sounding = (0, n);
-        // Scaled so that the direct sound at the array centre (gain 1 / distance) has `level`.
-        match (&signal, &recording) {
-            (Some(sig), _) => generate(sig, level * distance, fs, &mut dry, rng),
-            (None, Some(rec)) => {
-                for (k, v) in dry.iter_mut().enumerate() {
-                    *v = rec[k % rec.len()];
-                }
-                let rms = (dry.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
-                if rms > 0.0 {
-                    dry.iter_mut().for_each(|v| *v *= level * distance / rms);
-                }
-                sounding = sounding_span(&dry, fs).unwrap_or(sounding);
-            }
-            _ => unreachable!("a signal or a recording"),
-        }
+        let (dry, sounding) = dry(&signal, recording.as_deref(), level * distance, fs, n, rng);
         match turn {
             None => add_at(out, start, convolve(&dry, &responses)),
             Some(turn) => {
@@ -173,6 +145,55 @@ pub(super) fn render_source(
         turn_deg_per_s: turn.map(|t| t.0),
         turn_from_s: turn.map(|t| t.1),
     })
+}
+
+/// The signal a source generates (`None`: it plays a file).
+fn generated(s: &SourceSpec) -> Option<Signal> {
+    match s.signal {
+        SignalKind::White => Some(Signal::WhiteNoise),
+        SignalKind::Pink => Some(Signal::PinkNoise),
+        SignalKind::Speech => Some(Signal::SpeechLike),
+        SignalKind::Clicks => Some(Signal::Clicks {
+            per_second: s.rate.unwrap_or(10.0),
+        }),
+        SignalKind::Tone => Some(Signal::Tone {
+            hz: s.frequency.unwrap_or(1000.0),
+        }),
+        SignalKind::File => None,
+    }
+}
+
+/// `n` samples of a source's dry signal at RMS `scale` (the direct sound's level at the
+/// array centre times the distance): generated, or its recording looped; and the part
+/// that sounds (a recording's own leading and trailing silence is not part of the
+/// truth).
+fn dry(
+    signal: &Option<Signal>,
+    recording: Option<&[f64]>,
+    scale: f64,
+    fs: f64,
+    n: usize,
+    rng: &mut ChaCha8Rng,
+) -> (Vec<f64>, (usize, usize)) {
+    let mut dry = vec![0.0; n];
+    // A recording's own leading and trailing silence is not part of the truth.
+    let mut sounding = (0, n);
+    // Scaled so that the direct sound at the array centre (gain 1 / distance) has `level`.
+    match (&signal, &recording) {
+        (Some(sig), _) => generate(sig, scale, fs, &mut dry, rng),
+        (None, Some(rec)) => {
+            for (k, v) in dry.iter_mut().enumerate() {
+                *v = rec[k % rec.len()];
+            }
+            let rms = (dry.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+            if rms > 0.0 {
+                dry.iter_mut().for_each(|v| *v *= scale / rms);
+            }
+            sounding = sounding_span(&dry, fs).unwrap_or(sounding);
+        }
+        _ => unreachable!("a signal or a recording"),
+    }
+    (dry, sounding)
 }
 
 /// Blocks over which a recording's sounding part is found (seconds).
