@@ -81,7 +81,7 @@
 //!   plot/             results drawn as one SVG (feature `plot`)
 //!   sim/              the simulator (feature `simulate`): scene, room, array placed,
 //!                     sources, signals, noise, limits, WAV writing
-//!   cli/              the command line (binary only): one file per subcommand, the
+//!   cli/              the command line (feature `cli`; main.rs calls it): one file per subcommand, the
 //!                     flags (args.rs, man/ is generated from them), the output sink
 //! ```
 //!
@@ -104,6 +104,9 @@ macro_rules! fail {
 }
 
 pub mod check;
+#[cfg(feature = "cli")]
+#[doc(hidden)]
+pub mod cli;
 pub mod evaluate;
 pub mod geometry;
 pub mod localize;

@@ -1,7 +1,5 @@
-//! The `ssl` binary: the command line over the `ssl` library.
-
-mod cli;
+//! The `ssl` binary: the command line of the `ssl` library (`src/cli/`).
 
 fn main() {
-    std::process::exit(cli::main());
+    std::process::exit(ssl::cli::main());
 }

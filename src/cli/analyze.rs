@@ -9,13 +9,13 @@ use super::args::AnalyzeArgs;
 use super::inputs::Input;
 use super::sink::{same_file, Sink};
 use super::{error, output_error, warn, warning_with_hint, with_hint};
+use crate::localize::{Output as Found, RunError};
+use crate::method::StageTimes;
+use crate::record::FileEntry;
+use crate::stream::{SampleSource, Warning};
+use crate::{Analysis, Exporter, Format, Geometry, Localizer, OutputError, RunMetadata};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use ssl::localize::{Output as Found, RunError};
-use ssl::method::StageTimes;
-use ssl::record::FileEntry;
-use ssl::stream::{SampleSource, Warning};
-use ssl::{Analysis, Exporter, Format, Geometry, Localizer, OutputError, RunMetadata};
 use std::cell::RefCell;
 use std::io::{self, BufWriter, IsTerminal};
 use std::path::Path;
@@ -237,7 +237,6 @@ pub(super) fn analyze_one(
                 Found::Row(row) => exporter.detection(&row),
                 Found::Event(event) => exporter.event(&event),
                 Found::Source(source) => exporter.source(&source),
-                _ => Ok(()),
             }
         },
     );
@@ -245,7 +244,6 @@ pub(super) fn analyze_one(
     let result = match result {
         Err(RunError::Output(e)) => return Err(out.failed(e)),
         Err(RunError::Input(e)) => Err(e),
-        Err(e) => return Err(e.into()),
         Ok(()) => Ok(()),
     };
     let summary = &report.summary;
@@ -302,16 +300,16 @@ fn shown_name(path: &str) -> &str {
 /// a track needs. `None` when a track was confirmed or nothing was detected (the
 /// method's own warnings say why).
 fn nothing_confirmed(
-    stats: &ssl::track::TrackStats,
-    p: &ssl::track::TrackParams,
+    stats: &crate::track::TrackStats,
+    p: &crate::track::TrackParams,
 ) -> Option<String> {
     (stats.rows == 0 && stats.unconfirmed > 0).then(|| {
         let rule = match p.confirm_by {
-            ssl::track::ConfirmBy::Rules => format!(
+            crate::track::ConfirmBy::Rules => format!(
                 "a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates",
                 p.confirm_hits, p.confirm_candidates, p.confirm_weak
             ),
-            ssl::track::ConfirmBy::Evidence => format!(
+            crate::track::ConfirmBy::Evidence => format!(
                 "none gathered the evidence a source needs for at most {} false sources an hour (--false-per-hour)",
                 p.false_per_hour
             ),
@@ -413,7 +411,7 @@ impl Progress {
     }
 
     /// Clears the bar and, on a terminal, prints what the file gave.
-    fn finish(self, summary: &ssl::Summary, rows: u64) {
+    fn finish(self, summary: &crate::Summary, rows: u64) {
         self.bar.finish_and_clear();
         if self.show {
             let frames = summary.stats.frames;

@@ -5,15 +5,15 @@ use super::values::{
     parse_f64, positive, shard, smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
     Shard,
 };
-use clap::{Args, Parser, Subcommand};
-use ssl::method::{
+use crate::method::{
     Dereverb, Interpolation, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S,
     DEFAULT_MAX_SOURCES, DEFAULT_PATTERNS_S, DEFAULT_PEAKS, DEFAULT_RESIDUAL_GATE_US,
     DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES, MAX_PEAKS, MAX_SOURCES,
 };
-use ssl::track::{ConfirmBy, TrackParams};
-use ssl::Named;
-use ssl::{Format, Options};
+use crate::track::{ConfirmBy, TrackParams};
+use crate::Named;
+use crate::{Format, Options};
+use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
 /// Find where sounds come from in multichannel microphone-array recordings.
@@ -388,7 +388,7 @@ pub struct CheckArgs {
 
     /// A sound in the recording comes from this direction (azimuth/elevation in degrees, e.g. 30/10), starting T seconds in when @T is given (30/10@2.5): it settles channel orders that the array's symmetry hides (mirror images, rotations). Repeat it for several sounds; give the time when the recording has sounds from many directions, as claps around a regular array
     #[arg(long, value_name = "AZ/EL[@T]", value_parser = expected, allow_hyphen_values = true)]
-    pub expect: Vec<ssl::check::Expected>,
+    pub expect: Vec<crate::check::Expected>,
 }
 
 /// `ssl check --format`.
@@ -494,8 +494,8 @@ pub enum MetricArg {
 
 impl AnalyzeArgs {
     /// What the output holds.
-    pub fn records(&self) -> ssl::record::Records {
-        use ssl::record::Records;
+    pub fn records(&self) -> crate::record::Records {
+        use crate::record::Records;
         if self.sources {
             Records::Sources
         } else if self.events {
@@ -507,6 +507,7 @@ impl AnalyzeArgs {
 
     /// The options the flags ask for, one field each; the library resolves them
     /// ([`Options::settings`]).
+    #[allow(clippy::field_reassign_with_default)]
     pub fn options(&self) -> Options {
         let mut o = Options::default();
         o.paper = self.paper;

@@ -1,9 +1,9 @@
 //! `ssl check`: does a recording fit its geometry and channel order?
 
 use super::args::{CheckArgs, CheckFormat};
+use crate::check::{check, CheckOptions, CheckReport};
+use crate::Geometry;
 use anyhow::Result;
-use ssl::check::{check, CheckOptions, CheckReport};
-use ssl::Geometry;
 use std::fmt::Write as _;
 
 /// Runs `ssl check`. Returns whether the recording fits.

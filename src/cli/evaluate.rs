@@ -4,13 +4,13 @@
 
 use super::args::{EvaluateArgs, MetricArg};
 use super::results::{expand, ResultFile};
+use crate::evaluate::{evaluate_by, pool, Metric, Pooled, Report};
+use crate::geometry::Shape;
+use crate::record::{read_detections_with_info, DetectionRecord, GeometryInfo, ResultInfo};
+use crate::stream::{io_reason, read_text_from};
+use crate::{Geometry, Truth};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
-use ssl::evaluate::{evaluate_by, pool, Metric, Pooled, Report};
-use ssl::geometry::Shape;
-use ssl::record::{read_detections_with_info, DetectionRecord, GeometryInfo, ResultInfo};
-use ssl::stream::{io_reason, read_text_from};
-use ssl::{Geometry, Truth};
 use std::path::{Component, Path, PathBuf};
 
 /// Runs `ssl evaluate`. `-` reads the result (or the truth) from standard input.
@@ -21,7 +21,7 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
         return many(args, &results);
     }
     let truth = if args.truth == Path::new("-") {
-        let text = read_text_from(std::io::stdin().lock(), ssl::record::MAX_TRUTH_BYTES)
+        let text = read_text_from(std::io::stdin().lock(), crate::record::MAX_TRUTH_BYTES)
             .map_err(|e| anyhow::anyhow!("<stdin>: cannot read: {}", io_reason(&e)))?;
         Truth::from_text(&text).context("<stdin>")?
     } else {
@@ -47,7 +47,7 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
     let tail = tail(args, &truth);
     let shown = results[0].path.display();
     let report = evaluate_by(&truth, &detections, tail, &metric).map_err(|e| match e {
-        ssl::evaluate::EvaluateError::SeveralFiles(_) => anyhow::anyhow!(
+        crate::evaluate::EvaluateError::SeveralFiles(_) => anyhow::anyhow!(
             "{shown}: {e}, or give --truth a folder holding each one's truth (NAME.truth.json)"
         ),
         e => anyhow::anyhow!("{shown}: {e}"),

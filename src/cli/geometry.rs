@@ -1,10 +1,10 @@
 //! `ssl geometry`: what the tool understood of an array.
 
 use super::args::GeometryArgs;
+use crate::method::default_frame_size;
+use crate::record::ambiguity_note;
+use crate::Geometry;
 use anyhow::Result;
-use ssl::method::default_frame_size;
-use ssl::record::ambiguity_note;
-use ssl::Geometry;
 use std::fmt::Write as _;
 
 /// Runs `ssl geometry`.

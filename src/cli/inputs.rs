@@ -36,18 +36,18 @@ pub fn expand(args: &AnalyzeArgs) -> Result<Vec<Input>> {
     }
     if let Some(list) = &args.files_from {
         let text = if list == Path::new("-") {
-            ssl::stream::read_text_from(std::io::stdin().lock(), 1 << 30).map_err(|e| {
+            crate::stream::read_text_from(std::io::stdin().lock(), 1 << 30).map_err(|e| {
                 anyhow::anyhow!(
                     "<stdin>: cannot read the list: {}",
-                    ssl::stream::io_reason(&e)
+                    crate::stream::io_reason(&e)
                 )
             })?
         } else {
-            ssl::stream::read_text(list, 1 << 30).map_err(|e| {
+            crate::stream::read_text(list, 1 << 30).map_err(|e| {
                 anyhow::anyhow!(
                     "{}: cannot read the list: {}",
                     list.display(),
-                    ssl::stream::io_reason(&e)
+                    crate::stream::io_reason(&e)
                 )
             })?
         };
@@ -170,7 +170,7 @@ fn add(
                 &format!(
                     "{}: cannot read the folder ({}); its recordings are not analysed",
                     folder.display(),
-                    ssl::stream::io_reason(&e)
+                    crate::stream::io_reason(&e)
                 ),
             );
         }

@@ -15,13 +15,13 @@ mod results;
 mod simulate;
 mod sink;
 mod temporaries;
-mod values;
+pub(crate) mod values;
 
+use crate::method::ParamsError;
+use crate::stream::{ErrorKind, Warning};
+use crate::{AnalysisError, OutputError};
 use args::{Cli, Command};
 use clap::Parser;
-use ssl::method::ParamsError;
-use ssl::stream::{ErrorKind, Warning};
-use ssl::{AnalysisError, OutputError};
 
 /// Runs the command line and returns the process exit status: 0 success, 1 a data
 /// error (bad or failed input), 2 a usage error.
@@ -100,7 +100,7 @@ fn print(text: &[u8]) -> anyhow::Result<()> {
             std::io::ErrorKind::BrokenPipe => BrokenPipe.into(),
             _ => anyhow::anyhow!(
                 "cannot write standard output: {}",
-                ssl::stream::io_reason(&e)
+                crate::stream::io_reason(&e)
             ),
         })
 }

@@ -71,7 +71,7 @@ impl OutDir {
             anyhow!(
                 "{}: cannot create the results folder: {}",
                 path.display(),
-                ssl::stream::io_reason(&e)
+                crate::stream::io_reason(&e)
             )
         })?;
         let root = rustix::fs::open(
@@ -83,7 +83,7 @@ impl OutDir {
             anyhow!(
                 "{}: cannot open the results folder: {}",
                 path.display(),
-                ssl::stream::io_reason(&errno(e))
+                crate::stream::io_reason(&errno(e))
             )
         })?;
         Ok(OutDir {
@@ -145,7 +145,7 @@ impl OutDir {
                 e => anyhow!(
                     "{}: cannot open the folder: {}",
                     path.display(),
-                    ssl::stream::io_reason(&errno(e))
+                    crate::stream::io_reason(&errno(e))
                 ),
             })?;
         }
@@ -310,7 +310,7 @@ impl Folder {
             Err(e) => bail!(
                 "{}: cannot look at it: {}",
                 shown.display(),
-                ssl::stream::io_reason(&e)
+                crate::stream::io_reason(&e)
             ),
             Ok(_) => {}
         }
@@ -348,7 +348,7 @@ impl Folder {
                 Err(e) => bail!(
                     "cannot write {}: {}",
                     shown.display(),
-                    ssl::stream::io_reason(&e)
+                    crate::stream::io_reason(&e)
                 ),
             }
         }

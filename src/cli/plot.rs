@@ -2,11 +2,11 @@
 
 use super::args::PlotArgs;
 use super::sink::Sink;
+use crate::evaluate::evaluate;
+use crate::plot::{plot, read_plot_file, PlotData};
+use crate::stream::{io_reason, read_text, read_text_from};
+use crate::Truth;
 use anyhow::{bail, Context, Result};
-use ssl::evaluate::evaluate;
-use ssl::plot::{plot, read_plot_file, PlotData};
-use ssl::stream::{io_reason, read_text, read_text_from};
-use ssl::Truth;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -55,7 +55,7 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     }
     let truth = match &args.truth {
         Some(path) => Some(
-            Truth::from_text(&text(path, ssl::record::MAX_TRUTH_BYTES)?)
+            Truth::from_text(&text(path, crate::record::MAX_TRUTH_BYTES)?)
                 .with_context(|| shown(path))?,
         ),
         None => None,
@@ -84,7 +84,7 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     )
     .map_err(|e| {
         let hint = match e {
-            ssl::plot::PlotError::TooManyFiles(_) => " with --file NAME",
+            crate::plot::PlotError::TooManyFiles(_) => " with --file NAME",
             _ => "",
         };
         anyhow::anyhow!("{}: {e}{hint}", shown(&args.results[0]))

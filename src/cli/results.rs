@@ -73,7 +73,7 @@ fn is_result(root: &Path, relative: &Path) -> bool {
 /// Whether the JSON file at `path` is a batch summary (an object with `done`,
 /// `skipped`, `failed` and `files`), not a result.
 fn is_summary(path: &Path) -> bool {
-    let Ok(text) = ssl::stream::read_text(path, 64 << 20) else {
+    let Ok(text) = crate::stream::read_text(path, 64 << 20) else {
         return false;
     };
     serde_json::from_str::<serde_json::Value>(&text).is_ok_and(|v| {
@@ -115,7 +115,7 @@ fn unreadable(dir: &Path, e: &std::io::Error) {
         &format!(
             "{}: cannot read the folder ({}); its results are not read",
             dir.display(),
-            ssl::stream::io_reason(e)
+            crate::stream::io_reason(e)
         ),
     );
 }

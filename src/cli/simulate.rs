@@ -2,8 +2,8 @@
 
 use super::args::SimulateArgs;
 use super::sink::Sink;
+use crate::sim::{simulate_read, write_wav, SceneFile};
 use anyhow::{bail, Result};
-use ssl::sim::{simulate_read, write_wav, SceneFile};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

@@ -16,8 +16,8 @@
 
 use super::outdir::Staged;
 use super::temporaries;
+use crate::stream::io_reason;
 use anyhow::{bail, Context, Result};
-use ssl::stream::io_reason;
 use std::fs::{File, Permissions};
 use std::io::{self, Write};
 use std::os::fd::AsFd;

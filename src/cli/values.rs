@@ -1,10 +1,10 @@
 //! The value parsers of the command line's arguments ([`super::args`]): each checks
 //! one kind of number or choice and says what is wrong with it.
 
+use crate::track::evidence::CANDIDATES_PER_HOUR;
+use crate::track::{MAX_DELAY_S, MAX_SMOOTH_S};
+use crate::Named;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
-use ssl::track::evidence::CANDIDATES_PER_HOUR;
-use ssl::track::{MAX_DELAY_S, MAX_SMOOTH_S};
-use ssl::Named;
 
 pub(super) fn parse_f64(s: &str) -> std::result::Result<f64, String> {
     let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
@@ -68,8 +68,8 @@ pub(super) fn band(s: &str) -> std::result::Result<(f64, f64), String> {
 /// A speed of sound in m/s, within the range every input accepts.
 pub(super) fn speed_of_sound(s: &str) -> std::result::Result<f64, String> {
     let v = parse_f64(s)?;
-    if !ssl::geometry::speed_of_sound_ok(v) {
-        let (low, high) = ssl::geometry::SPEED_OF_SOUND_RANGE;
+    if !crate::geometry::speed_of_sound_ok(v) {
+        let (low, high) = crate::geometry::SPEED_OF_SOUND_RANGE;
         return Err(format!(
             "{v:e} m/s is not a speed of sound from {low} to {high} m/s"
         ));
@@ -154,7 +154,7 @@ pub(super) fn shard(s: &str) -> std::result::Result<Shard, String> {
 /// A sound from a known direction, `AZ/EL` in degrees with an optional `@T` start in
 /// seconds (`--expect 30/10`, `--expect -120/-20@3.5`): azimuth within -360..360,
 /// elevation within -90..90.
-pub(super) fn expected(s: &str) -> std::result::Result<ssl::check::Expected, String> {
+pub(super) fn expected(s: &str) -> std::result::Result<crate::check::Expected, String> {
     let bad = || {
         format!("`{s}` is not AZ/EL in degrees with an optional @T in seconds (e.g. 30/10, or -120/-20@3.5 for a sound that starts 3.5 s in)")
     };
@@ -180,7 +180,7 @@ pub(super) fn expected(s: &str) -> std::result::Result<ssl::check::Expected, Str
         }
         None => None,
     };
-    Ok(ssl::check::Expected {
+    Ok(crate::check::Expected {
         azimuth_deg: az,
         elevation_deg: el,
         at_s,

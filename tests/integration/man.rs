@@ -1,13 +1,6 @@
 //! The man pages in man/ are generated from the clap definition; this test fails when
 //! they are stale. Regenerate with: `SSL_UPDATE_MAN=1 cargo test --test integration man::`.
 
-#[path = "../../src/cli/args.rs"]
-#[allow(dead_code)]
-mod args;
-#[path = "../../src/cli/values.rs"]
-#[allow(dead_code)]
-mod values;
-
 use clap::CommandFactory;
 use std::path::Path;
 
@@ -28,7 +21,7 @@ fn render(cmd: clap::Command) -> String {
 }
 
 fn pages() -> Vec<(String, String)> {
-    let cmd = args::Cli::command();
+    let cmd = ssl::cli::args::Cli::command();
     let mut pages = vec![("ssl.1".to_string(), render(cmd.clone()))];
     for sub in cmd.get_subcommands() {
         // clap takes 'static names; leaking two short strings in a test is harmless.

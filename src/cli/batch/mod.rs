@@ -32,10 +32,10 @@ use super::args::AnalyzeArgs;
 use super::inputs::Input;
 use super::outdir::{Entry, OutDir};
 use super::sink::Sink;
+use crate::Format;
 use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
-use ssl::Format;
 use stamp::{Fnv, InputId};
 use std::collections::HashMap;
 use std::fs::File;
@@ -193,10 +193,10 @@ fn open_recording(path: &str) -> std::result::Result<File, String> {
         .read(true)
         .custom_flags(rustix::fs::OFlags::NONBLOCK.bits() as i32)
         .open(path)
-        .map_err(|e| format!("{path}: cannot open: {}", ssl::stream::io_reason(&e)))?;
+        .map_err(|e| format!("{path}: cannot open: {}", crate::stream::io_reason(&e)))?;
     let meta = file
         .metadata()
-        .map_err(|e| format!("{path}: cannot read: {}", ssl::stream::io_reason(&e)))?;
+        .map_err(|e| format!("{path}: cannot read: {}", crate::stream::io_reason(&e)))?;
     if !meta.is_file() {
         let kind = meta.file_type();
         use std::os::unix::fs::FileTypeExt;
@@ -340,7 +340,7 @@ pub fn run(args: &AnalyzeArgs, dir_path: &Path) -> Result<bool> {
 /// the batch (an output that cannot be written part-way).
 fn one(
     args: &AnalyzeArgs,
-    localizer: &ssl::Localizer,
+    localizer: &crate::Localizer,
     dir: &OutDir,
     recipe: &str,
     said: &Said,
@@ -378,7 +378,7 @@ fn one(
                 return fail(format!(
                     "{}: cannot read: {}",
                     input.path,
-                    ssl::stream::io_reason(&e)
+                    crate::stream::io_reason(&e)
                 ))
             }
         }
