@@ -240,7 +240,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }),
         (
             "the paper's method (2 samples, no gate, no averaging)",
-            ssl::Options::paper().settings().expect("valid").method,
+            ssl::Config::paper().settings().expect("valid").method,
         ),
     ];
     // Each without the tracker, then the defaults through it as `ssl analyze` runs them.

@@ -4,7 +4,7 @@
 //!
 //! `cargo run --example channels_in_memory`
 
-use ssl::localize::{Localizer, Options, Output};
+use ssl::localize::{Config, Localizer, Output};
 use ssl::method::direction::unit_from_angles;
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;
@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // Any slices of one length will do: one per channel, in geometry order.
     let slices = channels.iter().map(|c| &c[..]).collect();
-    let localizer = Localizer::new(geometry, &Options::default())?;
+    let localizer = Localizer::new(geometry, &Config::default())?;
     let mut out =
         Format::Ndjson.exporter(std::io::stdout().lock(), ssl::record::Records::Detections);
     out.begin(&localizer.metadata("tetrahedron"))?;

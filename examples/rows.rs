@@ -5,13 +5,13 @@
 //! `cargo run --release --example rows -- [REC.wav] [ARRAY.toml]` (default: the shipped
 //! example and the paper's prism).
 
-use ssl::localize::{Localizer, Options, Output};
+use ssl::localize::{Config, Localizer, Output};
 use ssl::{DetectionRecord, Geometry};
 
 /// Every row of `wav` on the array of `toml`, at the defaults.
 pub fn rows(wav: &str, toml: &str) -> Result<Vec<DetectionRecord>, Box<dyn std::error::Error>> {
     let geometry = Geometry::from_file(toml.as_ref())?;
-    let localizer = Localizer::new(geometry, &Options::default())?;
+    let localizer = Localizer::new(geometry, &Config::default())?;
     let mut rows = Vec::new();
     let (_report, result) = localizer.open(wav)?.run(|out| {
         if let Output::Row(row) = out {

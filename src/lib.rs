@@ -3,15 +3,15 @@
 //! Robot" (IROS 2003).
 //!
 //! The whole path `ssl analyze` runs is one type, [`Localizer`]: open a recording, run
-//! it, get the rows and events the command line writes. [`Options`] holds the same
-//! choices as the command line's flags, with presets.
+//! it, get the rows and events the command line writes. [`Config`] holds the same
+//! choices as the command line's flags, a section per stage, with presets.
 //!
 //! ```
-//! use ssl::localize::{Output, Localizer, Options};
+//! use ssl::localize::{Config, Localizer, Output};
 //! use ssl::Geometry;
 //!
 //! let geometry = Geometry::from_file("testdata/prism.toml".as_ref())?;
-//! let localizer = Localizer::new(geometry, &Options::default())?;
+//! let localizer = Localizer::new(geometry, &Config::default())?;
 //! let mut rows = Vec::new();
 //! let (_report, result) = localizer.open("testdata/example.wav")?.run(|out| {
 //!     if let Output::Row(row) = out {
@@ -34,6 +34,9 @@
 //!   main.rs           the `ssl` binary: calls cli::main
 //!   text.rs           text inputs with a size limit, I/O reasons, numbers as written
 //!   named.rs          the Named trait: closed sets of named values (window, format)
+//!   config.rs         the configuration: one section per stage (each declared in the
+//!                     stage's file with its flags), presets, resolution to Params
+//!   flags.rs          the flags' value parsers (feature `cli`)
 //!   geometry/         the array file: microphones, channels, shape (Sec. III)
 //!     mod.rs            reading and validation
 //!     shape.rs          3-D, planar or linear, and the side rules
@@ -74,7 +77,7 @@
 //!   track/            detections -> sources and events: the tracker, its candidates,
 //!                     a track's motion, floor and ceiling images, the smoother
 //!   localize/         the whole path: Localizer (analysis, tracker, frame times) and
-//!                     Options (flags -> parameters, presets)
+//!                     its recordings
 //!   record/           records and formats (docs/interface.md): rows, events, metadata,
 //!                     truth, one exporter per format behind one trait, reading back
 //!   evaluate/         scoring results against a truth; tracks and events
@@ -107,7 +110,10 @@ pub mod check;
 #[cfg(feature = "cli")]
 #[doc(hidden)]
 pub mod cli;
+mod config;
 pub mod evaluate;
+#[cfg(feature = "cli")]
+mod flags;
 pub mod geometry;
 pub mod localize;
 pub mod method;
@@ -121,8 +127,9 @@ pub mod stream;
 mod text;
 pub mod track;
 
+pub use config::{Config, Settings, SettingsError};
 pub use geometry::{Geometry, GeometryError};
-pub use localize::{Localizer, Options};
+pub use localize::Localizer;
 pub use method::{Detection, Params, ParamsError};
 pub use named::Named;
 pub use record::{DetectionRecord, Exporter, Format, OutputError, RunMetadata, Truth};

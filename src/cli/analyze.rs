@@ -116,7 +116,7 @@ pub(super) fn prepare(args: &AnalyzeArgs) -> Result<(Localizer, Vec<Input>)> {
     for w in &geometry.warnings {
         warn(args.quiet, &format!("{}: {w}", args.geometry.display()));
     }
-    let localizer = Localizer::new(geometry, &args.options())?;
+    let localizer = Localizer::new(geometry, &args.config)?;
     Ok((localizer, super::inputs::expand(args)?))
 }
 

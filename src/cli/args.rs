@@ -1,18 +1,11 @@
-//! The command line's arguments (clap). `man/` is generated from these definitions.
+//! The command line's arguments (clap). `man/` is generated from these definitions;
+//! `ssl analyze`'s method flags are the configuration's sections ([`crate::Config`]).
+//! The doc comments here are help texts, not rustdoc (`[[mic]]` is TOML).
+#![allow(rustdoc::broken_intra_doc_links)]
 
-use super::values::{
-    band, candidate_share, choice, expected, false_per_hour, non_negative, non_negative_f64,
-    parse_f64, positive, shard, smoothing_seconds, speed_of_sound, tracker_seconds, unit_interval,
-    Shard,
-};
-use crate::method::{
-    Dereverb, Interpolation, Window, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S,
-    DEFAULT_MAX_SOURCES, DEFAULT_PATTERNS_S, DEFAULT_PEAKS, DEFAULT_RESIDUAL_GATE_US,
-    DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE_US, MAX_AVERAGE_FRAMES, MAX_PEAKS, MAX_SOURCES,
-};
-use crate::track::{ConfirmBy, TrackParams};
-use crate::Named;
-use crate::{Format, Options};
+use super::values::{expected, shard, Shard};
+use crate::flags::{choice, non_negative};
+use crate::{Config, Format};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -172,23 +165,28 @@ pub struct AnalyzeArgs {
     pub files: Vec<String>,
 
     /// Also analyse the paths in this file, one per line (`-`: standard input)
-    #[arg(long, value_name = "LIST")]
+    #[arg(long, value_name = "LIST", help_heading = "Many files")]
     pub files_from: Option<PathBuf>,
 
     /// Which files of a directory to analyse (repeatable; matched against the path under the directory, ignoring case) [default: *.wav, *.flac]
-    #[arg(long, value_name = "PATTERN")]
+    #[arg(long, value_name = "PATTERN", help_heading = "Many files")]
     pub glob: Vec<String>,
 
     /// One result per input in this directory, at the input's path relative to the directory it was found in (or as --files-from gives it), with the format's extension; each written atomically; a summary ends the run (DIR/batch.json with --format json)
-    #[arg(long, value_name = "DIR", conflicts_with = "output")]
+    #[arg(
+        long,
+        value_name = "DIR",
+        conflicts_with = "output",
+        help_heading = "Many files"
+    )]
     pub out_dir: Option<PathBuf>,
 
     /// With --out-dir: skip an input whose result is complete and was made from the same input (size and modification time), parameters, geometry and version; redo every other
-    #[arg(long, requires = "out_dir")]
+    #[arg(long, requires = "out_dir", help_heading = "Many files")]
     pub resume: bool,
 
     /// With --out-dir: analyse only the K-th of N shares of the inputs (dealt by size, about equal audio each), for N runs on several machines writing to one DIR; each share's summary is DIR/batch.K-of-N.json
-    #[arg(long, value_name = "K/N", requires = "out_dir", value_parser = shard)]
+    #[arg(long, value_name = "K/N", requires = "out_dir", value_parser = shard, help_heading = "Many files")]
     pub shard: Option<Shard>,
 
     /// Array geometry (TOML: [[mic]] tables with position = [x, y, z] in metres)
@@ -203,168 +201,28 @@ pub struct AnalyzeArgs {
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
 
-    /// Frame size N in samples [default: about 21 ms: 1024 at 44.1/48 kHz, 256 at 16 kHz]
-    #[arg(short = 'n', long, value_name = "N", conflicts_with = "frame_ms")]
-    pub frame_size: Option<usize>,
-
-    /// Frame length in milliseconds, the same at every sample rate: N is the power of two nearest to it at each file's rate
-    #[arg(long, value_name = "MS", value_parser = positive)]
-    pub frame_ms: Option<f64>,
-
-    /// Noise over-subtraction alpha of the spectral weighting (paper eq. 4)
-    #[arg(long, default_value_t = Options::default().alpha, value_parser = unit_interval)]
-    pub alpha: f32,
-
-    /// Exponent gamma that favours high-SNR bins (paper eq. 5)
-    #[arg(long, default_value_t = Options::default().gamma, value_parser = unit_interval)]
-    pub gamma: f32,
-
-    /// Plain PHAT: skip the spectral weighting (w_e = 1), for comparison
-    #[arg(long)]
-    pub no_weighting: bool,
-
-    /// Peaks M kept in each pair's cross-correlation
-    #[arg(short = 'm', long, default_value_t = DEFAULT_PEAKS as u16, value_parser = clap::value_parser!(u16).range(1..=MAX_PEAKS as i64))]
-    pub peaks: u16,
-
-    /// Consistency tolerance in samples: how far a pair's peak may be from the delay the reference pairs imply [default: --tolerance-us]
-    #[arg(short, long, value_parser = non_negative)]
-    pub tolerance: Option<f32>,
-
-    /// Consistency tolerance in microseconds, the same time at every sample rate
-    #[arg(long, value_name = "US", default_value_t = DEFAULT_TOLERANCE_US, value_parser = non_negative_f64, conflicts_with = "tolerance")]
-    pub tolerance_us: f64,
-
-    /// Drop detections whose delays no single source fits (plane wave, or spherical wave from 0.25-3 m) with an RMS residual under this many microseconds; 0 turns the gate off
-    #[arg(long, value_name = "US", default_value_t = DEFAULT_RESIDUAL_GATE_US, value_parser = non_negative_f64)]
-    pub residual_gate_us: f64,
-
-    /// Average each pair's correlation over this many frames: the frame's own and the ones before it (1: none, as in the paper)
-    #[arg(long, value_name = "FRAMES", default_value_t = DEFAULT_AVERAGE_FRAMES as u16, value_parser = clap::value_parser!(u16).range(1..=MAX_AVERAGE_FRAMES as i64))]
-    pub average_frames: u16,
-
-    /// Subtract from each pair's correlation its steady background (a fan next to the array), learned over about this many seconds; 0: none, as in the paper
-    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_BACKGROUND_S, value_parser = non_negative_f64)]
-    pub background_s: f64,
-
-    /// The paper's method as published: a tolerance of 2 samples, no residual gate, no averaging over frames, no background subtraction
-    #[arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "min_score", "threshold_sigmas", "reverb_level", "background_s", "dereverb", "wpe"])]
-    pub paper: bool,
-
-    /// Speed of sound in m/s [default: the geometry's, else 343]
-    #[arg(short = 'c', long, value_name = "M/S", value_parser = speed_of_sound)]
-    pub speed_of_sound: Option<f64>,
-
-    /// A fixed threshold instead of the calibrated one: drop detections scoring below this per microphone pair (a frame with P pairs needs P times it; 0 keeps every consistent set). The default threshold is calibrated per frame against its background (a diffuse field's coherence between the microphones plus --threshold-sigmas of chance correlation)
-    #[arg(long, value_name = "SCORE", allow_negative_numbers = true, value_parser = parse_f64)]
-    pub min_score: Option<f64>,
-
-    /// The calibrated threshold's allowance for chance correlation, in standard deviations
-    #[arg(long, value_name = "SIGMAS", default_value_t = DEFAULT_THRESHOLD_SIGMAS, value_parser = non_negative_f64, conflicts_with = "min_score")]
-    pub threshold_sigmas: f64,
-
-    /// Share of the recent frames' power taken as late reverberation in the noise estimate [default: 0.5; 0 with --min-score]
-    #[arg(long, value_name = "SHARE", value_parser = unit_interval)]
-    pub reverb_level: Option<f32>,
-
-    /// Analysis window
-    #[arg(long, default_value = "hann", value_parser = choice::<Window>())]
-    pub window: Window,
-
-    /// Sub-sample refinement of correlation peaks [default: cosine; parabolic with --paper]
-    #[arg(long, value_parser = choice::<Interpolation>())]
-    pub interpolation: Option<Interpolation>,
-
-    /// Remove the reverberation's diffuse part from each pair's cross-spectrum (its coherence over the frames averaged) before correlating: a room shortens the delays by a few percent, which raises a planar array's elevations by 5-13 deg
-    #[arg(long, default_value = "auto", value_parser = choice::<Dereverb>())]
-    pub dereverb: Dereverb,
-
-    /// Dereverberate the input before analysis (multichannel linear prediction, WPE, below 4 kHz): more of a reverberant room's speech is found (two talkers 2 m from the prism at RT60 0.45 s: 74% of the 0.1 s windows instead of 68%), at about 15 times the time
-    #[arg(long)]
-    pub wpe: bool,
-
-    /// Analyse from this time on (seconds from the start of each file; rounded down to a hop, so times and frames stay the file's)
-    #[arg(long, value_name = "S", value_parser = non_negative_f64)]
-    pub start: Option<f64>,
-
-    /// Analyse up to this time (seconds from the start of each file)
-    #[arg(long, value_name = "S", value_parser = non_negative_f64)]
-    pub end: Option<f64>,
-
-    /// Analyse only these frequencies, LOW-HIGH in Hz (300-3400 for a talker, 2k-8k for birds, 200-20k above mains hum); HIGH beyond half the sample rate is taken as it
-    #[arg(long, value_name = "LOW-HIGH", value_parser = band, allow_hyphen_values = true)]
-    pub band: Option<(f64, f64)>,
-
-    /// Add wall-clock times from each recording's Broadcast WAV time reference (bext: date and samples since midnight): `clock` on rows, `start_clock` and `end_clock` on events, ISO 8601 to the microsecond on the recorder's clock; a file without one is an error
-    #[arg(long)]
-    pub clock: bool,
-
-    /// No riders from single frequency bins: on arrays a few centimetres across, each bin's own direction finds a talker that a louder one hides in the correlations, and adds its rows to that talker's track (two talkers on a 6-mic circle at 16 kHz: 60-70% of the 0.1 s windows instead of 56-66%)
-    #[arg(long, conflicts_with_all = ["no_track", "paper"])]
-    pub no_bin_votes: bool,
-
-    /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, smooths each row's direction over its track's (--smooth-s), and delays rows by up to --delay-s and --smooth-s)
-    #[arg(long)]
-    pub no_track: bool,
+    /// What is found and how (one section per stage).
+    #[command(flatten)]
+    pub config: Config,
 
     /// Write events instead of detections: one row per stretch of activity of one tracked source (JSON: both, in `detections` and `events`)
-    #[arg(long, conflicts_with = "no_track")]
+    #[arg(long, conflicts_with = "no_track", help_heading = "Output")]
     pub events: bool,
 
     /// Write sources instead of detections: one record per tracked source of each file, with the time its events cover and its mean direction (JSON: detections, events and sources)
-    #[arg(long, conflicts_with_all = ["no_track", "events"])]
+    #[arg(long, conflicts_with_all = ["no_track", "events"], help_heading = "Output")]
     pub sources: bool,
 
-    /// Also report candidates down to this share of the detection threshold, for the tracker to confirm (a track starts from 2 detections above the threshold, 4 of which 1 is above it, or 12 candidates within --confirm-s) or drop [default: 0.4 with the calibrated threshold, 1 (none) with --min-score]
-    #[arg(long, value_name = "SHARE", value_parser = candidate_share, conflicts_with_all = ["no_track", "paper"])]
-    pub candidates: Option<f64>,
-
-    /// Search a frame that gives nothing down to --candidates again down to this share of the threshold: what it gives only adds a row to a talking track within a candidate's gate, without moving it, and starts nothing; at or above --candidates, none [default: 0.3 with the calibrated threshold, 1 (none) with --min-score]
-    #[arg(long, value_name = "SHARE", value_parser = candidate_share, conflicts_with_all = ["no_track", "paper"])]
-    pub riders: Option<f64>,
-
-    /// The most sources reported in one frame (1 to 4), for the tracker to confirm; a further source must pass the threshold on its own (1 with --min-score or --no-track)
-    #[arg(long, value_name = "K", default_value_t = DEFAULT_MAX_SOURCES as u8, value_parser = clap::value_parser!(u8).range(1..=MAX_SOURCES as i64), conflicts_with_all = ["paper", "min_score", "no_track"])]
-    pub max_sources: u8,
-
-    /// Also write the detections no track confirmed (isolated ones, a track's outliers), with an empty `source` (null in JSON), in frame order among the others
-    #[arg(long, conflicts_with = "no_track")]
-    pub keep_unconfirmed: bool,
-
-    /// How a candidate becomes a source
-    #[arg(long, value_name = "HOW", default_value = TrackParams::default().confirm_by.name(), value_parser = choice::<ConfirmBy>(), conflicts_with = "no_track")]
-    pub confirm_by: ConfirmBy,
-
-    /// With --confirm-by evidence: at most this many false sources an hour of background (fewer: more evidence needed before a source is reported)
-    #[arg(long, value_name = "F", default_value_t = TrackParams::default().false_per_hour, value_parser = false_per_hour, conflicts_with = "no_track")]
-    pub false_per_hour: f64,
-
-    /// With --confirm-by rules: a track is confirmed by 2 detections within this many seconds (of its latest)
-    #[arg(long, value_name = "SECONDS", default_value_t = TrackParams::default().confirm_s, value_parser = tracker_seconds, conflicts_with = "no_track")]
-    pub confirm_s: f64,
-
-    /// Learn each talker's correlation pattern (its reflections too) while it dominates, and look for other talkers once it is removed from each pair's correlation averaged over about this many seconds (arrays whose longest delay is 8 samples or more); 0: none
-    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_PATTERNS_S, value_parser = non_negative_f64, conflicts_with_all = ["no_track", "paper", "min_score"])]
-    pub patterns_s: f64,
-
-    /// Rows wait up to this many seconds for their track to be confirmed (the tracker's delay; never less than --confirm-s): a detection not confirmed by then is dropped, so a talker confirmed late loses its first detections
-    #[arg(long, value_name = "SECONDS", default_value_t = TrackParams::default().delay_s, value_parser = tracker_seconds, conflicts_with = "no_track")]
-    pub delay_s: f64,
-
-    /// Each tracked row's direction is its track's mean over this many seconds before and after it, corrected for the track's turn (rows come out that much later); 0: each frame's own direction
-    #[arg(long, value_name = "SECONDS", default_value_t = TrackParams::default().smooth_s, value_parser = smoothing_seconds, conflicts_with = "no_track")]
-    pub smooth_s: f64,
-
     /// Threads to analyse with (0: all cores); the output is the same for any number
-    #[arg(short = 'j', long, default_value_t = 0, value_name = "N", value_parser = clap::value_parser!(u16).range(0..=MAX_THREADS as i64))]
+    #[arg(help_heading = "Run", short = 'j', long, default_value_t = 0, value_name = "N", value_parser = clap::value_parser!(u16).range(0..=MAX_THREADS as i64))]
     pub threads: u16,
 
     /// After each file, print on stderr the time each stage took (read, spectra, noise, weighting, correlation, background, peaks, search, direction, steered, patterns, tracking, output), per frame and as a share; with several threads, the stages after the noise estimate add up the threads' time
-    #[arg(long)]
+    #[arg(long, help_heading = "Run", hide_short_help = true)]
     pub timings: bool,
 
     /// No progress bar and no warnings (errors are still reported)
-    #[arg(short, long)]
+    #[arg(short, long, help_heading = "Run")]
     pub quiet: bool,
 }
 
@@ -411,7 +269,7 @@ pub struct GeometryArgs {
     pub rate: u32,
 
     /// Speed of sound in m/s [default: the geometry's, else 343]
-    #[arg(short = 'c', long, value_name = "M/S", value_parser = speed_of_sound)]
+    #[arg(short = 'c', long, value_name = "M/S", value_parser = crate::geometry::speed_of_sound_flag)]
     pub speed_of_sound: Option<f64>,
 }
 
@@ -503,49 +361,5 @@ impl AnalyzeArgs {
         } else {
             Records::Detections
         }
-    }
-
-    /// The options the flags ask for, one field each; the library resolves them
-    /// ([`Options::settings`]).
-    #[allow(clippy::field_reassign_with_default)]
-    pub fn options(&self) -> Options {
-        let mut o = Options::default();
-        o.paper = self.paper;
-        o.track = !self.no_track;
-        o.frame_size = self.frame_size;
-        o.frame_ms = self.frame_ms;
-        o.alpha = self.alpha;
-        o.gamma = self.gamma;
-        o.weighting = !self.no_weighting;
-        o.peaks = self.peaks as usize;
-        o.tolerance = self.tolerance;
-        o.tolerance_us = self.tolerance_us;
-        o.residual_gate_us = self.residual_gate_us;
-        o.average_frames = self.average_frames as usize;
-        o.background_s = self.background_s;
-        o.speed_of_sound = self.speed_of_sound;
-        o.min_score = self.min_score;
-        o.threshold_sigmas = self.threshold_sigmas;
-        o.reverb_level = self.reverb_level;
-        o.window = self.window;
-        o.interpolation = self.interpolation;
-        o.dereverb = self.dereverb;
-        o.wpe = self.wpe;
-        o.start_s = self.start.unwrap_or(0.0);
-        o.end_s = self.end;
-        o.band_hz = self.band;
-        o.clock = self.clock;
-        o.bin_votes = !self.no_bin_votes;
-        o.max_sources = self.max_sources as usize;
-        o.candidates = self.candidates;
-        o.riders = self.riders;
-        o.patterns_s = self.patterns_s;
-        o.keep_unconfirmed = self.keep_unconfirmed;
-        o.confirm_by = self.confirm_by;
-        o.false_per_hour = self.false_per_hour;
-        o.confirm_s = self.confirm_s;
-        o.delay_s = self.delay_s;
-        o.smooth_s = self.smooth_s;
-        o
     }
 }

@@ -1,5 +1,5 @@
 //! The `ssl` command line: one file per subcommand, the arguments in [`args`] (their
-//! value parsers in [`values`]), the output destination in [`sink`]. The library knows
+//! value parsers in `values`), the output destination in `sink`. The library knows
 //! nothing of flags; the hints that name them are added here.
 
 mod analyze;

@@ -92,6 +92,19 @@ pub const SPEED_OF_SOUND_RANGE: (f64, f64) = (50.0, 5000.0);
 pub fn speed_of_sound_ok(c: f64) -> bool {
     c.is_finite() && (SPEED_OF_SOUND_RANGE.0..=SPEED_OF_SOUND_RANGE.1).contains(&c)
 }
+
+/// A speed of sound in m/s (`-c`), within the range every input accepts.
+#[cfg(feature = "cli")]
+pub(crate) fn speed_of_sound_flag(s: &str) -> std::result::Result<f64, String> {
+    let v = crate::flags::parse_f64(s)?;
+    if !speed_of_sound_ok(v) {
+        let (low, high) = SPEED_OF_SOUND_RANGE;
+        return Err(format!(
+            "{v:e} m/s is not a speed of sound from {low} to {high} m/s"
+        ));
+    }
+    Ok(v)
+}
 /// The most microphones an array may have (subsets of live microphones are bit masks).
 pub const MAX_MICS: usize = 64;
 /// A spread along an axis below this fraction of the largest spread counts as flat.

@@ -8,11 +8,11 @@
 //! tests all go through it.
 //!
 //! ```
-//! use ssl::localize::{Localizer, Options, Output};
+//! use ssl::localize::{Config, Localizer, Output};
 //! use ssl::Geometry;
 //!
 //! let geometry = Geometry::from_file("testdata/prism.toml".as_ref())?;
-//! let localizer = Localizer::new(geometry, &Options::default())?;
+//! let localizer = Localizer::new(geometry, &Config::default())?;
 //! let mut rows = Vec::new();
 //! let (report, result) = localizer.open("testdata/example.wav")?.run(|out| {
 //!     if let Output::Row(row) = out {
@@ -27,9 +27,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-mod options;
-
-pub use options::{Options, Settings, SettingsError};
+pub use crate::config::{Config, Settings, SettingsError};
 
 use crate::geometry::Geometry;
 use crate::method::{Detection, Params};
@@ -49,31 +47,40 @@ use std::time::{Duration, Instant};
 #[derive(Debug, Clone)]
 pub struct Localizer {
     geometry: Geometry,
+    /// The configuration, resolved (`None`: settings tuned beyond it).
+    config: Option<Config>,
     settings: Settings,
     /// Rows and events carry wall-clock times (`--clock`).
     clock: bool,
 }
 
 impl Localizer {
-    /// A localizer of `geometry` with `options` (resolved and checked once, here).
-    pub fn new(geometry: Geometry, options: &Options) -> Result<Self, SettingsError> {
-        Ok(Self::with_settings(geometry, options.settings()?)?.with_clock(options.clock))
+    /// A localizer of `geometry` with `config` (resolved and checked once, here).
+    pub fn new(geometry: Geometry, config: &Config) -> Result<Self, SettingsError> {
+        let mut localizer =
+            Self::with_settings(geometry, config.settings()?)?.with_clock(config.clock);
+        localizer.config = Some(config.resolved());
+        Ok(localizer)
     }
 
     /// The same, with rows and events carrying wall-clock times from each recording's
     /// Broadcast WAV time reference (`--clock`): a recording without one is an error.
     pub fn with_clock(mut self, clock: bool) -> Self {
         self.clock = clock;
+        if let Some(c) = &mut self.config {
+            c.clock = clock;
+        }
         self
     }
 
     /// A localizer of `geometry` with settings already resolved (for tuning what
-    /// [`Options`] does not reach), checked again: their fields may have changed since
-    /// [`Settings::new`].
+    /// [`Config`] does not reach), checked again: their fields may have changed since
+    /// [`Settings::new`]. Its results' metadata records no configuration.
     pub fn with_settings(geometry: Geometry, settings: Settings) -> Result<Self, SettingsError> {
         let settings = Settings::new(settings.method, settings.track)?;
         Ok(Localizer {
             geometry,
+            config: None,
             settings,
             clock: false,
         })
@@ -94,12 +101,20 @@ impl Localizer {
         self.settings.track.as_ref()
     }
 
+    /// The configuration, resolved ([`Config::resolved`]), or `None` for settings tuned
+    /// beyond it ([`Localizer::with_settings`]).
+    pub fn config(&self) -> Option<&Config> {
+        self.config.as_ref()
+    }
+
     /// The JSON document's metadata of a run, the geometry read from `geometry_file`:
-    /// derived from the settings.
+    /// the configuration resolved, with the speed of sound used.
     pub fn metadata(&self, geometry_file: &str) -> RunMetadata {
-        RunMetadata::new(&self.geometry, geometry_file, &self.settings.method)
-            .with_tracking(self.settings.track.clone())
-            .with_clock(self.clock)
+        let config = self.config.clone().map(|mut c| {
+            c.speed_of_sound.get_or_insert(self.geometry.speed_of_sound);
+            c
+        });
+        RunMetadata::new(&self.geometry, geometry_file, config, self.clock)
     }
 
     /// Opens the WAV or FLAC file at `path` (`-` for standard input).

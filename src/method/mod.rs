@@ -43,14 +43,18 @@ mod uncertainty;
 
 pub use paper::{correlation, direction, frames, pairs, peaks, search, spectrum, weighting};
 
+pub(crate) use beyond::threshold;
+pub use beyond::threshold::Threshold;
+pub use beyond::{Dereverb, Room, Talkers};
 pub(crate) use engine::analyzer::Analyzer;
 pub use outcome::{Detection, Detections, FrameStats, StageTimes};
+pub use paper::frames::{FrameSize, Framing};
+pub use paper::peaks::Peaks;
 pub use paper::peaks::{Interpolation, MAX_PEAKS};
+pub use paper::search::Tolerance;
 pub use paper::spectrum::Window;
+pub use paper::weighting::Weighting;
 pub use params::{
-    default_frame_size, frame_size_for_ms, Dereverb, Params, ParamsError, DEFAULT_AVERAGE_FRAMES,
-    DEFAULT_BACKGROUND_S, DEFAULT_CANDIDATES, DEFAULT_MAX_SOURCES, DEFAULT_MIN_SCORE_PER_PAIR,
-    DEFAULT_PATTERNS_S, DEFAULT_PEAKS, DEFAULT_RESIDUAL_GATE_US, DEFAULT_REVERB_LEVEL,
-    DEFAULT_RIDERS, DEFAULT_THRESHOLD_SIGMAS, DEFAULT_TOLERANCE, DEFAULT_TOLERANCE_US,
-    MAX_AVERAGE_FRAMES, MAX_FRAME_SIZE, MAX_SOURCES, PRIMING_S, REVERB_TAU_S,
+    default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_FRAME_SIZE, PRIMING_S,
+    REVERB_TAU_S,
 };

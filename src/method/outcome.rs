@@ -1,7 +1,7 @@
 //! What the method makes of a frame: a detection or the reason there is none, the run's
 //! counters, and the time spent in each stage.
 
-use super::params::MAX_SOURCES;
+use super::beyond::MAX_SOURCES;
 use nalgebra::Vector3;
 use std::time::{Duration, Instant};
 
@@ -46,7 +46,7 @@ pub struct Detection {
     pub rider: bool,
 }
 
-/// A frame's detections, strongest first (at most [`MAX_SOURCES`]).
+/// A frame's detections, strongest first (at most 4).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Detections {
     count: usize,

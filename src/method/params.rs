@@ -1,62 +1,59 @@
 //! The method's parameters, their defaults, and their validation against an array and a
 //! sample rate.
 
-use super::paper::peaks::{Interpolation, MAX_PEAKS};
+use super::beyond::threshold::{DEFAULT_THRESHOLD_SIGMAS, PAPER_MIN_SCORE_PER_PAIR};
+use super::beyond::{
+    Dereverb, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S, DEFAULT_RESIDUAL_GATE_US,
+    MAX_AVERAGE_FRAMES, MAX_SOURCES,
+};
+use super::paper::peaks::{Interpolation, DEFAULT_PEAKS, MAX_PEAKS};
+use super::paper::search::{DEFAULT_TOLERANCE_US, PAPER_TOLERANCE};
 use super::paper::spectrum::Window;
 use super::paper::weighting::NoiseSettings;
-use crate::geometry::{speed_of_sound_ok, Shape, SPEED_OF_SOUND_RANGE};
-use crate::Named;
+use super::paper::weighting::DEFAULT_REVERB_LEVEL;
+use crate::geometry::{speed_of_sound_ok, SPEED_OF_SOUND_RANGE};
 
-/// The method's parameters (defaults are the paper's where it gives them).
-/// `Params::default()` is the method alone, as `ssl analyze --no-track` runs it; what
-/// `ssl analyze` runs is the settings of [`Options::default`](crate::Options), which a
-/// [`Localizer`](crate::Localizer) resolves. Change fields of a preset: the struct is
-/// `#[non_exhaustive]`.
+/// The method's parameters as its stages read them: a [`Config`](crate::Config) resolved
+/// ([`Config::settings`](crate::Config::settings)), flat, with the tuning a configuration
+/// does not reach. Each field is declared, with its unit, default and flag, in the
+/// configuration's section named beside it. `Params::default()` is the method alone, as
+/// `ssl analyze --no-track` runs it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[non_exhaustive]
 pub struct Params {
-    /// Frame size N in samples (`None`: from `frame_ms`, else [`default_frame_size`] of
-    /// the sample rate).
+    /// Frame size N in samples ([`Framing::size`](crate::method::Framing::size); `None`:
+    /// from `frame_ms`, else [`default_frame_size`] of the sample rate).
     pub frame_size: Option<usize>,
-    /// Frame length in milliseconds when `frame_size` is `None`: N is the power of two
-    /// nearest to it (in ratio) at the file's rate ([`frame_size_for_ms`]).
+    /// Frame length in milliseconds when `frame_size` is `None` ([`frame_size_for_ms`]).
     pub frame_ms: Option<f64>,
-    /// `alpha` of eq. (4).
+    /// `alpha` of eq. (4) ([`Weighting::alpha`](crate::method::Weighting::alpha)).
     pub alpha: f32,
-    /// `gamma` of eq. (5).
+    /// `gamma` of eq. (5) ([`Weighting::gamma`](crate::method::Weighting::gamma)).
     pub gamma: f32,
-    /// Apply the spectral weighting (`false`: plain PHAT, `w_e = 1`, for comparison).
+    /// The spectral weighting on ([`Weighting::on`](crate::method::Weighting::on)).
     pub weighting: bool,
-    /// M, peaks kept per pair (1 to [`MAX_PEAKS`]).
+    /// M, peaks kept per pair, 1 to [`MAX_PEAKS`] ([`Peaks::count`](crate::method::Peaks::count)).
     pub peaks: usize,
-    /// Consistency tolerance of eq. (8), in samples.
+    /// Consistency tolerance of eq. (8) in samples, when `tolerance_us` is `None`
+    /// ([`Tolerance`](crate::method::Tolerance)).
     pub tolerance: f32,
-    /// Consistency tolerance in microseconds, the same time at every sample rate; when
-    /// given (the default, [`DEFAULT_TOLERANCE_US`]) it replaces `tolerance`.
+    /// Consistency tolerance in microseconds ([`Tolerance::Us`](crate::method::Tolerance::Us)).
     pub tolerance_us: Option<f64>,
-    /// Drop a detection whose delays no single source fits (a plane wave, or a spherical
-    /// wave from 0.25 to 3 m) with an RMS residual under this many microseconds (`None`:
-    /// no gate, as in the paper; default [`DEFAULT_RESIDUAL_GATE_US`]).
+    /// The residual gate in microseconds (`None`: none; [`Room::residual_gate_us`](crate::method::Room::residual_gate_us)).
     pub residual_gate_us: Option<f64>,
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
-    /// Fixed detection threshold per microphone pair, used when `threshold_sigmas` is
-    /// `None` ([`Options::fixed_threshold`](crate::Options::fixed_threshold), `--paper`): a frame whose best set scores
-    /// below this times its number of pairs gives no detection.
+    /// The fixed threshold per pair, used when `threshold_sigmas` is `None`
+    /// ([`Threshold::Fixed`](crate::method::Threshold::Fixed)).
     pub min_score_per_pair: f64,
-    /// The threshold calibrated against the background (the default): chance plus a
-    /// coherent background, with this many standard deviations for chance (see the
-    /// `threshold` module; default [`DEFAULT_THRESHOLD_SIGMAS`]). `None`: the fixed
-    /// `min_score_per_pair`.
+    /// The calibrated threshold's sigmas ([`Threshold::Calibrated`](crate::method::Threshold::Calibrated)).
     pub threshold_sigmas: Option<f64>,
-    /// Late reverberation in the noise estimate (beyond the paper): `X_n(k)` gains
-    /// this share of the recent frames' `X(k)`, smoothed over [`REVERB_TAU_S`], so that
-    /// the tail of a sound in a reverberant room is weighed as noise. Default
-    /// [`DEFAULT_REVERB_LEVEL`]; 0 (none) with a fixed threshold and `--paper`.
+    /// Late reverberation's share in the noise estimate, smoothed over [`REVERB_TAU_S`]
+    /// ([`Weighting::reverb_level`](crate::method::Weighting::reverb_level)).
     pub reverb_level: f32,
-    /// The analysis window.
+    /// The analysis window ([`Framing::window`](crate::method::Framing::window)).
     pub window: Window,
-    /// Sub-sample refinement of the correlation peaks.
+    /// Sub-sample refinement of the peaks ([`Peaks::interpolation`](crate::method::Peaks::interpolation)).
     pub interpolation: Interpolation,
     /// The consistency search's budget per frame, in candidate matches
     /// ([`Searcher::work`](crate::method::search::Searcher::work)); a frame that reaches
@@ -64,72 +61,39 @@ pub struct Params {
     pub max_work: u64,
     /// The noise estimator behind `X_n(k)`.
     pub noise: NoiseSettings,
-    /// Each pair's correlation is averaged over this many frames, the frame's own and
-    /// the ones before it (1: none, as in the paper; default [`DEFAULT_AVERAGE_FRAMES`]).
+    /// Frames each pair's correlation is averaged over ([`Room::average_frames`](crate::method::Room::average_frames)).
     pub average_frames: usize,
-    /// Time constant (seconds) of the coherent background subtracted from every pair's
-    /// correlation (beyond the paper, see the `background` module; `None`: none, as in
-    /// the paper; default [`DEFAULT_BACKGROUND_S`]).
+    /// The coherent background's time constant (`None`: none; [`Room::background_s`](crate::method::Room::background_s)).
     pub background_s: Option<f64>,
-    /// The steered response (`method/beyond/steered.rs`, beyond the paper): a direction for
-    /// frames whose pairs do not all agree, and further sources (default off; on with a
-    /// tracker, [`Options`](crate::Options)).
+    /// The steered response: a direction for frames whose pairs do not all agree, and
+    /// further sources (on with a tracker under the calibrated threshold).
     pub steered: bool,
-    /// The most sources one frame gives, `1..=`[`MAX_SOURCES`] (with
-    /// `steered`; default 1, [`DEFAULT_MAX_SOURCES`] with a
-    /// tracker).
+    /// The most sources one frame gives ([`Talkers::max_sources`](crate::method::Talkers::max_sources)).
     pub max_sources: usize,
-    /// When the averaged correlations give a source, the frame's own are searched too
-    /// and what they give beside it is a further source (`method/beyond/frame_sources.rs`,
-    /// beyond the paper; up to [`Params::max_sources`]; default off; on with a tracker,
-    /// [`Options`](crate::Options)).
+    /// Further sources from each frame's own correlations beside the averaged ones' (on
+    /// with a tracker under the calibrated threshold).
     pub frame_sources: bool,
-    /// Time constant (seconds) of the longer average in which each talker's learned
-    /// pattern is removed before a second look for further sources
-    /// (`method/beyond/patterns.rs`, beyond the paper; with `steered`, on arrays whose longest
-    /// delay is 8 samples or more; `None`: none,
-    /// the default; [`DEFAULT_PATTERNS_S`] with a
-    /// tracker, [`Options`](crate::Options)).
+    /// The talkers' patterns' time constant (`None`: none; [`Talkers::patterns_s`](crate::method::Talkers::patterns_s)).
     pub patterns_s: Option<f64>,
-    /// Candidates scoring down to this share of the detection threshold are reported
-    /// too, with [`Detection::margin`](super::Detection::margin) under 1, for a tracker to
-    /// confirm or drop (default 1: none; `ssl analyze` uses
-    /// [`DEFAULT_CANDIDATES`] when it tracks).
+    /// Candidates' share of the threshold (1: none; [`Talkers::candidates`](crate::method::Talkers::candidates)),
+    /// reported with [`Detection::margin`](super::Detection::margin) under 1.
     pub candidates: f64,
-    /// A frame that gives nothing down to [`Params::candidates`] has its own
-    /// correlations (not averaged over frames) searched again down to this share of the
-    /// threshold; what they then give are riders
-    /// ([`Detection::rider`](super::Detection::rider)), which a tracker only lets add
-    /// rows to a talking track (see [`track`](crate::track)). Default 1: none; `ssl
-    /// analyze` uses [`DEFAULT_RIDERS`] when it tracks. At
-    /// or above `candidates`, or without candidates (`candidates` 1: no tracker to ride
-    /// along): none.
+    /// Riders' share of the threshold (1: none; [`Talkers::riders`](crate::method::Talkers::riders)),
+    /// reported as [`Detection::rider`](super::Detection::rider).
     pub riders: f64,
-    /// When the diffuse part of every pair's cross-spectrum is removed before eq. (6)
-    /// (`method/beyond/dereverb.rs`, beyond the paper), its coherence measured over the frames
-    /// [`Params::average_frames`] averages (default [`Dereverb::Auto`]: for planar and
-    /// linear arrays; `--paper`: never).
+    /// When the diffuse part is removed ([`Room::dereverb`](crate::method::Room::dereverb)).
     pub dereverb: Dereverb,
-    /// Whether the input is dereverberated by multichannel linear prediction before the
-    /// frames are cut ([`crate::stream::wpe`], beyond the paper; `--wpe`). Default off:
-    /// it costs about 15 times the rest of the analysis.
+    /// The input dereverberated first ([`Room::wpe`](crate::method::Room::wpe)).
     pub wpe: bool,
-    /// Where the analysis starts (seconds from the start of the recording; `--start`),
-    /// rounded down to a whole hop so that frame `i` still starts at sample `i * N / 2`
-    /// of the recording and times stay the recording's. Default 0.
+    /// Where the analysis starts (seconds), rounded down to a whole hop
+    /// ([`Framing::start_s`](crate::method::Framing::start_s)).
     pub start_s: f64,
-    /// Where it ends (seconds from the start of the recording; `--end`): no sample from
-    /// this time on is read. Default `None`: the end of the recording.
+    /// Where it ends (seconds; `None`: the end; [`Framing::end_s`](crate::method::Framing::end_s)).
     pub end_s: Option<f64>,
-    /// Riders from the directions of single frequency bins (`method/beyond/votes.rs`, beyond the
-    /// paper), on arrays small enough that their pairs are shorter than half a
-    /// wavelength over part of the band, with a tracker only (`candidates` under 1).
-    /// Default on; `--paper` and `--min-score`: off.
+    /// Riders from single frequency bins, with a tracker to ride along
+    /// ([`Talkers::bin_votes`](crate::method::Talkers::bin_votes)).
     pub bin_votes: bool,
-    /// The frequencies analysed, `(low, high)` in Hz (`--band`): every bin outside gets
-    /// the weight 0 in eq. (6), and the threshold's background terms shrink with the
-    /// share of the spectrum kept. `high` beyond the recording's Nyquist frequency is
-    /// taken as it. Default `None`: every bin.
+    /// The frequencies analysed, `(low, high)` in Hz ([`Weighting::band_hz`](crate::method::Weighting::band_hz)).
     pub band_hz: Option<(f64, f64)>,
 }
 
@@ -224,22 +188,22 @@ impl Default for Params {
         Params {
             frame_size: None,
             frame_ms: None,
-            alpha: crate::method::weighting::ALPHA,
-            gamma: crate::method::weighting::GAMMA,
+            alpha: crate::method::weighting::ALPHA as f32,
+            gamma: crate::method::weighting::GAMMA as f32,
             weighting: true,
             peaks: DEFAULT_PEAKS,
-            tolerance: DEFAULT_TOLERANCE,
+            tolerance: PAPER_TOLERANCE as f32,
             tolerance_us: Some(DEFAULT_TOLERANCE_US),
             residual_gate_us: Some(DEFAULT_RESIDUAL_GATE_US),
             speed_of_sound: None,
-            min_score_per_pair: DEFAULT_MIN_SCORE_PER_PAIR,
+            min_score_per_pair: PAPER_MIN_SCORE_PER_PAIR,
             window: Window::Hann,
             interpolation: Interpolation::Cosine,
             max_work: DEFAULT_MAX_WORK,
             noise: NoiseSettings::default(),
             average_frames: DEFAULT_AVERAGE_FRAMES,
             threshold_sigmas: Some(DEFAULT_THRESHOLD_SIGMAS),
-            reverb_level: DEFAULT_REVERB_LEVEL,
+            reverb_level: DEFAULT_REVERB_LEVEL as f32,
             background_s: Some(DEFAULT_BACKGROUND_S),
             steered: false,
             max_sources: 1,
@@ -251,52 +215,11 @@ impl Default for Params {
             wpe: false,
             start_s: 0.0,
             end_s: None,
-            bin_votes: true,
+            bin_votes: false,
             band_hz: None,
         }
     }
 }
-
-/// When the diffuse part is removed ([`Params::dereverb`](super::Params::dereverb)).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Dereverb {
-    /// For planar and linear arrays (the default): they read directions from how long
-    /// their delays are, which the diffuse part shortens. A 3-D array's directions hardly
-    /// move, and summing cross-spectra over frames favours the louder of two talkers at
-    /// once (measured in docs/field.md and docs/tracking.md).
-    Auto,
-    /// For every array.
-    On,
-    /// Never (`--paper`'s).
-    Off,
-}
-
-impl Named for Dereverb {
-    const ALL: &'static [(Dereverb, &'static str, &'static str)] = &[
-        (
-            Dereverb::Auto,
-            "auto",
-            "For planar and linear arrays, whose directions the reverberation biases most (the default)",
-        ),
-        (Dereverb::On, "on", "For every array"),
-        (Dereverb::Off, "off", "Never (--paper's)"),
-    ];
-}
-
-impl Dereverb {
-    /// Whether it applies to an array of this shape.
-    pub fn applies(self, shape: &Shape) -> bool {
-        match self {
-            Dereverb::Auto => !matches!(shape, Shape::Volumetric),
-            Dereverb::On => true,
-            Dereverb::Off => false,
-        }
-    }
-}
-
-/// Peaks M kept per pair (the paper's M = 8).
-pub const DEFAULT_PEAKS: usize = 8;
 
 /// Default budget of the consistency search per frame, in candidate matches
 /// ([`Params::max_work`]): about 60 ms of one core, and 70,000 nodes on 8 microphones,
@@ -307,33 +230,6 @@ pub const DEFAULT_PEAKS: usize = 8;
 /// search 2-3 times faster and 3 frames of 1405 at the budget instead of 2
 /// (docs/experiments.md, 2026-12-03 evening).
 pub(crate) const DEFAULT_MAX_WORK: u64 = 4_000_000;
-
-/// The most sources one frame can give ([`Params::max_sources`]).
-pub const MAX_SOURCES: usize = 4;
-
-/// The most sources one frame gives by default with a tracker ([`Params::max_sources`]).
-pub const DEFAULT_MAX_SOURCES: usize = 2;
-
-/// Default time constant of the coherent background estimate (seconds).
-pub const DEFAULT_BACKGROUND_S: f64 = 2.0;
-
-/// Default time constant (seconds) of the longer average each talker's pattern is
-/// removed from.
-pub const DEFAULT_PATTERNS_S: f64 = 0.17;
-
-/// Default allowance for chance of the calibrated threshold, in standard deviations of a
-/// pair's correlation.
-pub const DEFAULT_THRESHOLD_SIGMAS: f64 = 6.0;
-
-/// The share of the detection threshold down to which candidates are reported for a
-/// tracker ([`Params::candidates`]): 0.4 finds two and three talkers at once in more
-/// windows than 0.5 with no false event or track in any benchmark (docs/method.md).
-pub const DEFAULT_CANDIDATES: f64 = 0.4;
-
-/// The share of the detection threshold down to which the frames that give nothing down
-/// to [`DEFAULT_CANDIDATES`] are searched again for riders ([`Params::riders`]): a
-/// talking track's rows in the frames where its talker is weakest (docs/method.md).
-pub const DEFAULT_RIDERS: f64 = 0.3;
 
 /// How much of the start of a recording primes the noise estimate before it is analysed
 /// (seconds, at most one block of frames; see the `analyzer` module).
@@ -346,40 +242,9 @@ pub const MIN_BAND_BINS: usize = 8;
 /// The largest frame size (samples): 1.4 s at 48 kHz, 0.34 s at 192 kHz.
 pub const MAX_FRAME_SIZE: usize = 1 << 16;
 
-/// The paper-method consistency tolerance in samples (used when `tolerance_us` is
-/// `None`, as with `--paper`).
-pub const DEFAULT_TOLERANCE: f32 = 2.0;
-
-/// Default consistency tolerance in microseconds: 2.4 samples at 48 kHz, 0.8 at 16 kHz
-/// (where the floor of one sample, 62.5 us, applies). 40 us, the default before, left
-/// the prism at 48 kHz deaf to talkers 2 m away in a small reverberant office that it
-/// heard at 16 kHz; 50 us hears them with no false event, and two talkers at once at
-/// 48 kHz are found in 80-84% of the windows instead of 76-86% (docs/field.md,
-/// docs/tracking.md).
-pub const DEFAULT_TOLERANCE_US: f64 = 50.0;
-
-/// Default number of frames each correlation is averaged over: the frame and the five
-/// before it, 75 ms at the default frame size (docs/field.md for how it was chosen).
-pub const DEFAULT_AVERAGE_FRAMES: usize = 6;
-
-/// The share of the recent frames' power taken as late reverberation by default
-/// (measured on real speech in the paper's room, docs/field.md).
-pub const DEFAULT_REVERB_LEVEL: f32 = 0.5;
-
 /// Time constant of the late-reverberation estimate (seconds): 0.65 per frame of 1024 at
 /// 48 kHz, as in Valin et al.'s later work.
 pub const REVERB_TAU_S: f64 = 0.025;
-
-/// The most frames a correlation can be averaged over.
-pub const MAX_AVERAGE_FRAMES: usize = 64;
-
-/// Default residual gate in microseconds (docs/field.md).
-pub const DEFAULT_RESIDUAL_GATE_US: f64 = 100.0;
-
-/// Default detection threshold per microphone pair. Stationary background alone gives
-/// weights near 0.6 and so correlation peaks near 0.36 or below per pair; a source that
-/// stands out of the background scores higher (docs/method.md gives the measurement).
-pub const DEFAULT_MIN_SCORE_PER_PAIR: f64 = 0.5;
 
 /// The default frame size: the power of two nearest (in ratio) to 1024 samples at
 /// 48 kHz, i.e. about 21 ms: 128 at 8 kHz, 256 at 16 kHz, 1024 at 44.1/48 kHz, 2048 at
@@ -490,7 +355,7 @@ pub enum ParamsError {
     /// The residual gate is not a positive number of microseconds.
     #[error("the residual gate must be a positive number of microseconds, got {}", crate::text::Shown(*.0))]
     ResidualGate(f64),
-    /// The number of frames averaged is 0 or more than [`MAX_AVERAGE_FRAMES`].
+    /// The number of frames averaged is 0 or more than 64.
     #[error("the number of frames to average must be between 1 and {MAX_AVERAGE_FRAMES}, got {0}")]
     AverageFrames(usize),
     /// The most sources per frame is out of range.

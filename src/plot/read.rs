@@ -2,10 +2,13 @@
 //! file, in any of the three formats, with the array and the threshold when the result
 //! is a JSON document.
 
+use crate::method::Threshold;
 use crate::record::{
     read_result, read_result_file, DetectionRecord, EventRecord, ReadError, ResultInfo,
     ResultRecord,
 };
+use crate::Config;
+use serde::Deserialize;
 
 /// One file's rows.
 #[derive(Debug, Clone, Default)]
@@ -69,15 +72,27 @@ impl PlotData {
             }
         }
         if let Some(p) = &info.parameters {
-            self.threshold = match (
-                p["min_score_per_pair"].as_f64(),
-                p["threshold_sigmas"].as_f64(),
-            ) {
-                (Some(m), _) => Some(format!("fixed, {m} per pair")),
-                (None, Some(z)) => Some(format!("calibrated per frame, {z} sigmas")),
-                _ => None,
-            };
+            self.threshold = threshold_of(p).map(|t| match t {
+                Threshold::Fixed { per_pair } => format!("fixed, {per_pair} per pair"),
+                Threshold::Calibrated { sigmas } => {
+                    format!("calibrated per frame, {sigmas} sigmas")
+                }
+            });
         }
+    }
+}
+
+/// The threshold a document's `parameters` record: the configuration's (0.3.0 on), or
+/// the flat fields of the documents 0.2.0 and before wrote.
+fn threshold_of(parameters: &serde_json::Value) -> Option<Threshold> {
+    if let Ok(config) = Config::deserialize(parameters) {
+        return Some(config.threshold);
+    }
+    let old = |key: &str| parameters.get(key).and_then(serde_json::Value::as_f64);
+    match (old("min_score_per_pair"), old("threshold_sigmas")) {
+        (Some(per_pair), _) => Some(Threshold::Fixed { per_pair }),
+        (None, Some(sigmas)) => Some(Threshold::Calibrated { sigmas }),
+        _ => None,
     }
 }
 

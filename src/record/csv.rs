@@ -65,7 +65,7 @@ impl<W: Write> CsvExporter<W> {
 impl<W: Write> Exporter<W> for CsvExporter<W> {
     fn begin(&mut self, meta: &RunMetadata) -> Result<(), OutputError> {
         // With --clock, the fields that are otherwise absent.
-        let clock = meta.parameters.clock.then(String::new);
+        let clock = meta.clock().then(String::new);
         match self.records {
             Records::Detections => self.header(&DetectionRecord {
                 clock,

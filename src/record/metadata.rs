@@ -2,11 +2,9 @@
 //! one entry per input file (docs/interface.md, "Detections").
 
 use super::fixed;
+use crate::config::Config;
 use crate::geometry::{Geometry, Shape};
-use crate::method::pairs::pair_count;
-use crate::method::{Interpolation, Params, Window};
 use crate::stream::Summary;
-use crate::track::TrackParams;
 use serde::{Deserialize, Serialize};
 
 /// The run's metadata, in the order the JSON document carries it.
@@ -16,8 +14,12 @@ pub struct RunMetadata {
     pub tool: Tool,
     /// The array as the tool understood it.
     pub geometry: GeometryInfo,
-    /// The method's parameters.
-    pub parameters: ParametersInfo,
+    /// The configuration the run resolved ([`Config::resolved`], with the speed of sound
+    /// used), or null for settings tuned beyond one.
+    pub parameters: Option<Config>,
+    /// Whether rows and events carry wall-clock times (also in `parameters`).
+    #[serde(skip)]
+    clock: bool,
 }
 
 /// A tool's name and version.
@@ -76,163 +78,27 @@ pub struct MicInfo {
     pub channel: usize,
 }
 
-/// The parameters as the JSON document records them: numbers are numbers, written as
-/// given (`0.4`, not the nearest single-precision value).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ParametersInfo {
-    /// Frame size N given on the command line, or `null` for the default of each file's
-    /// rate (about 21 ms); each file's entry has the frame size used.
-    pub frame_size: Option<usize>,
-    /// The frame length asked for in milliseconds, or null.
-    pub frame_ms: Option<f64>,
-    /// Always `"frame_size / 2"`.
-    pub hop: String,
-    /// The analysis window.
-    pub window: Window,
-    /// `alpha` of eq. (4).
-    pub alpha: f64,
-    /// `gamma` of eq. (5).
-    pub gamma: f64,
-    /// Spectral weighting on (else plain PHAT).
-    pub weighting: bool,
-    /// Peaks M per pair.
-    pub peaks: usize,
-    /// Consistency tolerance (samples).
-    pub tolerance_samples: f64,
-    /// Sub-sample refinement of the peaks.
-    pub interpolation: Interpolation,
-    /// Speed of sound used (m/s).
-    pub speed_of_sound: f64,
-    /// Fixed detection threshold per microphone pair, or null for the calibrated one.
-    pub min_score_per_pair: Option<f64>,
-    /// The fixed threshold a frame with every microphone live needs:
-    /// `min_score_per_pair` times the array's pairs (null with the calibrated one).
-    pub min_score: Option<f64>,
-    /// The calibrated threshold's allowance for chance (standard deviations), or null
-    /// with a fixed threshold.
-    pub threshold_sigmas: Option<f64>,
-    /// Share of late reverberation in the noise estimate (0: none).
-    pub reverb_level: f64,
-    /// The consistency tolerance in microseconds, when given so (it then replaces
-    /// `tolerance_samples` at each file's rate).
-    pub tolerance_us: Option<f64>,
-    /// The residual gate in microseconds, or null for none.
-    pub residual_gate_us: Option<f64>,
-    /// Frames each pair's correlation is averaged over (1: none).
-    pub average_frames: usize,
-    /// Time constant of the steady background subtracted from the correlations
-    /// (seconds), or null for none.
-    pub background_s: Option<f64>,
-    /// Whether the steered response is on (directions from most pairs, and further
-    /// sources).
-    pub steered: bool,
-    /// The most sources one frame gives.
-    pub max_sources: usize,
-    /// Whether further sources come from each frame's own correlations too.
-    pub frame_sources: bool,
-    /// Time constant (seconds) of the average each talker's learned pattern is removed
-    /// from before a second look for others, or null for none (it applies to arrays
-    /// whose longest delay is 8 samples or more at the file's rate).
-    pub patterns_s: Option<f64>,
-    /// Candidates are reported down to this share of the threshold, for the tracker (1:
-    /// none).
-    pub candidates: f64,
-    /// A frame that gives nothing down to `candidates` has its own correlations searched
-    /// again down to this share, for riders (1: none; a document written before them has
-    /// none).
-    #[serde(default = "no_riders")]
-    pub riders: f64,
-    /// Whether the reverberation's diffuse part is removed from the cross-spectra for
-    /// this array (`--dereverb`: by default for planar and linear arrays).
-    #[serde(default)]
-    pub dereverb: bool,
-    /// Whether the input was dereverberated by multichannel linear prediction (`--wpe`;
-    /// a document written before it has none: false).
-    #[serde(default)]
-    pub wpe: bool,
-    /// Where the analysis started (seconds; `--start`, rounded down to a hop).
-    #[serde(default)]
-    pub start_s: f64,
-    /// Where it ended (seconds; `--end`), or `None` at the end of the recording.
-    #[serde(default)]
-    pub end_s: Option<f64>,
-    /// The frequencies analysed, `[low, high]` in Hz (`--band`), or `None`: all.
-    #[serde(default)]
-    pub band_hz: Option<[f64; 2]>,
-    /// Whether the directions of single frequency bins give riders (`--no-bin-votes`
-    /// turns them off; a document written before them has none: false).
-    #[serde(default)]
-    pub bin_votes: bool,
-    /// The tracker's parameters, or null with tracking off.
-    pub track: Option<TrackParams>,
-    /// Whether rows and events carry wall-clock times (`--clock`).
-    #[serde(default)]
-    pub clock: bool,
-}
-
-/// A single-precision parameter as it was written (`0.4`), not as its nearest double.
-fn as_given(v: f32) -> f64 {
-    v.to_string().parse().unwrap_or(v as f64)
-}
-
 impl RunMetadata {
-    /// The metadata of a run with `geometry` (read from `geometry_file`) and `params`.
-    pub fn new(geometry: &Geometry, geometry_file: &str, params: &Params) -> Self {
-        let fixed = params
-            .threshold_sigmas
-            .is_none()
-            .then_some(params.min_score_per_pair);
+    /// The metadata of a run with `geometry` (read from `geometry_file`) and `config`
+    /// (`None`: settings tuned beyond a configuration), rows carrying wall-clock times
+    /// or not.
+    pub fn new(
+        geometry: &Geometry,
+        geometry_file: &str,
+        config: Option<Config>,
+        clock: bool,
+    ) -> Self {
         RunMetadata {
             tool: Tool::default(),
             geometry: GeometryInfo::new(geometry, geometry_file),
-            parameters: ParametersInfo {
-                frame_size: params.frame_size,
-                frame_ms: params.frame_ms,
-                hop: "frame_size / 2".into(),
-                window: params.window,
-                alpha: as_given(params.alpha),
-                gamma: as_given(params.gamma),
-                weighting: params.weighting,
-                peaks: params.peaks,
-                tolerance_samples: as_given(params.tolerance),
-                interpolation: params.interpolation,
-                speed_of_sound: params.speed_of_sound.unwrap_or(geometry.speed_of_sound),
-                min_score_per_pair: fixed,
-                min_score: fixed.map(|m| m * pair_count(geometry.mics.len()) as f64),
-                threshold_sigmas: params.threshold_sigmas,
-                reverb_level: as_given(params.reverb_level),
-                tolerance_us: params.tolerance_us,
-                residual_gate_us: params.residual_gate_us,
-                average_frames: params.average_frames,
-                background_s: params.background_s,
-                steered: params.steered,
-                max_sources: params.max_sources,
-                frame_sources: params.frame_sources,
-                patterns_s: params.patterns_s,
-                candidates: params.candidates,
-                riders: params.riders,
-                dereverb: params.dereverb.applies(&geometry.shape),
-                wpe: params.wpe,
-                start_s: params.start_s,
-                end_s: params.end_s,
-                band_hz: params.band_hz.map(|(l, h)| [l, h]),
-                bin_votes: params.bin_votes_on(),
-                track: None,
-                clock: false,
-            },
+            parameters: config,
+            clock,
         }
     }
 
-    /// The same, with tracking by `track` (or off).
-    pub fn with_tracking(mut self, track: Option<TrackParams>) -> Self {
-        self.parameters.track = track;
-        self
-    }
-
-    /// The same, with wall-clock times on rows and events (`--clock`) or not.
-    pub fn with_clock(mut self, clock: bool) -> Self {
-        self.parameters.clock = clock;
-        self
+    /// Whether rows and events carry wall-clock times (`--clock`).
+    pub fn clock(&self) -> bool {
+        self.clock
     }
 }
 
@@ -376,9 +242,4 @@ impl FileEntry {
         }
         self
     }
-}
-
-/// Riders' share in a document written before them: none.
-fn no_riders() -> f64 {
-    1.0
 }

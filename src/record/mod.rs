@@ -21,9 +21,7 @@ pub use self::csv::CsvExporter;
 pub use self::json::{JsonExporter, NdjsonExporter};
 pub use detection::DetectionRecord;
 pub use event::EventRecord;
-pub use metadata::{
-    ambiguity_note, FileEntry, GeometryInfo, MicInfo, ParametersInfo, RunMetadata, Tool,
-};
+pub use metadata::{ambiguity_note, FileEntry, GeometryInfo, MicInfo, RunMetadata, Tool};
 pub use read::{
     parse_detections, read_detections, read_detections_with_info, read_result, read_result_file,
     ReadError, ResultInfo, ResultRecord, MAX_RESULT_BYTES, MAX_TRUTH_BYTES,

@@ -117,6 +117,97 @@ impl ConfirmBy {
     }
 }
 
+/// Tracking: detections grouped into sources, confirmed, smoothed, and written as rows,
+/// events or sources.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[serde(default, deny_unknown_fields)]
+#[non_exhaustive]
+pub struct Tracking {
+    /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, smooths each row's direction over its track's (--smooth-s), and delays rows by up to --delay-s and --smooth-s)
+    #[cfg_attr(feature = "cli", arg(long = "no-track", id = "no_track", action = clap::ArgAction::SetFalse))]
+    pub on: bool,
+    /// How a candidate becomes a source
+    #[cfg_attr(feature = "cli", arg(long, value_name = "HOW", default_value = "evidence", value_parser = crate::flags::choice::<ConfirmBy>(), conflicts_with = "no_track", hide_short_help = true))]
+    pub confirm_by: ConfirmBy,
+    /// With --confirm-by evidence: at most this many false sources an hour of background (fewer: more evidence needed before a source is reported)
+    #[cfg_attr(feature = "cli", arg(long, value_name = "F", default_value_t = 1.0, value_parser = false_per_hour, conflicts_with = "no_track", hide_short_help = true))]
+    pub false_per_hour: f64,
+    /// With --confirm-by rules: a track is confirmed by 2 detections within this many seconds (of its latest)
+    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = tracker_seconds, conflicts_with = "no_track", hide_short_help = true))]
+    pub confirm_s: f64,
+    /// Rows wait up to this many seconds for their track to be confirmed (the tracker's delay; never less than --confirm-s): a detection not confirmed by then is dropped, so a talker confirmed late loses its first detections
+    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = tracker_seconds, conflicts_with = "no_track", hide_short_help = true))]
+    pub delay_s: f64,
+    /// Each tracked row's direction is its track's mean over this many seconds before and after it, corrected for the track's turn (rows come out that much later); 0: each frame's own direction
+    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = 0.2, value_parser = smoothing_seconds, conflicts_with = "no_track", hide_short_help = true))]
+    pub smooth_s: f64,
+    /// Also write the detections no track confirmed (isolated ones, a track's outliers), with an empty `source` (null in JSON), in frame order among the others
+    #[cfg_attr(feature = "cli", arg(long, conflicts_with = "no_track"))]
+    pub keep_unconfirmed: bool,
+}
+
+impl Default for Tracking {
+    fn default() -> Self {
+        Tracking {
+            on: true,
+            confirm_by: ConfirmBy::Evidence,
+            false_per_hour: 1.0,
+            confirm_s: 0.5,
+            delay_s: 1.0,
+            smooth_s: 0.2,
+            keep_unconfirmed: false,
+        }
+    }
+}
+
+impl Tracking {
+    /// The tracker's parameters: these, and the tuning of [`TrackParams::default`]
+    /// (`None` with tracking off).
+    pub fn params(&self) -> Option<TrackParams> {
+        let defaults = TrackParams::default();
+        self.on.then(|| TrackParams {
+            confirm_by: self.confirm_by,
+            false_per_hour: self.false_per_hour,
+            confirm_s: self.confirm_s,
+            // A run of candidates spans at most the window it is counted over.
+            weak_span_s: defaults.weak_span_s.min(self.confirm_s),
+            delay_s: self.delay_s,
+            keep_unconfirmed: self.keep_unconfirmed,
+            smooth_s: self.smooth_s,
+            ..defaults
+        })
+    }
+}
+
+/// A tracker's window or delay: positive, at most [`MAX_DELAY_S`] (rows wait that long
+/// in memory).
+#[cfg(feature = "cli")]
+fn tracker_seconds(s: &str) -> Result<f64, String> {
+    crate::flags::positive_at_most(s, MAX_DELAY_S, " s (rows wait that long in memory)")
+}
+
+/// The false sources an hour (`--false-per-hour`): over 0, at most the candidates an
+/// hour it is a share of.
+#[cfg(feature = "cli")]
+fn false_per_hour(s: &str) -> Result<f64, String> {
+    crate::flags::positive_at_most(
+        s,
+        evidence::CANDIDATES_PER_HOUR,
+        ", the candidates an hour it is a share of",
+    )
+}
+
+/// The smoothing window (`--smooth-s`): 0 to [`MAX_SMOOTH_S`].
+#[cfg(feature = "cli")]
+fn smoothing_seconds(s: &str) -> Result<f64, String> {
+    let v = crate::flags::non_negative_f64(s)?;
+    if v > MAX_SMOOTH_S {
+        return Err(format!("{v} is over {MAX_SMOOTH_S} s"));
+    }
+    Ok(v)
+}
+
 /// The tracker's parameters (see the module's documentation).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[non_exhaustive]
@@ -221,10 +312,12 @@ pub struct TrackParams {
 }
 
 impl Default for TrackParams {
+    /// [`Tracking::default`]'s choices and the tracker's tuning.
     fn default() -> Self {
+        let user = Tracking::default();
         TrackParams {
-            confirm_by: ConfirmBy::Evidence,
-            false_per_hour: 1.0,
+            confirm_by: user.confirm_by,
+            false_per_hour: user.false_per_hour,
             confirm_hits: 2,
             confirm_candidates: 4,
             confirm_weak: 12,
@@ -232,8 +325,8 @@ impl Default for TrackParams {
             tight_deg: 1.5,
             weak_span_s: 0.15,
             alone_s: 0.1,
-            confirm_s: 0.5,
-            delay_s: 1.0,
+            confirm_s: user.confirm_s,
+            delay_s: user.delay_s,
             gate_deg: 12.0,
             candidate_gate_deg: 5.0,
             candidate_gate_samples: 0.6,
@@ -241,8 +334,8 @@ impl Default for TrackParams {
             max_gate_deg: 30.0,
             end_s: 1.0,
             forget_s: 120.0,
-            keep_unconfirmed: false,
-            smooth_s: 0.2,
+            keep_unconfirmed: user.keep_unconfirmed,
+            smooth_s: user.smooth_s,
         }
     }
 }

@@ -138,7 +138,7 @@ fn a_band_that_is_not_one_is_a_clear_error() {
     ]);
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(
-        doc["parameters"]["band_hz"],
+        doc["parameters"]["weighting"]["band_hz"],
         serde_json::json!([300.0, 3400.0])
     );
 }

@@ -16,7 +16,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use ssl::localize::Output;
 use ssl::stream::{AudioStream, WavStream};
-use ssl::{Geometry, Localizer, Options};
+use ssl::{Config, Geometry, Localizer};
 use std::io::Cursor;
 use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
@@ -279,7 +279,7 @@ fn outputs<S: ssl::stream::SampleSource>(
 #[test]
 fn fuzz_the_wav_reader_from_a_file_and_from_a_stream() {
     let pair = Geometry::from_file(&corpus_dir("geometry").join("pair.toml")).unwrap();
-    let localizer = Localizer::new(pair, &Options::default()).unwrap();
+    let localizer = Localizer::new(pair, &Config::default()).unwrap();
     fuzz("wav", "wav", false, &|bytes: &[u8]| {
         let open = |size: Option<u64>| {
             WavStream::from_reader("in", Box::new(Cursor::new(bytes.to_vec())), size)
@@ -304,7 +304,7 @@ fn fuzz_the_wav_reader_from_a_file_and_from_a_stream() {
 #[test]
 fn fuzz_the_flac_reader_from_a_file_and_from_a_stream() {
     let pair = Geometry::from_file(&corpus_dir("geometry").join("pair.toml")).unwrap();
-    let localizer = Localizer::new(pair, &Options::default()).unwrap();
+    let localizer = Localizer::new(pair, &Config::default()).unwrap();
     fuzz("flac", "flac", false, &|bytes: &[u8]| {
         let open = |size: Option<u64>| {
             AudioStream::from_reader("in", Box::new(Cursor::new(bytes.to_vec())), size)
@@ -326,7 +326,7 @@ fn fuzz_the_flac_reader_from_a_file_and_from_a_stream() {
 
 #[test]
 fn fuzz_the_geometry_parser() {
-    let options = Options::default();
+    let options = Config::default();
     let noise: Vec<Vec<f32>> = (0..8)
         .map(|c| {
             let mut rng = ChaCha8Rng::seed_from_u64(c);

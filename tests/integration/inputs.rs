@@ -523,7 +523,7 @@ fn json_and_ndjson_carry_the_contract_fields_in_order() {
     let doc: serde_json::Value = serde_json::from_slice(&js.stdout).unwrap();
     assert_eq!(doc["tool"]["version"], env!("CARGO_PKG_VERSION"));
     assert_eq!(doc["geometry"]["shape"], "3-D");
-    assert_eq!(doc["parameters"]["alpha"].as_f64().unwrap() as f32, 0.4);
+    assert_eq!(doc["parameters"]["weighting"]["alpha"], 0.4);
     assert_eq!(doc["files"][0]["sample_rate"], 48000);
     assert_eq!(doc["detections"].as_array().unwrap().len(), rows.len());
 }

@@ -92,7 +92,7 @@ fn start_and_end_analyse_part_of_a_file_in_its_own_times() {
         "0.75",
     ]);
     let doc: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
-    assert_eq!(doc["parameters"]["start_s"], 0.75);
+    assert_eq!(doc["parameters"]["framing"]["start_s"], 0.75);
     let out = run(&["analyze", s(&wav), "-g", s(&geometry), "--start", "9"]);
     assert_eq!(out.status.code(), Some(1));
     assert!(

@@ -50,7 +50,10 @@ fn office(
 /// 2 deg and one track, where 40 us (the default before) heard nothing in most of them.
 #[test]
 fn a_talker_beyond_the_critical_distance_of_a_small_office_is_heard_at_48_khz() {
-    assert_eq!(ssl::method::DEFAULT_TOLERANCE_US, 50.0);
+    assert_eq!(
+        ssl::Config::default().tolerance,
+        ssl::method::Tolerance::Us(50.0)
+    );
     let (dir, geometry) = prism_with_speech();
     let (mut rows_now, mut rows_before) = (0, 0);
     for (seed, azimuth) in [(1, 120.0), (2, -60.0), (3, 30.0)] {

@@ -403,7 +403,7 @@ fn removing_a_talkers_pattern_finds_the_other() {
     let (dir, geometry, room) = PapersRoom::prism(48000, true);
     let mut windows = Vec::new();
     for seed in [11, 12, 13] {
-        for patterns_s in [None, Some(ssl::method::DEFAULT_PATTERNS_S)] {
+        for patterns_s in [None, Some(ssl::Config::default().talkers.patterns_s)] {
             let params = {
                 let mut p = support::tracked_params();
                 p.patterns_s = patterns_s;
@@ -471,7 +471,10 @@ fn riders_add_a_talkers_weakest_frames() {
             )
         };
         let mut every = Vec::new();
-        for riders in [1.0, ssl::method::DEFAULT_RIDERS] {
+        for riders in [
+            1.0,
+            ssl::Config::default().resolved().talkers.riders.unwrap(),
+        ] {
             let params = {
                 let mut p = support::tracked_params();
                 p.riders = riders;

@@ -96,7 +96,7 @@ fn named<T: ssl::Named>(arg: &str) -> T {
 /// off), in any order.
 pub fn params_from(args: &[String]) -> ssl::Params {
     if args.first().is_some_and(|a| a == "paper") {
-        return ssl::Options::paper().settings().expect("valid").method;
+        return ssl::Config::paper().settings().expect("valid").method;
     }
     // As `ssl analyze`: candidates for the tracker (none without one, see
     // `analyse_scene`).
@@ -116,8 +116,8 @@ pub fn params_from(args: &[String]) -> ssl::Params {
                 if let Some((_, v)) = arg.split_once('=') {
                     params.min_score_per_pair = v.parse().expect("min takes a number");
                 }
-                let mut fixed = ssl::Options::fixed_threshold(params.min_score_per_pair);
-                fixed.track = false;
+                let mut fixed = ssl::Config::fixed_threshold(params.min_score_per_pair);
+                fixed.tracking.on = false;
                 let f = fixed.settings().expect("valid").method;
                 params.threshold_sigmas = f.threshold_sigmas;
                 params.reverb_level = f.reverb_level;

@@ -57,7 +57,7 @@ pub fn tetrahedron(edge: f64) -> Vec<Vector3<f64>> {
 /// The shipped files: `testdata/NAME`.
 /// The method's parameters `ssl analyze` runs with its tracker (the defaults).
 pub fn tracked_params() -> ssl::Params {
-    ssl::Options::default().settings().expect("valid").method
+    ssl::Config::default().settings().expect("valid").method
 }
 
 /// `params` with what only a tracker confirms turned on as `ssl analyze` does (the
@@ -69,7 +69,7 @@ pub fn for_tracker(params: ssl::Params) -> ssl::Params {
 /// `params` with what only a tracker confirms turned off as `ssl analyze --no-track`
 /// does.
 pub fn untracked(params: ssl::Params) -> ssl::Params {
-    let alone = ssl::Options::untracked().settings().expect("valid").method;
+    let alone = ssl::Config::untracked().settings().expect("valid").method;
     tracker_fields(params, &alone)
 }
 

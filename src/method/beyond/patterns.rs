@@ -44,7 +44,7 @@
 
 use super::frame_sources::apart;
 use super::steered::{whole_within, Query, Steered, CLEAR_SAMPLES};
-use super::threshold::Threshold;
+use super::threshold::ThresholdPlan;
 use crate::method::detect::{detection, solver};
 use crate::method::layout::Layout;
 use crate::method::outcome::{Detections, Outcome};
@@ -154,12 +154,12 @@ pub(crate) struct Patterns {
     solvers: HashMap<u64, Option<DirectionSolver>>,
     directions: Vec<Vector3<f64>>,
     /// The run's detection threshold.
-    threshold: Threshold,
+    threshold: ThresholdPlan,
 }
 
 impl Patterns {
     /// Nothing learned, or `None` when the parameters leave it out.
-    pub fn new(setup: &Layout, threshold: &Threshold) -> Option<Self> {
+    pub fn new(setup: &Layout, threshold: &ThresholdPlan) -> Option<Self> {
         let tau = setup.params.patterns_s?;
         let longest = setup.max_lag.iter().copied().max().unwrap_or(0);
         if !setup.params.steered || longest < MIN_LAGS {
@@ -178,7 +178,7 @@ impl Patterns {
             slots: Vec::with_capacity(SLOTS),
             steered: Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag),
             solvers: HashMap::new(),
-            directions: Vec::with_capacity(crate::method::params::MAX_SOURCES),
+            directions: Vec::with_capacity(super::MAX_SOURCES),
             threshold: threshold.clone(),
         })
     }

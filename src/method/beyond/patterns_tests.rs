@@ -31,7 +31,7 @@ fn setup(geometry: &Geometry, rate: u32, params: &Params) -> Setup {
 
 #[test]
 fn patterns_are_learned_with_a_tracker_on_arrays_with_room_for_reflections() {
-    let tracked = crate::Options::default().settings().unwrap().method;
+    let tracked = crate::Config::default().settings().unwrap().method;
     // A 40 cm cube: its longest delay is 32 samples at 16 kHz, 16 at 8 kHz.
     let large = cube(0.4);
     assert!(patterns_of(&setup(&large, 16000, &tracked)).is_some());
@@ -54,7 +54,7 @@ fn a_time_constant_that_is_not_positive_is_refused() {
     for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         let params = Params {
             patterns_s: Some(bad),
-            ..crate::Options::default().settings().unwrap().method
+            ..crate::Config::default().settings().unwrap().method
         };
         assert!(Setup::new(&cube(0.4), 16000, &params).is_err(), "{bad}");
     }

@@ -35,50 +35,116 @@
 //! at 8 kHz (docs/field.md).
 
 use crate::geometry::Geometry;
-use crate::method::layout::Layout;
+
+/// Default allowance for chance of the calibrated threshold, in standard deviations of a
+/// pair's correlation.
+pub(crate) const DEFAULT_THRESHOLD_SIGMAS: f64 = 6.0;
+
+/// The paper's fixed threshold per microphone pair (`--paper`). Stationary background
+/// alone gives weights near 0.6 and so correlation peaks near 0.36 or below per pair
+/// (docs/method.md gives the measurement).
+pub(crate) const PAPER_MIN_SCORE_PER_PAIR: f64 = 0.5;
+
+/// When the best set of delays of a frame is a detection.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Threshold {
+    /// Calibrated per frame against its background (the default): a diffuse field's
+    /// coherence between the microphones, plus this many standard deviations of chance
+    /// correlation (`--threshold-sigmas`).
+    Calibrated {
+        /// Standard deviations of a pair's chance correlation.
+        sigmas: f64,
+    },
+    /// A fixed score per microphone pair (`--min-score`; `--paper`'s 0.5): a frame with
+    /// P pairs needs P times it.
+    Fixed {
+        /// The score per pair.
+        per_pair: f64,
+    },
+}
+
+impl Default for Threshold {
+    fn default() -> Self {
+        Threshold::Calibrated {
+            sigmas: DEFAULT_THRESHOLD_SIGMAS,
+        }
+    }
+}
+
+impl Threshold {
+    /// Whether it is calibrated against the background.
+    pub fn is_calibrated(self) -> bool {
+        matches!(self, Threshold::Calibrated { .. })
+    }
+}
+
+#[cfg(feature = "cli")]
+impl clap::FromArgMatches for Threshold {
+    fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        Ok(match m.get_one::<f64>("min_score") {
+            Some(&per_pair) => Threshold::Fixed { per_pair },
+            None => Threshold::Calibrated {
+                sigmas: m
+                    .get_one::<f64>("threshold_sigmas")
+                    .copied()
+                    .unwrap_or(DEFAULT_THRESHOLD_SIGMAS),
+            },
+        })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+#[cfg(feature = "cli")]
+impl clap::Args for Threshold {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        use clap::Arg;
+        cmd.arg(
+            Arg::new("min_score")
+                .long("min-score")
+                .value_name("SCORE")
+                .allow_negative_numbers(true)
+                .value_parser(crate::flags::parse_f64)
+                .help("A fixed threshold instead of the calibrated one: drop detections scoring below this per microphone pair (a frame with P pairs needs P times it; 0 keeps every consistent set). The default threshold is calibrated per frame against its background (a diffuse field's coherence between the microphones plus --threshold-sigmas of chance correlation)"),
+        )
+        .arg(
+            Arg::new("threshold_sigmas")
+                .hide_short_help(true)
+                .long("threshold-sigmas")
+                .value_name("SIGMAS")
+                .value_parser(crate::flags::non_negative_f64)
+                .default_value(crate::flags::default_shown(DEFAULT_THRESHOLD_SIGMAS))
+                .conflicts_with("min_score")
+                .help("The calibrated threshold's allowance for chance correlation, in standard deviations"),
+        )
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
 
 /// The threshold's plan for a run: its floors for this array and rate.
 #[derive(Debug, Clone)]
-pub(crate) struct Threshold {
+pub(crate) struct ThresholdPlan {
     /// The threshold per pair a diffuse background calls for.
-    diffuse_floor: f64,
+    pub(crate) diffuse_floor: f64,
     /// A frame whose weights' ceiling is under this has nothing above the noise
     /// estimate ([`STEADY_FRAME`]), in the units of `peak_ceiling`.
     pub steady_ceiling: f64,
     /// The calibrated threshold's allowance for chance, or `None` for the fixed one.
-    sigmas: Option<f64>,
+    pub(crate) sigmas: Option<f64>,
     /// The fixed threshold per pair.
-    fixed: f64,
+    pub(crate) fixed: f64,
     /// Frame size N.
-    n: usize,
+    pub(crate) n: usize,
 }
 
-impl Threshold {
-    pub fn new(layout: &Layout) -> Self {
-        let params = &layout.params;
-        let w = steady_weight(params.alpha, params.reverb_level);
-        Threshold {
-            diffuse_floor: DIFFUSE_MARGIN
-                * diffuse_coherence(
-                    &layout.geometry,
-                    layout.n,
-                    layout.rate,
-                    layout.speed,
-                    layout.band,
-                ),
-            // E times the interpolation's overshoot (E of the band's bins).
-            steady_ceiling: STEADY_FRAME
-                * w
-                * w
-                * layout.band_share()
-                * params.interpolation.overshoot()
-                * (1.0 + 1e-3),
-            sigmas: params.threshold_sigmas,
-            fixed: params.min_score_per_pair,
-            n: layout.n,
-        }
-    }
-
+impl ThresholdPlan {
     /// A frame's detection threshold per pair, from its weights `w_e(k)`.
     pub fn per_pair(&self, weights: &[f32]) -> f64 {
         self.per_pair_spread(weights, 1.0)

@@ -34,6 +34,7 @@
 //! Only frames with every microphone live vote.
 
 use super::frame_sources::{apart, IMAGE_ELEVATION_DEG};
+use super::MAX_SOURCES;
 use crate::geometry::{Geometry, Shape};
 use crate::method::detect::detection;
 use crate::method::layout::Layout;
@@ -41,7 +42,6 @@ use crate::method::outcome::Detections;
 use crate::method::paper::direction::{plane_basis, DirectionSolver};
 use crate::method::paper::pairs::pair_index;
 use crate::method::paper::weighting::MAX_SNR_RATIO;
-use crate::method::params::MAX_SOURCES;
 use crate::method::state::{Correlated, FrameState, Vote};
 use crate::method::uncertainty::uncertainty_deg;
 use nalgebra::{DMatrix, Vector3};

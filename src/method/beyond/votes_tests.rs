@@ -34,7 +34,7 @@ fn frame(geometry: &Geometry, source: impl Fn(usize) -> Option<Vector3<f64>>) ->
     let setup = Setup::new(
         geometry,
         RATE as u32,
-        &crate::Options::default().settings().unwrap().method,
+        &crate::Config::default().settings().unwrap().method,
     )
     .unwrap();
     let mut state = FrameState::new(&setup);

@@ -1,9 +1,9 @@
 //! Tests of the analyzer (`analyzer.rs`).
 
 use super::*;
+use crate::method::beyond::{DEFAULT_CANDIDATES, DEFAULT_MAX_SOURCES, DEFAULT_RIDERS};
 use crate::method::outcome::Detection;
 use crate::method::paper::direction::unit_from_angles;
-use crate::method::params::{DEFAULT_CANDIDATES, DEFAULT_MAX_SOURCES, DEFAULT_RIDERS};
 use crate::method::Interpolation;
 use crate::sim::freefield::{render, Place, Scene, Source};
 use crate::sim::signals::Signal;
@@ -341,11 +341,11 @@ fn the_output_does_not_depend_on_where_blocks_end() {
     // The defaults with the tracker (`ssl analyze`'s): further sources, riders, patterns.
     let params = Params {
         steered: true,
-        max_sources: crate::method::params::DEFAULT_MAX_SOURCES,
+        max_sources: crate::method::beyond::DEFAULT_MAX_SOURCES,
         frame_sources: true,
-        patterns_s: Some(crate::method::params::DEFAULT_PATTERNS_S),
-        candidates: crate::method::params::DEFAULT_CANDIDATES,
-        riders: crate::method::params::DEFAULT_RIDERS,
+        patterns_s: Some(crate::method::beyond::DEFAULT_PATTERNS_S),
+        candidates: crate::method::beyond::DEFAULT_CANDIDATES,
+        riders: crate::method::beyond::DEFAULT_RIDERS,
         ..Params::default()
     };
     let slices = || channels.iter().map(|c| &c[..]).collect::<Vec<_>>();

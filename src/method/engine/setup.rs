@@ -5,7 +5,9 @@
 use crate::geometry::Geometry;
 use crate::method::beyond::background;
 use crate::method::beyond::dereverb::DiffuseCoherence;
-use crate::method::beyond::threshold::Threshold;
+use crate::method::beyond::threshold::{
+    diffuse_coherence, steady_weight, ThresholdPlan, DIFFUSE_MARGIN, STEADY_FRAME,
+};
 use crate::method::beyond::votes::BinVotes;
 use crate::method::layout::Layout;
 use crate::method::params::{Params, ParamsError};
@@ -16,7 +18,7 @@ use std::ops::Deref;
 pub(crate) struct Setup {
     pub layout: Layout,
     /// The detection threshold's plan.
-    pub threshold: Threshold,
+    pub threshold: ThresholdPlan,
     /// A frame whose weights' ceiling is under this may teach the coherent background.
     pub background_gate: f64,
     /// When the diffuse part is removed from the cross-spectra ([`Params::dereverb`]
@@ -53,11 +55,37 @@ impl Setup {
             .then(|| BinVotes::new(geometry, n, rate, speed))
             .flatten();
         Ok(Setup {
-            threshold: Threshold::new(&layout),
+            threshold: threshold_plan(&layout),
             background_gate: background::gate(params) * layout.band_share(),
             dereverb,
             votes,
             layout,
         })
+    }
+}
+
+/// The detection threshold's plan for this layout: its floors for this array and rate.
+fn threshold_plan(layout: &Layout) -> ThresholdPlan {
+    let params = &layout.params;
+    let w = steady_weight(params.alpha, params.reverb_level);
+    ThresholdPlan {
+        diffuse_floor: DIFFUSE_MARGIN
+            * diffuse_coherence(
+                &layout.geometry,
+                layout.n,
+                layout.rate,
+                layout.speed,
+                layout.band,
+            ),
+        // E times the interpolation's overshoot (E of the band's bins).
+        steady_ceiling: STEADY_FRAME
+            * w
+            * w
+            * layout.band_share()
+            * params.interpolation.overshoot()
+            * (1.0 + 1e-3),
+        sigmas: params.threshold_sigmas,
+        fixed: params.min_score_per_pair,
+        n: layout.n,
     }
 }

@@ -73,7 +73,7 @@ impl Worker {
             } else {
                 Vec::new()
             },
-            directions: Vec::with_capacity(crate::method::params::MAX_SOURCES),
+            directions: Vec::with_capacity(crate::method::beyond::MAX_SOURCES),
             steered: setup.params.steered.then(|| {
                 let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
                 Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag)

@@ -9,9 +9,9 @@
 //! a perfectly coherent pair. With the weighting, peaks scale with `w_e^2`: a frame of
 //! stationary noise alone (`X ~ X_n`, `w_e ~ 0.6`) peaks near 0.36 per pair, while a source
 //! that stands out of the noise (`w_e > 1` in its bins) peaks higher. That is what lets a
-//! score threshold reject the background (see [`DEFAULT_MIN_SCORE_PER_PAIR`]).
+//! score threshold reject the background (see [`Threshold::Fixed`]).
 //!
-//! [`DEFAULT_MIN_SCORE_PER_PAIR`]: crate::method::DEFAULT_MIN_SCORE_PER_PAIR
+//! [`Threshold::Fixed`]: crate::method::Threshold::Fixed
 
 use super::peaks::Interpolation;
 use multiversion::multiversion;

@@ -65,6 +65,32 @@ pub struct Peak {
 /// The largest M that [`find_peaks`] accepts.
 pub const MAX_PEAKS: usize = 64;
 
+/// Peaks M kept per pair by default (the paper's M = 8).
+pub(crate) const DEFAULT_PEAKS: usize = 8;
+
+/// The peaks kept of each pair's correlation, and how their lags are refined.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[serde(default, deny_unknown_fields)]
+#[non_exhaustive]
+pub struct Peaks {
+    /// Peaks M kept in each pair's cross-correlation
+    #[cfg_attr(feature = "cli", arg(short = 'm', long = "peaks", id = "peaks", value_name = "PEAKS", default_value_t = DEFAULT_PEAKS, value_parser = crate::flags::count(1..=MAX_PEAKS), hide_short_help = true))]
+    pub count: usize,
+    /// Sub-sample refinement of correlation peaks [default: cosine; parabolic with --paper]
+    #[cfg_attr(feature = "cli", arg(long, value_parser = crate::flags::choice::<Interpolation>(), hide_short_help = true))]
+    pub interpolation: Option<Interpolation>,
+}
+
+impl Default for Peaks {
+    fn default() -> Self {
+        Peaks {
+            count: DEFAULT_PEAKS,
+            interpolation: None,
+        }
+    }
+}
+
 /// The `m` highest local maxima of a correlation (eq. 7), ranked by their sample value,
 /// each refined per `interp`, then ordered by refined value, highest first (ties: smaller
 /// lag first). `window` holds `r(tau)` for `tau = -h..=h` (odd length `2h + 1`, from

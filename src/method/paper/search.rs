@@ -37,6 +37,81 @@
 use super::pairs::pair_index;
 use super::peaks::Peak;
 
+/// The paper's consistency tolerance in samples (`--paper`, and under `-t` the unit).
+pub(crate) const PAPER_TOLERANCE: f64 = 2.0;
+
+/// Default consistency tolerance in microseconds: 2.4 samples at 48 kHz, 0.8 at 16 kHz
+/// (where the floor of one sample, 62.5 us, applies); docs/field.md and
+/// docs/tracking.md measure it.
+pub(crate) const DEFAULT_TOLERANCE_US: f64 = 50.0;
+
+/// How far a pair's peak may lie from the delay the reference pairs imply (eq. 8): in
+/// samples, as the paper gives it, or in microseconds, the same time at every rate.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tolerance {
+    /// Samples at the recording's rate (`-t`; the paper's 2 with `--paper`).
+    Samples(f64),
+    /// Microseconds, as many samples as that is at each file's rate, at least one
+    /// (`--tolerance-us`, the default).
+    Us(f64),
+}
+
+impl Default for Tolerance {
+    fn default() -> Self {
+        Tolerance::Us(DEFAULT_TOLERANCE_US)
+    }
+}
+
+#[cfg(feature = "cli")]
+impl clap::FromArgMatches for Tolerance {
+    fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        Ok(match m.get_one::<f64>("tolerance") {
+            Some(&samples) => Tolerance::Samples(samples),
+            None => Tolerance::Us(
+                m.get_one::<f64>("tolerance_us")
+                    .copied()
+                    .unwrap_or(DEFAULT_TOLERANCE_US),
+            ),
+        })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+#[cfg(feature = "cli")]
+impl clap::Args for Tolerance {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        use clap::Arg;
+        cmd.arg(
+            Arg::new("tolerance")
+                .hide_short_help(true)
+                .short('t')
+                .long("tolerance")
+                .value_name("TOLERANCE")
+                .value_parser(crate::flags::non_negative_f64)
+                .help("Consistency tolerance in samples: how far a pair's peak may be from the delay the reference pairs imply [default: --tolerance-us]"),
+        )
+        .arg(
+            Arg::new("tolerance_us")
+                .hide_short_help(true)
+                .long("tolerance-us")
+                .value_name("US")
+                .value_parser(crate::flags::non_negative_f64)
+                .default_value(crate::flags::default_shown(DEFAULT_TOLERANCE_US))
+                .conflicts_with("tolerance")
+                .help("Consistency tolerance in microseconds, the same time at every sample rate"),
+        )
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
+
 /// The outcome of a search.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Solution {

@@ -14,10 +14,71 @@ use multiversion::multiversion;
 
 /// `alpha` of eq. (4): the share of the noise estimate `X_n` subtracted from `X`
 /// (`w = (X - alpha X_n) / X`).
-pub const ALPHA: f32 = 0.4;
+pub const ALPHA: f64 = 0.4;
 /// `gamma` of eq. (5): the exponent of the bin's SNR that enhances strong bins
 /// (`w_e = w (X / X_n)^gamma`).
-pub const GAMMA: f32 = 0.3;
+pub const GAMMA: f64 = 0.3;
+
+/// The share of the recent frames' power taken as late reverberation by default
+/// (measured on real speech in the paper's room, docs/field.md).
+pub(crate) const DEFAULT_REVERB_LEVEL: f64 = 0.5;
+
+/// The spectral weighting `w_e(k)` of eq. (4) and (5), the noise estimate under it, and
+/// the frequencies it lets through.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[serde(default, deny_unknown_fields)]
+#[non_exhaustive]
+pub struct Weighting {
+    /// Plain PHAT: skip the spectral weighting (w_e = 1), for comparison
+    #[cfg_attr(feature = "cli", arg(long = "no-weighting", id = "no_weighting", action = clap::ArgAction::SetFalse, hide_short_help = true))]
+    pub on: bool,
+    /// Noise over-subtraction alpha of the spectral weighting (paper eq. 4)
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ALPHA, value_parser = crate::flags::unit_interval, hide_short_help = true))]
+    pub alpha: f64,
+    /// Exponent gamma that favours high-SNR bins (paper eq. 5)
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = GAMMA, value_parser = crate::flags::unit_interval, hide_short_help = true))]
+    pub gamma: f64,
+    /// Share of the recent frames' power taken as late reverberation in the noise estimate [default: 0.5; 0 with --min-score or --paper]
+    #[cfg_attr(feature = "cli", arg(long, value_name = "SHARE", value_parser = crate::flags::unit_interval, hide_short_help = true))]
+    pub reverb_level: Option<f64>,
+    /// Analyse only these frequencies, LOW-HIGH in Hz (300-3400 for a talker, 2k-8k for birds, 200-20k above mains hum); HIGH beyond half the sample rate is taken as it
+    #[cfg_attr(feature = "cli", arg(long = "band", value_name = "LOW-HIGH", value_parser = band, allow_hyphen_values = true))]
+    pub band_hz: Option<(f64, f64)>,
+}
+
+impl Default for Weighting {
+    fn default() -> Self {
+        Weighting {
+            on: true,
+            alpha: ALPHA,
+            gamma: GAMMA,
+            reverb_level: None,
+            band_hz: None,
+        }
+    }
+}
+
+/// A band of frequencies `LOW-HIGH` in Hz (`--band 300-3400`; a `k` suffix is kHz:
+/// `2k-8k`).
+#[cfg(feature = "cli")]
+pub(crate) fn band(s: &str) -> Result<(f64, f64), String> {
+    use crate::flags::parse_f64;
+    let Some((low, high)) = s.split_once('-') else {
+        return Err(format!("`{s}` is not LOW-HIGH in Hz (like 300-3400)"));
+    };
+    let hz = |t: &str| match t.trim().strip_suffix(['k', 'K']) {
+        Some(k) => parse_f64(k).map(|v| v * 1000.0),
+        None => parse_f64(t.trim()),
+    };
+    let (low, high) = (hz(low)?, hz(high)?);
+    if low < 0.0 || high <= low {
+        return Err(format!(
+            "{low}-{high} Hz is not a band: LOW must be 0 or more and under HIGH"
+        ));
+    }
+    Ok((low, high))
+}
 
 /// Time constant of the smoothing of `X` before minimum tracking (seconds).
 pub(crate) const SMOOTH_TAU_S: f64 = 0.04;
