@@ -24,7 +24,7 @@ mod support;
 
 use nalgebra::Vector3;
 use ssl::evaluate::evaluate;
-use ssl::method::direction::angle_between_deg;
+use ssl::geometry::angle_between_deg;
 use ssl::sim::scene::{SceneFile, SignalKind, SourceSpec};
 use ssl::track::TrackParams;
 use ssl::{DetectionRecord, Geometry, Params, Truth};

@@ -18,7 +18,7 @@
 mod support;
 
 use nalgebra::Vector3;
-use ssl::method::direction::{angle_between_deg, unit_from_angles};
+use ssl::geometry::{angle_between_deg, unit_from_angles};
 use ssl::method::weighting::NoiseSettings;
 use ssl::method::{Interpolation, Window};
 use ssl::sim::freefield::{render as render_scene, Place, Scene, Source};

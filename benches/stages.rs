@@ -9,8 +9,8 @@ mod support;
 
 use nalgebra::Vector3;
 use realfft::num_complex::Complex32;
+use ssl::geometry::unit_from_angles;
 use ssl::method::correlation::{whiten, Correlator};
-use ssl::method::direction::unit_from_angles;
 use ssl::method::pairs::{pair_count, pair_index};
 use ssl::method::peaks::{find_peaks, Interpolation, Peak};
 use ssl::method::search::Searcher;

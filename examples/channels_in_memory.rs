@@ -4,10 +4,11 @@
 //!
 //! `cargo run --example channels_in_memory`
 
-use ssl::localize::{Config, Localizer, Output};
-use ssl::method::direction::unit_from_angles;
+use ssl::geometry::unit_from_angles;
+use ssl::localize::{Localizer, Output};
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;
+use ssl::Config;
 use ssl::{Format, Geometry};
 use std::io::Write;
 

@@ -5,7 +5,8 @@
 //! `cargo run --release --example rows -- [REC.wav] [ARRAY.toml]` (default: the shipped
 //! example and the paper's prism).
 
-use ssl::localize::{Config, Localizer, Output};
+use ssl::localize::{Localizer, Output};
+use ssl::Config;
 use ssl::{DetectionRecord, Geometry};
 
 /// Every row of `wav` on the array of `toml`, at the defaults.

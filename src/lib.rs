@@ -7,7 +7,8 @@
 //! choices as the command line's flags, a section per stage, with presets.
 //!
 //! ```
-//! use ssl::localize::{Config, Localizer, Output};
+//! use ssl::localize::{Localizer, Output};
+//! use ssl::Config;
 //! use ssl::Geometry;
 //!
 //! let geometry = Geometry::from_file("testdata/prism.toml".as_ref())?;
@@ -95,6 +96,9 @@
 //! Lower down, [`Analysis`] runs one recording through the method alone (every frame's
 //! detections, no tracker); a file, WAV bytes from a reader and channels in memory give
 //! the same detections on any number of threads.
+
+//! The public API is what these pages list (docs/public-api.txt, checked by CI); items
+//! hidden from them serve the crate's own tests and benchmarks and are no promise.
 
 #![warn(missing_docs)]
 

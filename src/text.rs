@@ -7,12 +7,12 @@ use std::io;
 /// Reads a text file of at most `limit` bytes. A longer file (or an endless one, such
 /// as `/dev/zero`) is an error of kind `FileTooLarge` after `limit` bytes, not an
 /// attempt to read it whole.
-pub fn read_text(path: &std::path::Path, limit: u64) -> io::Result<String> {
+pub(crate) fn read_text(path: &std::path::Path, limit: u64) -> io::Result<String> {
     read_text_from(std::fs::File::open(path)?, limit)
 }
 
 /// Reads text of at most `limit` bytes from `reader` (see [`read_text`]).
-pub fn read_text_from(reader: impl io::Read, limit: u64) -> io::Result<String> {
+pub(crate) fn read_text_from(reader: impl io::Read, limit: u64) -> io::Result<String> {
     let mut text = String::new();
     io::Read::read_to_string(&mut io::Read::take(reader, limit + 1), &mut text)?;
     if text.len() as u64 > limit {
@@ -25,7 +25,7 @@ pub fn read_text_from(reader: impl io::Read, limit: u64) -> io::Result<String> {
 }
 
 /// An I/O error as a short lower-case reason without the "(os error N)" suffix.
-pub fn io_reason(e: &io::Error) -> String {
+pub(crate) fn io_reason(e: &io::Error) -> String {
     match e.kind() {
         io::ErrorKind::NotFound => "no such file".into(),
         io::ErrorKind::PermissionDenied => "permission denied".into(),

@@ -4,7 +4,7 @@
 
 mod support;
 
-use ssl::method::direction::unit_from_angles;
+use ssl::geometry::unit_from_angles;
 use ssl::method::Dereverb;
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;

@@ -200,7 +200,7 @@ pub fn check(
 }
 
 /// Checks any source of samples against `geometry`.
-pub fn check_source<S: SampleSource>(
+pub(crate) fn check_source<S: SampleSource>(
     source: &mut S,
     geometry: &Geometry,
     options: &CheckOptions,
@@ -210,7 +210,7 @@ pub fn check_source<S: SampleSource>(
         .iter()
         .map(|e| {
             (
-                crate::method::direction::unit_from_angles(e.azimuth_deg, e.elevation_deg),
+                crate::geometry::unit_from_angles(e.azimuth_deg, e.elevation_deg),
                 e.at_s,
             )
         })

@@ -13,6 +13,7 @@ const TOLERANCE_SHARE: f64 = 0.01;
 
 /// Every symmetry of the microphones at `positions` as a permutation `s` (microphone
 /// `i` maps onto microphone `s[i]`), the identity first.
+#[doc(hidden)]
 pub fn symmetries(positions: &[Vector3<f64>]) -> Vec<Vec<usize>> {
     let m = positions.len();
     let identity: Vec<usize> = (0..m).collect();

@@ -4,8 +4,8 @@
 //! elevation, which it resolves poorly, or a linear array's angle around its axis, which
 //! it does not resolve at all, would count good results as misses.
 
+use crate::geometry::angle_between_deg;
 use crate::geometry::{Geometry, Shape};
-use crate::method::direction::angle_between_deg;
 use nalgebra::Vector3;
 
 /// How far a direction is from the truth.
@@ -79,7 +79,7 @@ impl Metric {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::direction::unit_from_angles;
+    use crate::geometry::unit_from_angles;
 
     #[test]
     fn each_metric_measures_what_the_array_observes() {

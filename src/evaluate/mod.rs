@@ -8,9 +8,9 @@
 //!   and the source's direction (when several sources are active, a detection counts for
 //!   the nearest of them);
 //! - frame detection rate: the share of those frames with a detection within
-//!   [`HIT_DEG`] of the source;
+//!   `HIT_DEG` of the source;
 //! - event detection rate: the share of active intervals (events) with at least one
-//!   detection within [`HIT_DEG`] in a frame that overlaps the interval;
+//!   detection within `HIT_DEG` in a frame that overlaps the interval;
 //! - false detections: detections in frames that overlap no active interval (each
 //!   extended by a reverberation tail), per minute of such time;
 //! - when the rows carry a `source` (tracking on): tracks and events (the `tracks`
@@ -24,17 +24,17 @@ mod tracks;
 
 pub use metric::Metric;
 pub use pool::{pool, Pooled};
-pub use tracks::{SourceTracks, TrackReport, OVERLAP_WINDOW_S};
+pub use tracks::{SourceTracks, TrackReport};
 
+use crate::geometry::angles_deg;
 use crate::method::default_frame_size;
-use crate::method::direction::angles_deg;
 use crate::record::truth::turned;
 use crate::record::{DetectionRecord, Truth};
 use nalgebra::Vector3;
 use spans::Spans;
 
 /// A detection within this many degrees of a source counts as detecting it.
-pub const HIT_DEG: f64 = 10.0;
+pub(crate) const HIT_DEG: f64 = 10.0;
 
 /// Results that cannot be scored against one truth.
 #[derive(Debug, thiserror::Error)]
@@ -52,7 +52,7 @@ pub enum EvaluateError {
 }
 
 /// The longest recording scored (seconds): a week.
-pub const MAX_DURATION_S: f64 = 7.0 * 86400.0;
+pub(crate) const MAX_DURATION_S: f64 = 7.0 * 86400.0;
 /// The shortest analysis hop accepted (seconds): 16 samples at 768 kHz.
 const MIN_HOP_S: f64 = 16.0 / 768_000.0 / 2.0;
 
@@ -129,11 +129,11 @@ pub struct SourceReport {
     pub median_error_deg: Option<f64>,
     /// Frames wholly inside its active intervals.
     pub active_frames: usize,
-    /// Those frames with a detection within [`HIT_DEG`].
+    /// Those frames with a detection within `HIT_DEG`.
     pub frames_detected: usize,
     /// Its active intervals.
     pub events: usize,
-    /// Intervals with a detection within [`HIT_DEG`].
+    /// Intervals with a detection within `HIT_DEG`.
     pub events_detected: usize,
 }
 

@@ -105,7 +105,7 @@ fn scores_hand_made_detections() {
 /// (source 0 at azimuth 0, elevation 0).
 #[test]
 fn splits_the_error_into_azimuth_and_elevation() {
-    let at = |az: f64, el: f64| crate::method::direction::unit_from_angles(az, el);
+    let at = |az: f64, el: f64| crate::geometry::unit_from_angles(az, el);
     let dets = vec![
         record(100, at(2.0, 3.0)),
         record(101, at(-4.0, -1.0)),

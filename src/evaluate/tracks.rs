@@ -1,17 +1,17 @@
 //! Scoring tracks and events (results whose rows carry a `source`).
 //!
 //! - A row belongs to a true source when that source is active at the row's time
-//!   (its interval extended by the tail) and the row is within [`HIT_DEG`] of it, the
+//!   (its interval extended by the tail) and the row is within `HIT_DEG` of it, the
 //!   nearest such source. Per true source: its rows' tracks, the dominant one (most
 //!   rows), that track's purity (the share of its rows that belong to the source), and
 //!   how many tracks the source is split into.
 //! - Events are read off the rows as the tracker makes them: a track's rows, split
 //!   where it is silent for longer than [`TrackParams::end_s`](crate::track::TrackParams)
 //!   (the default, 1 s). A true event (an active interval) is recalled by the event that
-//!   overlaps it most in time among those whose mean direction is within [`HIT_DEG`] of
+//!   overlaps it most in time among those whose mean direction is within `HIT_DEG` of
 //!   its source; its direction error and its onset and offset errors (event start minus
 //!   interval start, event end minus interval end) are those of that event. An event
-//!   that overlaps no true event of a source within [`HIT_DEG`] is false.
+//!   that overlaps no true event of a source within `HIT_DEG` is false.
 //! - Several sources at once: over the 0.1 s windows in which two or more sources are
 //!   active throughout, the share of (window, source) pairs with a row of that source
 //!   in the window.
@@ -22,14 +22,14 @@ use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
 /// Window length for several sources at once (seconds).
-pub const OVERLAP_WINDOW_S: f64 = 0.1;
+pub(crate) const OVERLAP_WINDOW_S: f64 = 0.1;
 
 /// How one true source was tracked.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct SourceTracks {
     /// The source's index in the scene.
     pub index: usize,
-    /// Its rows (within [`HIT_DEG`], nearest to it, while it is active).
+    /// Its rows (within `HIT_DEG`, nearest to it, while it is active).
     pub rows: usize,
     /// The track with most of its rows.
     pub dominant_track: Option<u64>,
@@ -280,7 +280,7 @@ fn overlaps(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::direction::unit_from_angles;
+    use crate::geometry::unit_from_angles;
 
     fn det(t: f64, azimuth: f64) -> Det {
         Det {

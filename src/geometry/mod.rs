@@ -8,11 +8,12 @@
 //! the angle to its axis; the direction is reported in the plane spanned by the axis and
 //! `side`.
 
+mod angles;
 mod orientation;
 mod shape;
-pub mod units;
+pub(crate) mod units;
 
-pub use orientation::from_angles as rotation_from_angles;
+pub use angles::{angle_between_deg, angles_deg, unit_from_angles};
 
 pub use shape::Shape;
 use shape::{classify, orient};
@@ -82,14 +83,14 @@ pub enum GeometryError {
 type Result<T> = std::result::Result<T, GeometryError>;
 
 /// Default speed of sound in m/s (dry air at about 20 degrees C; docs/interface.md).
-pub const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
+pub(crate) const DEFAULT_SPEED_OF_SOUND: f64 = 343.0;
 /// The speeds of sound accepted anywhere (m/s): from below any gas's at room temperature
 /// to above water's and most solids'. Outside it, the delays between microphones are
 /// not what a recording holds (and their arithmetic overflows near 0).
-pub const SPEED_OF_SOUND_RANGE: (f64, f64) = (50.0, 5000.0);
+pub(crate) const SPEED_OF_SOUND_RANGE: (f64, f64) = (50.0, 5000.0);
 
 /// Whether `c` m/s is within [`SPEED_OF_SOUND_RANGE`].
-pub fn speed_of_sound_ok(c: f64) -> bool {
+pub(crate) fn speed_of_sound_ok(c: f64) -> bool {
     c.is_finite() && (SPEED_OF_SOUND_RANGE.0..=SPEED_OF_SOUND_RANGE.1).contains(&c)
 }
 
@@ -106,16 +107,16 @@ pub(crate) fn speed_of_sound_flag(s: &str) -> std::result::Result<f64, String> {
     Ok(v)
 }
 /// The most microphones an array may have (subsets of live microphones are bit masks).
-pub const MAX_MICS: usize = 64;
+pub(crate) const MAX_MICS: usize = 64;
 /// A spread along an axis below this fraction of the largest spread counts as flat.
-pub const FLATNESS: f64 = 0.02;
+pub(crate) const FLATNESS: f64 = 0.02;
 /// The largest geometry file read (a file of 64 microphones takes a few kilobytes).
-pub const MAX_FILE_BYTES: u64 = 1 << 20;
+pub(crate) const MAX_FILE_BYTES: u64 = 1 << 20;
 /// Two microphones closer than this (metres) are taken as the same position.
 const MIN_SPACING_M: f64 = 1e-4;
 /// The widest array accepted (metres). Wider is almost always millimetres given as
 /// metres, and beyond the method's far-field model anyway.
-pub const MAX_APERTURE_M: f64 = 5.0;
+pub(crate) const MAX_APERTURE_M: f64 = 5.0;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -8,7 +8,8 @@
 //! tests all go through it.
 //!
 //! ```
-//! use ssl::localize::{Config, Localizer, Output};
+//! use ssl::localize::{Localizer, Output};
+//! use ssl::Config;
 //! use ssl::Geometry;
 //!
 //! let geometry = Geometry::from_file("testdata/prism.toml".as_ref())?;
@@ -27,8 +28,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub use crate::config::{Config, Settings, SettingsError};
-
+use crate::config::{Config, Settings, SettingsError};
 use crate::geometry::Geometry;
 use crate::method::{Detection, Params};
 use crate::record::{

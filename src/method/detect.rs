@@ -5,11 +5,12 @@
 
 use super::layout::Layout;
 use super::outcome::Detection;
-use super::paper::direction::{angles_deg, DirectionSolver};
+use super::paper::direction::DirectionSolver;
 use super::paper::pairs::pair_count;
 use super::paper::search::Solution;
 use super::state::FrameState;
 use super::uncertainty::uncertainty_deg;
+use crate::geometry::angles_deg;
 use std::collections::HashMap;
 
 /// What the direction stage makes of a consistent set.

@@ -49,12 +49,10 @@ pub use beyond::{Dereverb, Room, Talkers};
 pub(crate) use engine::analyzer::Analyzer;
 pub use outcome::{Detection, Detections, FrameStats, StageTimes};
 pub use paper::frames::{FrameSize, Framing};
+pub use paper::peaks::Interpolation;
 pub use paper::peaks::Peaks;
-pub use paper::peaks::{Interpolation, MAX_PEAKS};
 pub use paper::search::Tolerance;
 pub use paper::spectrum::Window;
 pub use paper::weighting::Weighting;
-pub use params::{
-    default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_FRAME_SIZE, PRIMING_S,
-    REVERB_TAU_S,
-};
+pub(crate) use params::default_frame_size;
+pub use params::{Params, ParamsError};

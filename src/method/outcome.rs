@@ -116,7 +116,7 @@ pub(crate) enum Outcome {
     /// No consistent set of delays (`true`: the search hit its budget).
     Inconsistent(bool),
     /// The best set scored under the threshold, or no set could reach it (the frame was
-    /// decided by the weights' ceiling, see [`peak_ceiling`](super::paper::correlation::peak_ceiling)).
+    /// decided by the weights' ceiling, see `peak_ceiling`).
     /// `true`: the search hit its budget; then the best set's score per pair when the
     /// frame was searched (`true`), else the most it could have scored per pair.
     BelowThreshold(bool, f64, bool),
@@ -240,7 +240,7 @@ pub struct StageTimes {
     pub correlated_pairs: u64,
     /// Pair correlations left out because the weights' ceiling proved that the frame
     /// could not reach the detection threshold (see
-    /// [`peak_ceiling`](super::paper::correlation::peak_ceiling)).
+    /// `peak_ceiling`).
     pub skipped_pairs: u64,
 }
 

@@ -22,9 +22,9 @@ use crate::geometry::{speed_of_sound_ok, SPEED_OF_SOUND_RANGE};
 #[non_exhaustive]
 pub struct Params {
     /// Frame size N in samples ([`Framing::size`](crate::method::Framing::size); `None`:
-    /// from `frame_ms`, else [`default_frame_size`] of the sample rate).
+    /// from `frame_ms`, else `default_frame_size` of the sample rate).
     pub frame_size: Option<usize>,
-    /// Frame length in milliseconds when `frame_size` is `None` ([`frame_size_for_ms`]).
+    /// Frame length in milliseconds when `frame_size` is `None` (`frame_size_for_ms`).
     pub frame_ms: Option<f64>,
     /// `alpha` of eq. (4) ([`Weighting::alpha`](crate::method::Weighting::alpha)).
     pub alpha: f32,
@@ -32,7 +32,7 @@ pub struct Params {
     pub gamma: f32,
     /// The spectral weighting on ([`Weighting::on`](crate::method::Weighting::on)).
     pub weighting: bool,
-    /// M, peaks kept per pair, 1 to [`MAX_PEAKS`] ([`Peaks::count`](crate::method::Peaks::count)).
+    /// M, peaks kept per pair, 1 to `MAX_PEAKS` ([`Peaks::count`](crate::method::Peaks::count)).
     pub peaks: usize,
     /// Consistency tolerance of eq. (8) in samples, when `tolerance_us` is `None`
     /// ([`Tolerance`](crate::method::Tolerance)).
@@ -48,7 +48,7 @@ pub struct Params {
     pub min_score_per_pair: f64,
     /// The calibrated threshold's sigmas ([`Threshold::Calibrated`](crate::method::Threshold::Calibrated)).
     pub threshold_sigmas: Option<f64>,
-    /// Late reverberation's share in the noise estimate, smoothed over [`REVERB_TAU_S`]
+    /// Late reverberation's share in the noise estimate, smoothed over `REVERB_TAU_S`
     /// ([`Weighting::reverb_level`](crate::method::Weighting::reverb_level)).
     pub reverb_level: f32,
     /// The analysis window ([`Framing::window`](crate::method::Framing::window)).
@@ -233,32 +233,32 @@ pub(crate) const DEFAULT_MAX_WORK: u64 = 4_000_000;
 
 /// How much of the start of a recording primes the noise estimate before it is analysed
 /// (seconds, at most one block of frames; see the `analyzer` module).
-pub const PRIMING_S: f64 = 0.25;
+pub(crate) const PRIMING_S: f64 = 0.25;
 
 /// The fewest frequency bins a `--band` may hold: a correlation of K bins has peaks
 /// about N/K lags wide, and with fewer than 8 the M = 8 peaks of a pair are ripples of
 /// one broad hump.
 pub const MIN_BAND_BINS: usize = 8;
 /// The largest frame size (samples): 1.4 s at 48 kHz, 0.34 s at 192 kHz.
-pub const MAX_FRAME_SIZE: usize = 1 << 16;
+pub(crate) const MAX_FRAME_SIZE: usize = 1 << 16;
 
 /// Time constant of the late-reverberation estimate (seconds): 0.65 per frame of 1024 at
 /// 48 kHz, as in Valin et al.'s later work.
-pub const REVERB_TAU_S: f64 = 0.025;
+pub(crate) const REVERB_TAU_S: f64 = 0.025;
 
 /// The default frame size: the power of two nearest (in ratio) to 1024 samples at
 /// 48 kHz, i.e. about 21 ms: 128 at 8 kHz, 256 at 16 kHz, 1024 at 44.1/48 kHz, 2048 at
 /// 96 kHz, 4096 at 192 kHz. Keeping the duration fixed keeps the method's time and
 /// frequency resolution (and the noise estimator's behaviour) the same at every rate.
-pub fn default_frame_size(sample_rate: u32) -> usize {
+pub(crate) fn default_frame_size(sample_rate: u32) -> usize {
     let ideal = 1024.0 * sample_rate as f64 / 48000.0;
     let p = ideal.log2().round().clamp(6.0, 16.0);
     1usize << (p as u32)
 }
 
 /// The power of two nearest (in ratio) to `ms` milliseconds at `sample_rate`, within 16
-/// to [`MAX_FRAME_SIZE`] samples.
-pub fn frame_size_for_ms(ms: f64, sample_rate: u32) -> usize {
+/// to `MAX_FRAME_SIZE` samples.
+pub(crate) fn frame_size_for_ms(ms: f64, sample_rate: u32) -> usize {
     let ideal = (ms * sample_rate as f64 / 1000.0).max(1.0);
     let p = ideal
         .log2()
@@ -271,7 +271,7 @@ pub fn frame_size_for_ms(ms: f64, sample_rate: u32) -> usize {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ParamsError {
-    /// The frame size is odd, under 16 samples, or over [`MAX_FRAME_SIZE`].
+    /// The frame size is odd, under 16 samples, or over `MAX_FRAME_SIZE`.
     #[error(
         "the frame size must be an even number of samples from 16 to {MAX_FRAME_SIZE}, got {0}"
     )]
@@ -279,7 +279,7 @@ pub enum ParamsError {
     /// The frame length in milliseconds is not a positive number.
     #[error("the frame length must be a positive number of milliseconds, got {}", crate::text::Shown(*.0))]
     FrameMs(f64),
-    /// The frame length in milliseconds is not 16 to [`MAX_FRAME_SIZE`] samples at the
+    /// The frame length in milliseconds is not 16 to `MAX_FRAME_SIZE` samples at the
     /// recording's rate.
     #[error("a frame of {} ms at {sample_rate} Hz would be {} samples; frames are 16 to {MAX_FRAME_SIZE} samples ({:.2} to {:.0} ms at this rate)", crate::text::Shown(*ms), crate::text::Shown(ms * *sample_rate as f64 / 1000.0), 16000.0 / *sample_rate as f64, MAX_FRAME_SIZE as f64 * 1000.0 / *sample_rate as f64)]
     FrameMsRange {
@@ -343,7 +343,7 @@ pub enum ParamsError {
         /// Megabytes allowed.
         max_mb: usize,
     },
-    /// M is 0 or more than [`MAX_PEAKS`].
+    /// M is 0 or more than `MAX_PEAKS`.
     #[error("the number of peaks per pair must be between 1 and {MAX_PEAKS}, got {0}")]
     Peaks(usize),
     /// The tolerance is negative or not a number.
@@ -382,7 +382,7 @@ pub enum ParamsError {
     /// The threshold is not a number.
     #[error("the detection threshold must be a number, got {}", crate::text::Shown(*.0))]
     MinScore(f64),
-    /// The speed of sound is outside [`SPEED_OF_SOUND_RANGE`].
+    /// The speed of sound is outside `SPEED_OF_SOUND_RANGE`.
     #[error("the speed of sound must be {low} to {high} m/s, got {0:e}", low = SPEED_OF_SOUND_RANGE.0, high = SPEED_OF_SOUND_RANGE.1)]
     SpeedOfSound(f64),
 }

@@ -161,7 +161,7 @@ mod tests {
 
     use super::*;
     use crate::geometry::Geometry;
-    use crate::method::direction::{angle_between_deg, unit_from_angles};
+    use crate::geometry::{angle_between_deg, unit_from_angles};
     use crate::method::pairs::{pair_count, pair_index};
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};

@@ -15,7 +15,8 @@
 
 mod read;
 
-pub use read::{parse_result, read_plot_data, read_plot_file, PlotData, PlotFile};
+pub(crate) use read::read_plot_file;
+pub use read::{read_plot_data, PlotData, PlotFile};
 
 use crate::evaluate::Report;
 use crate::record::{DetectionRecord, Truth};
@@ -25,10 +26,12 @@ use std::collections::BTreeMap;
 /// Columns of the time grid a file's marks are binned on.
 pub(crate) const TIME_BINS: usize = 1200;
 /// The most marks one panel draws.
+#[doc(hidden)]
 pub const MAX_MARKS: usize = 20_000;
 
 /// The most files one picture draws (a row of three panels each): its size stays
 /// bounded (40,000 one-row files made 629 MB of SVG).
+#[doc(hidden)]
 pub const MAX_FILES: usize = 64;
 
 /// Width of the picture and height of one file's row (pixels): it fits a 1400-pixel
@@ -99,7 +102,7 @@ type Mark = (f64, f64, f64, RGBColor, Option<u64>);
 
 /// The marks of `rows`: every row, or binned when there are more than [`MAX_MARKS`]
 /// (see the module's documentation).
-pub fn marks(rows: &[DetectionRecord], duration: f64) -> Vec<(f64, f64, f64, u64)> {
+pub(crate) fn marks(rows: &[DetectionRecord], duration: f64) -> Vec<(f64, f64, f64, u64)> {
     if rows.len() <= MAX_MARKS {
         return rows
             .iter()
@@ -508,7 +511,7 @@ fn truth_path(s: &crate::record::TruthSource, a: f64, b: f64) -> Vec<Vec<(f64, f
     let mut pieces: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new()];
     for i in 0..=steps {
         let t = a + (b - a) * i as f64 / steps as f64;
-        let (az, el) = crate::method::direction::angles_deg(&s.direction_at(t));
+        let (az, el) = crate::geometry::angles_deg(&s.direction_at(t));
         let piece = pieces.last_mut().expect("one piece at least");
         if piece
             .last()

@@ -12,6 +12,7 @@ use serde::Deserialize;
 
 /// One file's rows.
 #[derive(Debug, Clone, Default)]
+#[doc(hidden)]
 pub struct PlotFile {
     /// The file, as the result names it.
     pub name: String,
@@ -23,6 +24,7 @@ pub struct PlotFile {
 
 /// What a result holds for drawing.
 #[derive(Debug, Clone, Default)]
+#[doc(hidden)]
 pub struct PlotData {
     /// The files, in the order they first appear.
     pub files: Vec<PlotFile>,
@@ -99,17 +101,13 @@ fn threshold_of(parameters: &serde_json::Value) -> Option<Threshold> {
 /// Reads a CSV (detections or `--events`), NDJSON or JSON result, streamed by the one
 /// reader of results ([`read_result`]), which refuses what `ssl analyze` does not write
 /// (a number that is not finite included: nothing can be drawn of it).
+#[doc(hidden)]
 pub fn read_plot_data(input: impl std::io::Read) -> Result<PlotData, ReadError> {
     gather(|each| read_result(input, each))
 }
 
-/// Parses a result's text (see [`read_plot_data`]).
-pub fn parse_result(text: &str) -> Result<PlotData, ReadError> {
-    read_plot_data(text.as_bytes())
-}
-
 /// Reads a result file, or standard input for `-` (see [`read_plot_data`]).
-pub fn read_plot_file(path: &std::path::Path) -> Result<PlotData, ReadError> {
+pub(crate) fn read_plot_file(path: &std::path::Path) -> Result<PlotData, ReadError> {
     gather(|each| read_result_file(path, each))
 }
 

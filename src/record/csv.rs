@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use std::io::Write;
 
 /// Writes detections as CSV.
-pub struct CsvExporter<W: Write> {
+pub(crate) struct CsvExporter<W: Write> {
     out: csv::Writer<W>,
     buf: String,
     flush_each: bool,

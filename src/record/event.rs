@@ -1,7 +1,7 @@
 //! One row of `ssl analyze --events`: a stretch of activity of one tracked source.
 
 use super::{first_non_finite, fixed, OutputError};
-use crate::method::direction::angles_deg;
+use crate::geometry::angles_deg;
 use crate::track::Event;
 use serde::{Deserialize, Serialize};
 

@@ -9,7 +9,7 @@ use serde_json::Value;
 use std::io::Write;
 
 /// Writes one JSON document.
-pub struct JsonExporter<W: Write> {
+pub(crate) struct JsonExporter<W: Write> {
     out: W,
     first: bool,
     flush_each: bool,
@@ -101,7 +101,7 @@ impl<W: Write> Exporter<W> for JsonExporter<W> {
 }
 
 /// Writes one JSON object per detection per line.
-pub struct NdjsonExporter<W: Write> {
+pub(crate) struct NdjsonExporter<W: Write> {
     out: W,
     flush_each: bool,
     records: Records,

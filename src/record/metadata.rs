@@ -145,7 +145,7 @@ impl GeometryInfo {
 }
 
 /// One sentence on what the array cannot tell, or `None` for a 3-D array.
-pub fn ambiguity_note(g: &Geometry) -> Option<String> {
+pub(crate) fn ambiguity_note(g: &Geometry) -> Option<String> {
     let s = g.side;
     match g.shape {
         Shape::Volumetric => None,

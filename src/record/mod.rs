@@ -17,18 +17,19 @@ mod source;
 pub(crate) mod truth;
 mod truth_forms;
 
-pub use self::csv::CsvExporter;
-pub use self::json::{JsonExporter, NdjsonExporter};
+pub(crate) use self::csv::CsvExporter;
+pub(crate) use self::json::{JsonExporter, NdjsonExporter};
 pub use detection::DetectionRecord;
 pub use event::EventRecord;
-pub use metadata::{ambiguity_note, FileEntry, GeometryInfo, MicInfo, RunMetadata, Tool};
+pub(crate) use metadata::ambiguity_note;
+pub use metadata::{FileEntry, GeometryInfo, MicInfo, RunMetadata, Tool};
 pub use read::{
-    parse_detections, read_detections, read_detections_with_info, read_result, read_result_file,
-    ReadError, ResultInfo, ResultRecord, MAX_RESULT_BYTES, MAX_TRUTH_BYTES,
+    parse_detections, read_detections, read_result, read_result_file, ReadError, ResultInfo,
+    ResultRecord,
 };
+pub(crate) use read::{read_detections_with_info, MAX_TRUTH_BYTES};
 pub use source::{SourceRecord, Sources};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
-pub use truth_forms::CSV_HEADER as TRUTH_CSV_HEADER;
 
 pub(crate) use crate::text::fixed;
 use crate::Named;

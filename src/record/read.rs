@@ -53,9 +53,9 @@ fn in_file(path: &Path, e: ReadError) -> ReadError {
 }
 
 /// The largest result file read (about ten million detections).
-pub const MAX_RESULT_BYTES: u64 = 1 << 30;
+pub(crate) const MAX_RESULT_BYTES: u64 = 1 << 30;
 /// The largest truth file read.
-pub const MAX_TRUTH_BYTES: u64 = 64 << 20;
+pub(crate) const MAX_TRUTH_BYTES: u64 = 64 << 20;
 
 fn read_file(path: &Path, limit: u64) -> Result<String, ReadError> {
     read_text(path, limit).map_err(|error| ReadError::Io {
@@ -92,7 +92,7 @@ pub struct ResultInfo {
 /// order as it is read, so a result of any size is read in the memory its caller keeps.
 /// A UTF-8 byte order mark is skipped. What `ssl analyze` does not write is an error
 /// with its position: an empty input, text that is not a result, a malformed record, a
-/// number that is not finite. The input is read up to [`MAX_RESULT_BYTES`].
+/// number that is not finite. The input is read up to `MAX_RESULT_BYTES`.
 /// `each` may refuse a record with a message, which becomes the error.
 pub fn read_result(
     input: impl Read,
@@ -145,13 +145,14 @@ pub fn read_result_file(
 
 /// Reads the detections of a CSV, NDJSON or JSON result of `ssl analyze` (`-` is
 /// standard input). Events are left out; a result that holds only events is an error.
+#[doc(hidden)]
 pub fn read_detections(path: &Path) -> Result<Vec<DetectionRecord>, ReadError> {
     read_detections_with_info(path).map(|(rows, _)| rows)
 }
 
 /// As [`read_detections`], with what the result says besides its records (a JSON
 /// document's geometry and parameters).
-pub fn read_detections_with_info(
+pub(crate) fn read_detections_with_info(
     path: &Path,
 ) -> Result<(Vec<DetectionRecord>, ResultInfo), ReadError> {
     detections(|each| read_result_file(path, each)).map_err(|e| in_file(path, e))
@@ -159,6 +160,7 @@ pub fn read_detections_with_info(
 
 /// Parses detections from the text of a CSV, NDJSON or JSON result (see
 /// [`read_detections`]).
+#[doc(hidden)]
 pub fn parse_detections(text: &str) -> Result<Vec<DetectionRecord>, ReadError> {
     detections(|each| read_result(text.as_bytes(), each)).map(|(rows, _)| rows)
 }
@@ -247,7 +249,7 @@ impl<R: Read> Read for NoBoms<R> {
     }
 }
 
-/// A reader that fails past [`MAX_RESULT_BYTES`] instead of reading on.
+/// A reader that fails past `MAX_RESULT_BYTES` instead of reading on.
 struct Limited<R>(std::io::Take<R>);
 
 impl<R: Read> Read for Limited<R> {

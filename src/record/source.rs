@@ -2,7 +2,7 @@
 //! (docs/interface.md, "Sources"), summed from its events.
 
 use super::{first_non_finite, fixed, EventRecord, OutputError};
-use crate::method::direction::angles_deg;
+use crate::geometry::angles_deg;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

@@ -59,6 +59,7 @@ pub struct TruthRoom {
 
 /// The array's place in the room.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[doc(hidden)]
 pub struct TruthArray {
     /// The geometry file, as the scene gives it.
     pub geometry: PathBuf,

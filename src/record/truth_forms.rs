@@ -7,7 +7,7 @@
 //! left unknown (no room, no sample rate). Every problem is listed at once.
 
 use super::truth::{Truth, TruthArray, TruthSource};
-use crate::method::direction::{angles_deg, unit_from_angles};
+use crate::geometry::{angles_deg, unit_from_angles};
 use nalgebra::Vector3;
 use serde_json::{Map, Value};
 

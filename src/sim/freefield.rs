@@ -5,7 +5,7 @@
 //! exact for band-limited signals. The same seed gives the same samples.
 
 use super::signals::{generate, Signal};
-use crate::method::direction::unit_from_angles;
+use crate::geometry::unit_from_angles;
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

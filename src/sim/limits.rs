@@ -8,7 +8,7 @@ use super::SceneError;
 use crate::text::{shown3, Shown};
 
 /// The longest scene (seconds).
-pub const MAX_DURATION_S: f64 = 3600.0;
+pub(crate) const MAX_DURATION_S: f64 = 3600.0;
 /// Samples of all channels together a scene may hold: 87 s of 8 channels at 48 kHz, 17
 /// minutes of 2 channels at 16 kHz. The simulator keeps the whole recording, and the
 /// FFT convolutions of whole sources, in memory: up to about 80 bytes per sample and

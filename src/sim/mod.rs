@@ -10,20 +10,29 @@
 //! - [`freefield`]: a quick free-field renderer for tests and measurements.
 //! - [`wav`]: writing channels to WAV files.
 
+#[doc(hidden)]
 pub mod freefield;
-pub mod limits;
+pub(crate) mod limits;
 mod noise;
 mod placed;
+#[doc(hidden)]
 pub mod recorded;
+#[doc(hidden)]
 pub mod render;
+#[doc(hidden)]
 pub mod room;
+#[doc(hidden)]
 pub mod scene;
+#[doc(hidden)]
 pub mod signals;
 mod source;
+#[doc(hidden)]
 pub mod wav;
 
-pub use render::{simulate, simulate_file, simulate_read, Simulation};
+pub(crate) use render::simulate_read;
+pub use render::{simulate, simulate_file, Simulation};
 pub use scene::SceneFile;
+#[doc(hidden)]
 pub use wav::{write_wav, Encoding};
 
 use crate::geometry::GeometryError;

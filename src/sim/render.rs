@@ -8,7 +8,7 @@ use super::placed::{convolve, Placed};
 use super::scene::{NoiseSpec, SampleFormat, SceneFile};
 use super::source::{self, source_position};
 use super::SceneError;
-use crate::method::direction::angles_deg;
+use crate::geometry::angles_deg;
 use crate::record::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom};
 use nalgebra::Vector3;
 use rand::SeedableRng;
@@ -35,7 +35,7 @@ pub fn simulate_file(path: &Path) -> Result<Simulation, SceneError> {
 
 /// Renders `scene`, read from the file `path` (which resolves its relative paths and
 /// names it in errors).
-pub fn simulate_read(scene: &SceneFile, path: &Path) -> Result<Simulation, SceneError> {
+pub(crate) fn simulate_read(scene: &SceneFile, path: &Path) -> Result<Simulation, SceneError> {
     let dir = path.parent().unwrap_or(Path::new("."));
     simulate(scene, dir).map_err(|error| SceneError::File {
         path: path.to_path_buf(),

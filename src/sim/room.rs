@@ -10,7 +10,7 @@
 //! between two reference points of the room (`REFERENCE_POINTS`) equals the request.
 //! Other source and receiver positions measure within about 10% of it. Each image contributes
 //! a tap of gain `beta^reflections / distance` at
-//! its fractional delay, spread over a Hann-windowed sinc ([`SINC_HALF_WIDTH`] samples
+//! its fractional delay, spread over a Hann-windowed sinc (`SINC_HALF_WIDTH` samples
 //! each side) so that delays are exact to well under a sample for band-limited signals.
 
 use super::SceneError;
@@ -20,7 +20,7 @@ type Result<T> = std::result::Result<T, SceneError>;
 use nalgebra::Vector3;
 
 /// Half-width of the windowed-sinc fractional-delay kernel, in samples.
-pub const SINC_HALF_WIDTH: usize = 16;
+pub(crate) const SINC_HALF_WIDTH: usize = 16;
 
 /// Where [`Room::with_rt60`] measures the decay: source and receiver as fractions of
 /// the room's dimensions.
@@ -290,7 +290,7 @@ fn kernel_table() -> &'static [f64] {
 
 /// Adds `gain` delayed by `delay` (fractional) samples: a Hann-windowed sinc, tabulated at
 /// 1/256 sample and interpolated linearly (error below 1e-4 of the tap).
-pub fn add_tap(h: &mut [f64], delay: f64, gain: f64) {
+pub(crate) fn add_tap(h: &mut [f64], delay: f64, gain: f64) {
     let taps = 2 * SINC_HALF_WIDTH;
     let whole = delay.floor();
     let pos = (delay - whole) * PHASES as f64;
@@ -314,7 +314,7 @@ pub fn add_tap(h: &mut [f64], delay: f64, gain: f64) {
 /// The reverberation time of an impulse response measured as a user would: Schroeder
 /// backward integration, a straight line fitted to the decay from -5 to -25 dB (T20),
 /// extrapolated to 60 dB. `None` when the response does not decay 25 dB.
-pub fn measured_rt60(h: &[f64], fs: f64) -> Option<f64> {
+pub(crate) fn measured_rt60(h: &[f64], fs: f64) -> Option<f64> {
     let mut energy: Vec<f64> = h.iter().map(|v| v * v).collect();
     for i in (0..energy.len().saturating_sub(1)).rev() {
         energy[i] += energy[i + 1];

@@ -34,7 +34,13 @@ pub enum Signal {
 
 /// Fills `active` with `signal` at RMS `level` (clicks: RMS over each 2 ms click),
 /// with 5 ms fades at both ends of continuous signals.
-pub fn generate(signal: &Signal, level: f64, fs: f64, active: &mut [f64], rng: &mut ChaCha8Rng) {
+pub(crate) fn generate(
+    signal: &Signal,
+    level: f64,
+    fs: f64,
+    active: &mut [f64],
+    rng: &mut ChaCha8Rng,
+) {
     match signal {
         Signal::Recording(samples) => {
             if samples.is_empty() {

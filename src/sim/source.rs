@@ -6,7 +6,7 @@ use super::recorded::read_mono;
 use super::scene::{SceneFile, SignalKind, SourceSpec};
 use super::signals::{generate, Signal};
 use super::SceneError;
-use crate::method::direction::{angles_deg, unit_from_angles};
+use crate::geometry::{angles_deg, unit_from_angles};
 use crate::record::{fixed, TruthSource};
 use nalgebra::Vector3;
 use rand_chacha::ChaCha8Rng;

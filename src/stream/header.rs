@@ -5,11 +5,11 @@ use super::InputError;
 
 /// The most channels a WAV file may have (larger headers are refused before anything is
 /// allocated for them).
-pub const MAX_CHANNELS: usize = 1024;
+pub(crate) const MAX_CHANNELS: usize = 1024;
 /// The lowest sample rate read (Hz).
-pub const MIN_RATE: u32 = 1000;
+pub(crate) const MIN_RATE: u32 = 1000;
 /// The highest sample rate read (Hz).
-pub const MAX_RATE: u32 = 768_000;
+pub(crate) const MAX_RATE: u32 = 768_000;
 
 /// What the header says about the samples.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,28 +1,32 @@
 //! Streaming: samples in, detections out, with memory that does not grow with the
 //! recording.
 //!
-//! - [`wav`]: WAV files and WAV bytes from any reader (pipes included), decoded a block
-//!   at a time; [`flac`]: FLAC the same way; [`audio`]: either, told by its first bytes.
-//! - [`source`]: the [`SampleSource`] every input is, channels already in memory, and the
+//! - `wav`: WAV files and WAV bytes from any reader (pipes included), decoded a block
+//!   at a time; `flac`: FLAC the same way; `audio`: either, told by its first bytes.
+//! - `source`: the [`SampleSource`] every input is, channels already in memory, and the
 //!   framer that cuts any source into blocks of overlapping frames.
-//! - [`analysis`]: one recording through the method, whatever its source, on the threads
+//! - `analysis`: one recording through the method, whatever its source, on the threads
 //!   of the current rayon pool.
 
-pub mod analysis;
-pub mod audio;
-pub mod clock;
-pub mod flac;
+mod analysis;
+mod audio;
+mod clock;
+mod flac;
 mod header;
-pub mod source;
-pub mod wav;
-pub mod wpe;
+pub(crate) mod source;
+mod wav;
+pub(crate) mod wpe;
 
-pub use crate::text::{io_reason, read_text, read_text_from};
+pub(crate) use crate::text::{io_reason, read_text, read_text_from};
 pub use analysis::{Analysis, AnalysisError, ErrorKind, Summary, Warning};
 pub use audio::AudioStream;
-pub use clock::{ClockOrigin, TimeReference};
+pub use clock::ClockOrigin;
+#[doc(hidden)]
+pub use clock::TimeReference;
+#[doc(hidden)]
 pub use flac::FlacStream;
 pub use source::{Channels, SampleSource};
+#[doc(hidden)]
 pub use wav::{WavFormat, WavStream};
 
 use std::io;

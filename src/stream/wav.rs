@@ -11,8 +11,8 @@
 //! Memory does not depend on the length of the recording.
 
 use super::clock::{ClockOrigin, TimeReference, BEXT_TIME_END};
+pub use super::header::WavFormat;
 use super::header::{not_wav, parse_fmt};
-pub use super::header::{WavFormat, MAX_CHANNELS, MAX_RATE, MIN_RATE};
 use super::source::{open_input, read_full, SampleSource};
 use super::InputError;
 use multiversion::multiversion;

@@ -100,7 +100,12 @@ fn spread_deg<'a>(detections: impl Iterator<Item = &'a Detection> + Clone) -> f6
 /// A candidate's gate (degrees) on `geometry` at `rate` Hz and `speed` m/s: the larger of
 /// [`TrackParams::candidate_gate_deg`] and [`TrackParams::candidate_gate_samples`] times
 /// [`Geometry::direction_spread_deg`], the latter at most [`MAX_CANDIDATE_GATE_DEG`].
-pub fn candidate_gate_deg(p: &TrackParams, geometry: &Geometry, rate: f64, speed: f64) -> f64 {
+pub(crate) fn candidate_gate_deg(
+    p: &TrackParams,
+    geometry: &Geometry,
+    rate: f64,
+    speed: f64,
+) -> f64 {
     let spread = geometry.direction_spread_deg(rate, speed);
     let scaled = (p.candidate_gate_samples * spread).min(MAX_CANDIDATE_GATE_DEG);
     p.candidate_gate_deg.max(scaled)

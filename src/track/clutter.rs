@@ -103,7 +103,7 @@ impl Clutter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::direction::unit_from_angles;
+    use crate::geometry::unit_from_angles;
 
     #[test]
     fn a_place_that_keeps_giving_clutter_has_its_rate_raised_and_others_keep_the_floor() {

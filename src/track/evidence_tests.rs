@@ -177,7 +177,7 @@ fn fewer_false_sources_allowed_need_more_evidence() {
 fn a_claps_floor_image_is_not_a_second_source() {
     let at = |frame: u64, azimuth: f64, elevation: f64, margin: f64| Detection {
         elevation_deg: elevation,
-        direction: crate::method::direction::unit_from_angles(azimuth, elevation),
+        direction: crate::geometry::unit_from_angles(azimuth, elevation),
         margin,
         peak_margin: margin,
         ..detection(frame, azimuth)

@@ -61,7 +61,7 @@ pub fn in_vertical_plane(candidate: &Vector3<f64>, source: &Vector3<f64>) -> boo
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::direction::unit_from_angles;
+    use crate::geometry::unit_from_angles;
 
     #[test]
     fn images_share_the_azimuth_at_another_elevation() {

@@ -24,7 +24,7 @@
 //! - **birth on evidence** ([`ConfirmBy::Evidence`], the default): a detection that
 //!   joins no track starts a candidate, and the candidate becomes a track once the
 //!   evidence of what joins it passes a threshold set by
-//!   [`TrackParams::false_per_hour`] ([`evidence`]: a sequential probability ratio test
+//!   [`TrackParams::false_per_hour`] (`evidence`: a sequential probability ratio test
 //!   per candidate, with a map of where clutter comes from, `clutter.rs`); it is
 //!   dropped once the evidence is against it, or when its detections have waited
 //!   [`TrackParams::delay_s`]. A track's gate is then narrow right after a pause unless
@@ -53,7 +53,7 @@
 //!   has ended its stretch of activity: its [`Event`] is complete. (1 s by default: real
 //!   speech in a reverberant room gives detections in bursts, a word or two at a time,
 //!   with pauses of up to about half a second between them within a sentence.) A silent track is
-//!   forgotten after [`TrackParams::forget_s`] (at most [`MAX_TRACKS`] are remembered).
+//!   forgotten after [`TrackParams::forget_s`] (at most `MAX_TRACKS` are remembered).
 //!
 //! - **smoothing:** each row's direction is its track's around that frame, the mean of the
 //!   track's rows within [`TrackParams::smooth_s`] before and after it, each turned along
@@ -70,23 +70,22 @@
 mod candidate;
 pub(crate) mod clutter;
 mod event;
-pub mod evidence;
+pub(crate) mod evidence;
 pub(crate) mod image;
 mod motion;
 mod output;
 pub mod smoother;
 mod tracker;
 
-pub use candidate::candidate_gate_deg;
 pub use event::Event;
 pub use output::{TrackStats, Tracked};
-pub use tracker::{Tracker, ELEVATION_WEIGHT};
+pub use tracker::Tracker;
 
 /// How a candidate becomes a source.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ConfirmBy {
-    /// By the evidence of its detections ([`evidence`]): one overwhelming detection
+    /// By the evidence of its detections (`evidence`): one overwhelming detection
     /// confirms at once, many weak consistent ones over time, at most
     /// [`TrackParams::false_per_hour`] false sources an hour.
     Evidence,
@@ -216,7 +215,7 @@ pub struct TrackParams {
     #[serde(default = "ConfirmBy::before_the_choice")]
     pub confirm_by: ConfirmBy,
     /// With [`ConfirmBy::Evidence`]: at most this many false sources an hour of
-    /// background (sets the threshold `ln(N / F)` of [`evidence`]).
+    /// background (sets the threshold `ln(N / F)` of `evidence`).
     #[serde(default = "default_false_per_hour")]
     pub false_per_hour: f64,
     /// With [`ConfirmBy::Rules`] (as the fields down to [`TrackParams::confirm_s`]):
@@ -285,7 +284,7 @@ pub struct TrackParams {
     /// 0.6 (three times the 0.2 sample a direction errs by on real speech) leaves 5
     /// deg on the prism and the 6- and 8-mic circles at 16 kHz and above, and opens
     /// 8 deg on a 6.5 cm tetrahedron at 16 kHz, whose rows err by 2-5 deg
-    /// (docs/tracking.md); never more than [`MAX_CANDIDATE_GATE_DEG`].
+    /// (docs/tracking.md); never more than `MAX_CANDIDATE_GATE_DEG`.
     #[serde(default = "default_candidate_gate_samples")]
     pub candidate_gate_samples: f64,
     /// The gate widens by this many degrees per second since a track's last detection.
@@ -380,17 +379,17 @@ fn default_alone_s() -> f64 {
 /// ([`TrackParams::candidate_gate_samples`]): the 6.5 cm tetrahedron at 8 kHz would open
 /// 16 deg, and its single talkers' rows (`cargo bench --bench field -- track`) erred by
 /// 3.7 deg with 19 confidently wrong (2.9 deg and 4 at 5 deg; 3.2 and 5 at 8).
-pub const MAX_CANDIDATE_GATE_DEG: f64 = 8.0;
+pub(crate) const MAX_CANDIDATE_GATE_DEG: f64 = 8.0;
 
 /// The longest confirmation window and delay (seconds): rows wait in memory that long,
 /// so memory stays bounded whatever the recording's length.
-pub const MAX_DELAY_S: f64 = 10.0;
+pub(crate) const MAX_DELAY_S: f64 = 10.0;
 
 /// The widest smoothing window ([`TrackParams::smooth_s`], seconds each side).
-pub const MAX_SMOOTH_S: f64 = 1.0;
+pub(crate) const MAX_SMOOTH_S: f64 = 1.0;
 
 /// At most this many tracks are remembered at once (the oldest silent one goes first).
-pub const MAX_TRACKS: usize = 64;
+pub(crate) const MAX_TRACKS: usize = 64;
 
 /// Why tracker parameters were refused.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]

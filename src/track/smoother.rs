@@ -17,7 +17,7 @@
 
 use super::motion::{STILL_SPEED, VELOCITY_SPAN_S};
 use super::Tracked;
-use crate::method::direction::angles_deg;
+use crate::geometry::angles_deg;
 use nalgebra::Vector3;
 use std::collections::VecDeque;
 
@@ -166,7 +166,7 @@ impl Smoother {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::direction::{angle_between_deg, unit_from_angles};
+    use crate::geometry::{angle_between_deg, unit_from_angles};
     use crate::method::Detection;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

@@ -9,8 +9,8 @@ use super::motion::{smooth, Track};
 use super::output::{TrackStats, Tracked};
 use super::smoother::Smoother;
 use super::{ConfirmBy, TrackParams, MAX_TRACKS};
+use crate::geometry::angle_between_deg;
 use crate::geometry::{Geometry, Shape};
-use crate::method::direction::angle_between_deg;
 use crate::method::Detection;
 use nalgebra::Vector3;
 use std::collections::{HashMap, VecDeque};
@@ -18,7 +18,7 @@ use std::collections::{HashMap, VecDeque};
 /// For a planar array, how much a difference in the angle out of its plane counts
 /// against one in the plane when detections are associated: its elevation errs by 5-10
 /// deg on real speech where its azimuth errs by 1 (docs/field.md).
-pub const ELEVATION_WEIGHT: f64 = 0.25;
+pub(crate) const ELEVATION_WEIGHT: f64 = 0.25;
 
 /// With [`ConfirmBy::Evidence`], a track's gate right after its last detection, in
 /// candidates' gates: narrow, so that a source 10 deg from the last one after a pause
@@ -158,7 +158,7 @@ impl Tracker {
 
     /// Tells the tracker the recording's looks: each averaged correlation spans
     /// `look_s` seconds, candidates are reported down to `floor` times the threshold
-    /// (see [`evidence`]), and the method has begun removing the steady background
+    /// (see `evidence`), and the method has begun removing the steady background
     /// after `warmup_s` seconds (0: from the start, or never): until then a candidate
     /// under the threshold may be that background (a fan beside the array), and tells
     /// nothing.
@@ -170,7 +170,7 @@ impl Tracker {
 
     /// A tracker for an array of `shape`: a planar array's detections are compared
     /// mostly by their direction in its plane, since their angle out of it is known
-    /// only roughly (see [`ELEVATION_WEIGHT`]).
+    /// only roughly (see `ELEVATION_WEIGHT`).
     pub fn for_shape(params: TrackParams, shape: &Shape) -> Self {
         let mut tracker = Tracker::new(params);
         if let Shape::Planar { normal } = shape {
@@ -193,7 +193,7 @@ impl Tracker {
 
     /// How far apart two directions are for association (degrees): the angle between
     /// them, or for a planar array the angle between their projections on its plane
-    /// combined with [`ELEVATION_WEIGHT`] times the difference of their angles out of it.
+    /// combined with `ELEVATION_WEIGHT` times the difference of their angles out of it.
     fn distance(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
         distance(self.plane, a, b)
     }
@@ -488,7 +488,7 @@ impl Tracker {
         }
     }
 
-    /// What detection `d` of a candidate is worth ([`evidence`]), or `None` when a
+    /// What detection `d` of a candidate is worth (`evidence`), or `None` when a
     /// talking track heard beside it makes it tell nothing. Its margin is the largest
     /// its frame gave it ([`Detection::peak_margin`]: a knock passes the threshold in
     /// its frame's own correlations, not in their average); one over the threshold

@@ -2,8 +2,8 @@
 //! how candidates are confirmed is in `confirmation_tests.rs`.
 
 use super::*;
+use crate::geometry::unit_from_angles;
 use crate::geometry::Geometry;
-use crate::method::direction::unit_from_angles;
 
 const HOP: f64 = 0.01;
 

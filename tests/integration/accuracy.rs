@@ -315,7 +315,7 @@ fn shipped_example_matches_its_truth() {
         );
         for r in inside {
             assert!(
-                ssl::method::direction::angle_between_deg(&r.u, &u) < 1.0,
+                ssl::geometry::angle_between_deg(&r.u, &u) < 1.0,
                 "{r:?} vs {u:?}"
             );
         }

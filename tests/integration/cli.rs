@@ -4,7 +4,7 @@
 
 use crate::support;
 
-use ssl::method::direction::{angle_between_deg, unit_from_angles};
+use ssl::geometry::{angle_between_deg, unit_from_angles};
 use ssl::sim::freefield::{Place, Scene, Source};
 use ssl::sim::signals::Signal;
 use ssl::sim::Encoding;

@@ -4,7 +4,7 @@
 
 use crate::support;
 
-use ssl::method::direction::unit_from_angles;
+use ssl::geometry::unit_from_angles;
 use ssl::method::FrameStats;
 use ssl::sim::freefield::{Place, Scene, Source};
 use ssl::sim::signals::Signal;

@@ -51,10 +51,10 @@ fn expect_error(file: &str, geo: &Path, name: &str, needles: &[&str]) -> String 
 
 fn detections_near_truth(stdout: &[u8]) -> Vec<Row> {
     let rows = parse_csv(std::str::from_utf8(stdout).unwrap());
-    let truth = ssl::method::direction::unit_from_angles(30.0, 10.0);
+    let truth = ssl::geometry::unit_from_angles(30.0, 10.0);
     for r in &rows {
         assert!(
-            ssl::method::direction::angle_between_deg(&r.u, &truth) < 2.0,
+            ssl::geometry::angle_between_deg(&r.u, &truth) < 2.0,
             "{r:?}"
         );
     }

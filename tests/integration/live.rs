@@ -6,7 +6,7 @@
 
 use crate::support;
 
-use ssl::method::direction::unit_from_angles;
+use ssl::geometry::unit_from_angles;
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;
 use std::io::{BufRead, BufReader, Write};

@@ -4,7 +4,7 @@
 use crate::support;
 
 use nalgebra::Vector3;
-use ssl::method::direction::unit_from_angles;
+use ssl::geometry::unit_from_angles;
 use support::*;
 
 /// The median direction of a run's rows.

@@ -172,11 +172,10 @@ weight_db = -6
         &early[..early.len().min(5)]
     );
     // The analysis is live: the source at the end is found.
-    let truth = ssl::method::direction::unit_from_angles(30.0, 0.0);
+    let truth = ssl::geometry::unit_from_angles(30.0, 0.0);
     assert!(
-        rows.iter().any(
-            |r| r.time_s > 7.8 && ssl::method::direction::angle_between_deg(&r.u, &truth) < 5.0
-        ),
+        rows.iter()
+            .any(|r| r.time_s > 7.8 && ssl::geometry::angle_between_deg(&r.u, &truth) < 5.0),
         "{rows:?}"
     );
 }
@@ -253,7 +252,7 @@ fn source_from_a_wav_file() {
         "0",
     ]);
     let rows = parse_csv(&String::from_utf8(o.stdout).unwrap());
-    let truth = ssl::method::direction::unit_from_angles(-60.0, 20.0);
+    let truth = ssl::geometry::unit_from_angles(-60.0, 20.0);
     let inside: Vec<&Row> = rows
         .iter()
         .filter(|r| r.time_s > 0.25 && r.time_s < 0.85)
@@ -261,7 +260,7 @@ fn source_from_a_wav_file() {
     assert!(inside.len() > 30, "{}", inside.len());
     assert!(inside
         .iter()
-        .all(|r| ssl::method::direction::angle_between_deg(&r.u, &truth) < 2.0));
+        .all(|r| ssl::geometry::angle_between_deg(&r.u, &truth) < 2.0));
 }
 
 /// A recording's own leading and trailing silence is not part of its truth: the truth's
@@ -304,11 +303,11 @@ fn real_speech_at_another_rate_is_resampled() {
     let o = run(&["analyze", s(&wav), "-g", s(&dir.path().join("prism.toml"))]);
     assert!(o.status.success(), "{}", stderr(&o));
     let rows = parse_csv(&String::from_utf8(o.stdout).unwrap());
-    let truth = ssl::method::direction::unit_from_angles(75.0, -10.0);
+    let truth = ssl::geometry::unit_from_angles(75.0, -10.0);
     assert!(rows.len() > 20, "{} detections of real speech", rows.len());
     let good = rows
         .iter()
-        .filter(|r| ssl::method::direction::angle_between_deg(&r.u, &truth) < 3.0)
+        .filter(|r| ssl::geometry::angle_between_deg(&r.u, &truth) < 3.0)
         .count();
     assert!(
         good * 10 >= rows.len() * 9,

@@ -8,7 +8,7 @@
 
 use crate::support;
 
-use ssl::method::direction::{angles_deg, unit_from_angles};
+use ssl::geometry::{angles_deg, unit_from_angles};
 use ssl::record::{TruthArray, TruthSource};
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;

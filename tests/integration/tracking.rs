@@ -4,7 +4,7 @@
 use crate::support;
 
 use nalgebra::Vector3;
-use ssl::method::direction::{angle_between_deg, unit_from_angles};
+use ssl::geometry::{angle_between_deg, unit_from_angles};
 use support::*;
 
 /// Two talkers taking turns, A, B, then A again from the same place, on the prism at

@@ -59,7 +59,7 @@ fn errors(
                     .any(|&[a, b]| r.time_s >= a && r.time_s <= b + 0.3)
             })?;
             let u = Vector3::new(r.x, r.y, r.z);
-            let error = ssl::method::direction::angle_between_deg(&u, &fold(s.direction()));
+            let error = ssl::geometry::angle_between_deg(&u, &fold(s.direction()));
             Some((error, r.uncertainty_deg.expect("every row carries it")))
         })
         .collect()

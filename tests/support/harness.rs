@@ -249,12 +249,12 @@ pub fn localizer(
     geometry: &ssl::Geometry,
     params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
-) -> Result<ssl::Localizer, ssl::localize::SettingsError> {
+) -> Result<ssl::Localizer, ssl::SettingsError> {
     let params = match track {
         Some(_) => params.clone(),
         None => super::untracked(params.clone()),
     };
-    let settings = ssl::localize::Settings::new(params, track)?;
+    let settings = ssl::Settings::new(params, track)?;
     ssl::Localizer::with_settings(geometry.clone(), settings)
 }
 

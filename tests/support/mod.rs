@@ -10,7 +10,7 @@ pub mod moving;
 pub mod scenes;
 
 use nalgebra::Vector3;
-use ssl::method::direction::{angle_between_deg, unit_from_angles};
+use ssl::geometry::{angle_between_deg, unit_from_angles};
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::signals::Signal;
 use ssl::sim::{write_wav, Encoding};

@@ -5,7 +5,7 @@
 use super::harness::analyse_channels;
 use super::{testdata, SPEECH};
 use nalgebra::Vector3;
-use ssl::method::direction::angle_between_deg;
+use ssl::geometry::angle_between_deg;
 use ssl::sim::freefield::{render, Place, Scene, Source};
 use ssl::sim::recorded::read_mono;
 use ssl::sim::signals::Signal;

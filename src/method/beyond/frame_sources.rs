@@ -87,7 +87,7 @@ pub fn add_further(found: &mut Detections, own: &Detections, max_sources: usize)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::method::paper::direction::unit_from_angles;
+    use crate::geometry::unit_from_angles;
 
     fn at(azimuth: f64, elevation: f64, score: f64) -> Detection {
         Detection {

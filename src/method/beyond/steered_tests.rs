@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::geometry::Geometry;
-use crate::method::paper::direction::{angle_between_deg, unit_from_angles};
+use crate::geometry::{angle_between_deg, unit_from_angles};
 use crate::method::paper::pairs::pair_count;
 
 #[test]
@@ -152,7 +152,7 @@ fn finds_a_source_most_pairs_agree_on_then_the_next() {
     assert!(
         angle_between_deg(&second.direction, &b) < 0.5,
         "{:?}",
-        crate::method::paper::direction::angles_deg(&second.direction)
+        crate::geometry::angles_deg(&second.direction)
     );
     assert!(second.agreeing >= pair_count(mics) - 3);
 }

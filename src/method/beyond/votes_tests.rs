@@ -1,8 +1,8 @@
 //! Tests of [`super`]: single bins' directions against plane waves built bin by bin.
 
 use super::*;
+use crate::geometry::{angles_deg, unit_from_angles};
 use crate::method::engine::setup::Setup;
-use crate::method::paper::direction::{angles_deg, unit_from_angles};
 use realfft::num_complex::Complex32;
 
 const RATE: f64 = 16000.0;

@@ -1,9 +1,9 @@
 //! Tests of the analyzer (`analyzer.rs`).
 
 use super::*;
+use crate::geometry::unit_from_angles;
 use crate::method::beyond::{DEFAULT_CANDIDATES, DEFAULT_MAX_SOURCES, DEFAULT_RIDERS};
 use crate::method::outcome::Detection;
-use crate::method::paper::direction::unit_from_angles;
 use crate::method::Interpolation;
 use crate::sim::freefield::{render, Place, Scene, Source};
 use crate::sim::signals::Signal;
@@ -138,7 +138,7 @@ fn a_steady_fan_in_free_field_is_background() {
         .collect();
     let on_talker = found
         .iter()
-        .filter(|d| crate::method::paper::direction::angle_between_deg(&d.direction, &talker) < 5.0)
+        .filter(|d| crate::geometry::angle_between_deg(&d.direction, &talker) < 5.0)
         .count();
     eprintln!("{} detections, {on_talker} on the talker", found.len());
     assert!(on_talker > 30, "{on_talker} of {}", found.len());

@@ -37,7 +37,7 @@ pub fn whiten(x: &[Complex32], we: &[f32], out: &mut [Complex32]) {
 /// steered response's grid). Eight running maxima side by side, which the compiler
 /// turns into vector instructions, where a fold of `f32::max` (which must handle NaN)
 /// runs one value at a time.
-pub fn window_max(w: &[f32], init: f32) -> f32 {
+pub(crate) fn window_max(w: &[f32], init: f32) -> f32 {
     lanes_max(w, init, |&v| v)
 }
 
@@ -65,14 +65,14 @@ fn lanes_max<T>(items: &[T], init: f32, value: impl Fn(&T) -> f32) -> f32 {
 /// local maximum and its neighbours peaks at most `(|prev| + |next|) / 8 <= E / 4` above
 /// it. `weights` holds `w_e(k)` for `k = 0..=N/2`; a margin covers rounding.
 #[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
-pub fn peak_ceiling(weights: &[f32], n: usize, interp: Interpolation) -> f64 {
+pub(crate) fn peak_ceiling(weights: &[f32], n: usize, interp: Interpolation) -> f64 {
     debug_assert_eq!(weights.len(), n / 2 + 1);
     weight_energy(weights.iter().map(|&w| (w * w) as f64), n) * interp.overshoot() * (1.0 + 1e-3)
 }
 
 /// The sum over eq. (6)'s N bins of `squares` (one value per bin 0..=N/2), divided by
 /// N: bins 0 and N/2 count once, the others twice (the spectrum's mirror half).
-pub fn weight_energy(squares: impl Iterator<Item = f64>, n: usize) -> f64 {
+pub(crate) fn weight_energy(squares: impl Iterator<Item = f64>, n: usize) -> f64 {
     let sum: f64 = squares
         .enumerate()
         .map(|(k, x)| if k == 0 || k == n / 2 { x } else { 2.0 * x })

@@ -6,7 +6,7 @@ use super::spectrum::Window;
 /// Frames analysed together on the thread pool. Memory is bounded by two blocks of audio
 /// (16 KB a frame for 8 microphones at N = 1024, as frames share their samples) and one of
 /// spectra (33 KB a frame).
-pub const BLOCK: usize = 128;
+pub(crate) const BLOCK: usize = 128;
 
 /// Consecutive frames of `n` samples per microphone with a hop of `n / 2`, up to
 /// `capacity` of them in one mic-major buffer: mic `m`'s samples of frame `i` are

@@ -63,7 +63,7 @@ pub struct Peak {
 }
 
 /// The largest M that [`find_peaks`] accepts.
-pub const MAX_PEAKS: usize = 64;
+pub(crate) const MAX_PEAKS: usize = 64;
 
 /// Peaks M kept per pair by default (the paper's M = 8).
 pub(crate) const DEFAULT_PEAKS: usize = 8;
@@ -96,7 +96,7 @@ impl Default for Peaks {
 /// lag first). `window` holds `r(tau)` for `tau = -h..=h` (odd length `2h + 1`, from
 /// [`Correlator::lags`](super::correlation::Correlator::lags)); peaks are looked for at `|tau| < h`, the outer two samples
 /// being their neighbours. A plateau counts once, at its first sample. `out` is cleared
-/// and refilled; it does not allocate once its capacity reaches `m` (`1..=`[`MAX_PEAKS`]).
+/// and refilled; it does not allocate once its capacity reaches `m` (`1..=``MAX_PEAKS`).
 #[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 pub fn find_peaks(window: &[f32], m: usize, interp: Interpolation, out: &mut Vec<Peak>) {
     assert!(m <= MAX_PEAKS, "at most {MAX_PEAKS} peaks per pair");

@@ -14,10 +14,10 @@ use multiversion::multiversion;
 
 /// `alpha` of eq. (4): the share of the noise estimate `X_n` subtracted from `X`
 /// (`w = (X - alpha X_n) / X`).
-pub const ALPHA: f64 = 0.4;
+pub(crate) const ALPHA: f64 = 0.4;
 /// `gamma` of eq. (5): the exponent of the bin's SNR that enhances strong bins
 /// (`w_e = w (X / X_n)^gamma`).
-pub const GAMMA: f64 = 0.3;
+pub(crate) const GAMMA: f64 = 0.3;
 
 /// The share of the recent frames' power taken as late reverberation by default
 /// (measured on real speech in the paper's room, docs/field.md).
@@ -114,7 +114,7 @@ impl Default for NoiseSettings {
 }
 /// Largest `X / X_n` the enhancement of eq. (5) uses (60 dB): keeps `w_e` finite when the
 /// noise estimate is zero (after digital silence).
-pub const MAX_SNR_RATIO: f32 = 1e6;
+pub(crate) const MAX_SNR_RATIO: f32 = 1e6;
 
 /// The smoothing coefficient for a time constant at a given frame hop.
 fn coefficient(tau_s: f64, hop_s: f64) -> f32 {
@@ -264,7 +264,7 @@ fn smooth_frequency(x: &[f32], out: &mut [f32]) {
 
 /// The enhanced weights `w_e(k)` of eq. (5) from `X(k)` and `X_n(k)`:
 /// `w = max(0.1, (X - alpha X_n) / X)` (eq. 4), times `(X / X_n)^gamma` where `X > X_n`.
-/// A bin with no power gets the floor 0.1; `X / X_n` is capped at [`MAX_SNR_RATIO`].
+/// A bin with no power gets the floor 0.1; `X / X_n` is capped at `MAX_SNR_RATIO`.
 #[multiversion(targets("x86_64+avx+avx2+fma+bmi1+popcnt"))]
 pub fn enhanced_weights(x: &[f32], xn: &[f32], alpha: f32, gamma: f32, out: &mut [f32]) {
     for ((o, &x), &xn) in out.iter_mut().zip(x).zip(xn) {
