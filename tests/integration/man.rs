@@ -55,6 +55,107 @@ fn man_pages_match_the_command_line() {
     }
 }
 
+/// `ssl analyze`'s options as docs/guide.md lists them: one table per group of the help,
+/// each flag with its default and the first paragraph of its help, from the same
+/// definitions as `--help` and the man page.
+fn option_tables() -> String {
+    let mut cmd = ssl::cli::args::Cli::command();
+    cmd.build();
+    let analyze = cmd
+        .get_subcommands()
+        .find(|s| s.get_name() == "analyze")
+        .expect("analyze");
+    let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+    for arg in analyze.get_arguments() {
+        let id = arg.get_id().as_str();
+        if arg.is_positional() || id == "help" || id == "version" {
+            continue;
+        }
+        let heading = arg
+            .get_help_heading()
+            .unwrap_or("Input and output")
+            .to_string();
+        let mut flag = String::new();
+        if let Some(s) = arg.get_short() {
+            flag.push_str(&format!("-{s}, "));
+        }
+        flag.push_str(&format!("--{}", arg.get_long().expect("a long flag")));
+        let takes_value = arg.get_num_args().is_some_and(|n| n.takes_values());
+        if takes_value {
+            if let Some(names) = arg.get_value_names() {
+                flag.push_str(&format!(" {}", names[0]));
+            }
+        }
+        let default = if takes_value {
+            let d: Vec<String> = arg
+                .get_default_values()
+                .iter()
+                .map(|v| v.to_string_lossy().into_owned())
+                .collect();
+            d.join(", ")
+        } else {
+            String::new()
+        };
+        let mut help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
+        let values: Vec<String> = arg
+            .get_possible_values()
+            .iter()
+            .map(|v| format!("`{}`", v.get_name()))
+            .collect();
+        if !values.is_empty() && takes_value {
+            help.push_str(&format!(" ({})", values.join(", ")));
+        }
+        let row = format!(
+            "| `{flag}` | {} | {} |",
+            if default.is_empty() {
+                String::new()
+            } else {
+                format!("`{default}`")
+            },
+            help.replace('|', "\\|")
+        );
+        match groups.iter_mut().find(|(h, _)| *h == heading) {
+            Some((_, rows)) => rows.push(row),
+            None => groups.push((heading, vec![row])),
+        }
+    }
+    let mut out = String::new();
+    for (heading, rows) in groups {
+        out.push_str(&format!(
+            "\n#### {heading}\n\n| flag | default | meaning |\n|---|---|---|\n"
+        ));
+        for r in rows {
+            out.push_str(&r);
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// The guide's option tables are generated: this test fails when they drift from the
+/// definitions (regenerate with the man pages, `SSL_UPDATE_MAN=1`).
+#[test]
+fn the_guide_s_option_tables_match_the_command_line() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/guide.md");
+    let guide = std::fs::read_to_string(&path).unwrap();
+    let (begin, end) = (
+        "<!-- options: generated from the flags by tests/integration/man.rs -->\n",
+        "<!-- end of the generated options -->",
+    );
+    let start = guide.find(begin).expect("the guide's generated options") + begin.len();
+    let stop = guide[start..].find(end).expect("their end") + start;
+    let now = option_tables();
+    if std::env::var_os("SSL_UPDATE_MAN").is_some() {
+        let updated = format!("{}{now}\n{}", &guide[..start], &guide[stop..]);
+        std::fs::write(&path, updated).unwrap();
+        return;
+    }
+    assert!(
+        guide[start..stop].trim() == now.trim(),
+        "docs/guide.md's option tables are stale: regenerate with `SSL_UPDATE_MAN=1 cargo test --test integration man::`"
+    );
+}
+
 /// The help and the man pages state only what is true: every page they refer to exists,
 /// `-V` works wherever it is listed, variadic arguments say so, the score is not said
 /// to be at most 1 per pair, and `ssl analyze --help` has examples.

@@ -64,7 +64,7 @@ pub struct Room {
     /// Remove the reverberation's diffuse part from each pair's cross-spectrum (its coherence over the frames averaged) before correlating: a room shortens the delays by a few percent, which raises a planar array's elevations by 5-13 deg
     #[cfg_attr(feature = "cli", arg(long, default_value = "auto", value_parser = crate::flags::choice::<Dereverb>(), hide_short_help = true))]
     pub dereverb: Dereverb,
-    /// Dereverberate the input before analysis (multichannel linear prediction, WPE, below 4 kHz): more of a reverberant room's speech is found (two talkers 2 m from the prism at RT60 0.45 s: 74% of the 0.1 s windows instead of 68%), at about 15 times the time
+    /// Dereverberate the input before analysis (multichannel linear prediction, WPE, below 4 kHz): more of a reverberant room's speech is found (two talkers 2 m from the prism at RT60 0.45 s: 74% of the 0.1 s windows instead of 68%), at about 15 times the time; at most 32 microphones
     #[cfg_attr(feature = "cli", arg(long))]
     pub wpe: bool,
 }
