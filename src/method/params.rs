@@ -223,12 +223,8 @@ impl Default for Params {
 
 /// Default budget of the consistency search per frame, in candidate matches
 /// ([`Params::max_work`]): about 60 ms of one core, and 70,000 nodes on 8 microphones,
-/// where no frame of the benchmarks' scenes takes 20,000. On 32 microphones a few
-/// frames in a reverberant room need 10^6 to 10^8 nodes to prove their best set; over
-/// three two-talker scenes there, 4 x 10^6 instead of 10^6 nodes (2.5 x 10^7) left every
-/// detection count and mean error to the truth as it was (to 0.01 deg), with the
-/// search 2-3 times faster and 3 frames of 1405 at the budget instead of 2
-/// (docs/experiments.md, 2026-12-03 evening).
+/// where no frame of the benchmarks' scenes takes 20,000 (docs/method.md, "Consistency
+/// search").
 pub(crate) const DEFAULT_MAX_WORK: u64 = 4_000_000;
 
 /// How much of the start of a recording primes the noise estimate before it is analysed

@@ -27,12 +27,8 @@
 //! the spacing of the peaks), or when many sets score nearly alike (a reverberant room
 //! heard by many microphones); a budget in candidate matches (`max_work`, the search's
 //! time whatever the array's size) bounds the time per frame, and a frame that exhausts
-//! it is reported as not exhaustively searched. On 32 microphones
-//! and two reverberant talkers (15 s, 1405 frames) the levels in fixed order took 7.9
-//! million nodes, 5 frames at a budget of 10^6 nodes; the most constrained first and the
-//! best candidate first took 3.1 million, 2 frames at it, the search 40% faster. The
-//! budget in matches (4 x 10^6, about 150,000 nodes there) leaves 3 frames at it and
-//! the search 2-3 times faster again, with the same detections and errors.
+//! it is reported as not exhaustively searched (docs/method.md gives the budget's
+//! evidence).
 
 use super::pairs::pair_index;
 use super::peaks::Peak;
