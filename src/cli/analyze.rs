@@ -5,7 +5,7 @@
 //! on standard error, and the exit status is 1). When some file fails, `-o` is left as
 //! it was too, and the results go to `<stem>.partial.<ext>` beside it.
 
-use super::args::AnalyzeArgs;
+use super::args::{AnalyzeArgs, WarningKind};
 use super::inputs::Input;
 use super::sink::{same_file, Sink};
 use super::{error, output_error, warn, warning_with_hint, with_hint};
@@ -114,7 +114,10 @@ impl<'a> Output<'a> {
 pub(super) fn prepare(args: &AnalyzeArgs) -> Result<(Localizer, Vec<Input>)> {
     let geometry = Geometry::from_file(&args.geometry)?;
     for w in &geometry.warnings {
-        warn(args.quiet, &format!("{}: {w}", args.geometry.display()));
+        warn(
+            !args.warns(WarningKind::Geometry),
+            &format!("{}: {w}", args.geometry.display()),
+        );
     }
     let localizer = Localizer::new(geometry, &args.config)?;
     Ok((localizer, super::inputs::expand(args)?))
@@ -132,7 +135,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let mut inputs: Vec<&Path> = paths.iter().map(Path::new).collect();
     inputs.push(&args.geometry);
     let sink = Sink::open(args.output.as_deref(), &inputs)?;
-    warn_about_repeats(args.quiet, &paths);
+    warn_about_repeats(!args.warns(WarningKind::Repeat), &paths);
     let live_input = paths
         .iter()
         .any(|f| f == "-" || !std::fs::metadata(f).is_ok_and(|m| m.is_file()));
@@ -268,7 +271,10 @@ pub(super) fn analyze_one(
                 continue;
             }
         }
-        warn(args.quiet, &warning_with_hint(&summary.name, w));
+        warn(
+            !args.warns(WarningKind::of(w)),
+            &warning_with_hint(&summary.name, w),
+        );
     }
     let unconfirmed = report
         .tracking
@@ -276,7 +282,7 @@ pub(super) fn analyze_one(
         .and_then(|(stats, p)| nothing_confirmed(&stats, p))
         .map(|note| format!("{}: {note}", summary.name));
     if let Some(note) = &unconfirmed {
-        warn(args.quiet, note);
+        warn(!args.warns(WarningKind::Unconfirmed), note);
     }
     Ok(FileEntry::new(shown_name(path), Some(summary), message)
         .with_rows(report.rows)

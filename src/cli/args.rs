@@ -224,6 +224,63 @@ pub struct AnalyzeArgs {
     /// No progress bar and no warnings (errors are still reported)
     #[arg(short, long, help_heading = "Run")]
     pub quiet: bool,
+
+    /// Silence one kind of warning (repeatable); the others are still said
+    #[arg(
+        long = "no-warn",
+        value_name = "KIND",
+        value_enum,
+        help_heading = "Run"
+    )]
+    pub no_warn: Vec<WarningKind>,
+}
+
+/// A kind of warning `ssl analyze` gives, for `--no-warn`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum WarningKind {
+    /// The geometry file's (a wide aperture, coarse units)
+    Geometry,
+    /// A folder with no recording to analyse, or one that cannot be read
+    Inputs,
+    /// A file given twice
+    Repeat,
+    /// A recording's channels all constant (digital silence)
+    Silence,
+    /// A microphone constant in some frames (dead or disconnected)
+    DeadMic,
+    /// Something about a recording's file itself (sizes wrapped past 4 GiB)
+    Input,
+    /// The array's largest delay only a few samples at the recording's rate
+    CoarseDelays,
+    /// A --band of few frequency bins
+    NarrowBand,
+    /// Delays longer than the geometry allows
+    BeyondGeometry,
+    /// Hardly any frame with a detection
+    FewDetections,
+    /// The consistency search at its budget in some frames
+    SearchBudget,
+    /// Detections but no source confirmed
+    Unconfirmed,
+    /// A batch's housekeeping (temporaries of killed batches removed)
+    Batch,
+}
+
+impl WarningKind {
+    /// The kind of a recording's warning.
+    pub fn of(w: &crate::stream::Warning) -> Self {
+        use crate::stream::Warning;
+        match w {
+            Warning::Silence => WarningKind::Silence,
+            Warning::DeadMic { .. } => WarningKind::DeadMic,
+            Warning::Input(_) => WarningKind::Input,
+            Warning::CoarseDelays { .. } => WarningKind::CoarseDelays,
+            Warning::NarrowBand { .. } => WarningKind::NarrowBand,
+            Warning::BeyondGeometry { .. } => WarningKind::BeyondGeometry,
+            Warning::FewDetections { .. } => WarningKind::FewDetections,
+            Warning::SearchBudget { .. } => WarningKind::SearchBudget,
+        }
+    }
 }
 
 /// The most threads `--threads` takes: more than the cores of any machine this runs on;
@@ -351,6 +408,11 @@ pub enum MetricArg {
 }
 
 impl AnalyzeArgs {
+    /// Whether a warning of this kind is said (not `--quiet`, not `--no-warn` it).
+    pub fn warns(&self, kind: WarningKind) -> bool {
+        !self.quiet && !self.no_warn.contains(&kind)
+    }
+
     /// What the output holds.
     pub fn records(&self) -> crate::record::Records {
         use crate::record::Records;

@@ -3,7 +3,7 @@
 //! and the paths of `--files-from`; each with the path its result takes under
 //! `--out-dir`.
 
-use super::args::AnalyzeArgs;
+use super::args::{AnalyzeArgs, WarningKind};
 use anyhow::{bail, Context, Result};
 use globset::{GlobSet, GlobSetBuilder};
 use std::path::{Component, Path, PathBuf};
@@ -30,7 +30,14 @@ pub fn expand(args: &AnalyzeArgs) -> Result<Vec<Input>> {
     let mut inputs = Vec::new();
     let mut empty = Vec::new();
     for path in &args.files {
-        if add(path, None, &globs, &mut inputs, args.quiet)? == 0 {
+        if add(
+            path,
+            None,
+            &globs,
+            &mut inputs,
+            !args.warns(WarningKind::Inputs),
+        )? == 0
+        {
             empty.push(path.clone());
         }
     }
@@ -70,7 +77,14 @@ pub fn expand(args: &AnalyzeArgs) -> Result<Vec<Input>> {
                 });
                 continue;
             }
-            if add(line, Some(line), &globs, &mut inputs, args.quiet)? == 0 {
+            if add(
+                line,
+                Some(line),
+                &globs,
+                &mut inputs,
+                !args.warns(WarningKind::Inputs),
+            )? == 0
+            {
                 empty.push(line.to_string());
             }
         }
@@ -85,7 +99,7 @@ pub fn expand(args: &AnalyzeArgs) -> Result<Vec<Input>> {
         bail!("{}: nothing to analyse", why(&empty.join(", ")));
     }
     for dir in &empty {
-        super::warn(args.quiet, &why(dir));
+        super::warn(!args.warns(WarningKind::Inputs), &why(dir));
     }
     Ok(inputs)
 }

@@ -421,6 +421,34 @@ fn an_array_whose_delays_are_a_few_samples_draws_a_warning() {
     assert_eq!(err.matches("largest delay is only").count(), 1, "{err}");
     let lines: Vec<&str> = err.lines().filter(|l| l.contains("cut.wav")).collect();
     assert!(lines[0].starts_with("ssl: error:"), "{err}");
+    // `--no-warn coarse-delays` silences it alone: the repeated file is still said,
+    // and the cut file's error.
+    let out = run(&[
+        "analyze",
+        s(&wav),
+        s(&wav),
+        s(&cut),
+        "-g",
+        s(&geo),
+        "--no-warn",
+        "coarse-delays",
+    ]);
+    let err = stderr(&out);
+    assert!(!err.contains("largest delay is only"), "{err}");
+    assert!(err.contains("the same file as"), "{err}");
+    assert!(err.contains("ssl: error:"), "{err}");
+    let out = run(&[
+        "analyze",
+        s(&wav),
+        s(&wav),
+        "-g",
+        s(&geo),
+        "--no-warn",
+        "coarse-delays",
+        "--no-warn",
+        "repeat",
+    ]);
+    assert!(!stderr(&out).contains("warning"), "{}", stderr(&out));
     // The prism at 48 kHz (107 samples) draws none.
     let out = example(&[]);
     assert!(!stderr(&out).contains("largest delay"), "{}", stderr(&out));

@@ -28,7 +28,7 @@
 mod stamp;
 
 use super::analyze::{analyze_one, prepare, Output, Said, Written};
-use super::args::AnalyzeArgs;
+use super::args::{AnalyzeArgs, WarningKind};
 use super::inputs::Input;
 use super::outdir::{Entry, OutDir};
 use super::sink::Sink;
@@ -240,7 +240,7 @@ pub fn run(args: &AnalyzeArgs, dir_path: &Path) -> Result<bool> {
     let swept = dir.sweep();
     if swept > 0 {
         super::warn(
-            args.quiet,
+            !args.warns(WarningKind::Batch),
             &format!(
                 "{}: removed {swept} temporary file(s) that killed batches on this host left",
                 dir_path.display()
