@@ -69,16 +69,17 @@
 //!       worker.rs         one frame through the stages
 //!       sequential.rs     the noise estimate in frame order
 //!       analyzer.rs       a recording's frames in blocks, on several threads, primed
-//!   stream/           samples in, detections out, memory flat
+//!   stream/           samples in, a block at a time, memory flat
 //!     wav.rs            WAV files and readers (pipes), decoded a block at a time
 //!     header.rs         the fmt chunk, checked; other formats named
 //!     source.rs         the SampleSource trait, channels in memory, the framer
-//!     analysis.rs       one recording through the analyzer
-//!     wpe/              the input dereverberated first (--wpe)
+//!     summary.rs        what an analysed recording reports, its warnings
+//!     wpe/              the input dereverberated first (--wpe): a filter over a
+//!                       SampleSource, so it sits with the sources, not the stages
 //!   track/            detections -> sources and events: the tracker, its candidates,
 //!                     a track's motion, floor and ceiling images, the smoother
-//!   localize/         the whole path: Localizer (analysis, tracker, frame times) and
-//!                     its recordings
+//!   localize/         the whole path: Analysis (one recording through the analyzer),
+//!                     Localizer (the analysis, the tracker, frame times)
 //!   record/           records and formats (docs/interface.md): rows, events, metadata,
 //!                     truth, one exporter per format behind one trait, reading back
 //!   evaluate/         scoring results against a truth; tracks and events
@@ -134,7 +135,8 @@ pub mod track;
 pub use config::{Config, Settings, SettingsError};
 pub use geometry::{Geometry, GeometryError};
 pub use localize::Localizer;
+pub use localize::{Analysis, AnalysisError};
 pub use method::{Detection, Params, ParamsError};
 pub use named::Named;
 pub use record::{DetectionRecord, Exporter, Format, OutputError, RunMetadata, Truth};
-pub use stream::{Analysis, AnalysisError, Summary};
+pub use stream::Summary;

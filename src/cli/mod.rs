@@ -17,8 +17,9 @@ mod sink;
 mod temporaries;
 pub(crate) mod values;
 
+use crate::localize::ErrorKind;
 use crate::method::ParamsError;
-use crate::stream::{ErrorKind, Warning};
+use crate::stream::Warning;
 use crate::{AnalysisError, OutputError};
 use args::{Cli, Command};
 use clap::Parser;

@@ -28,15 +28,17 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod analysis;
+
+pub use analysis::{Analysis, AnalysisError, ErrorKind};
+
 use crate::config::{Config, Settings, SettingsError};
 use crate::geometry::Geometry;
 use crate::method::{Detection, Params};
 use crate::record::{
     DetectionRecord, EventRecord, OutputError, RunMetadata, SourceRecord, Sources,
 };
-use crate::stream::{
-    Analysis, AnalysisError, AudioStream, Channels, ClockOrigin, SampleSource, Summary,
-};
+use crate::stream::{AudioStream, Channels, ClockOrigin, SampleSource, Summary};
 use crate::track::{TrackParams, TrackStats, Tracker};
 use std::io::Read;
 use std::ops::ControlFlow;

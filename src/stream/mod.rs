@@ -5,20 +5,20 @@
 //!   at a time; `flac`: FLAC the same way; `audio`: either, told by its first bytes.
 //! - `source`: the [`SampleSource`] every input is, channels already in memory, and the
 //!   framer that cuts any source into blocks of overlapping frames.
-//! - `analysis`: one recording through the method, whatever its source, on the threads
-//!   of the current rayon pool.
+//! - `summary`: what an analysed recording reports, and its warnings.
+//!
+//! One recording through the method is `crate::localize::Analysis`.
 
-mod analysis;
 mod audio;
 mod clock;
 mod flac;
 mod header;
 pub(crate) mod source;
+mod summary;
 mod wav;
 pub(crate) mod wpe;
 
 pub(crate) use crate::text::{io_reason, read_text, read_text_from};
-pub use analysis::{Analysis, AnalysisError, ErrorKind, Summary, Warning};
 pub use audio::AudioStream;
 pub use clock::ClockOrigin;
 #[doc(hidden)]
@@ -26,6 +26,7 @@ pub use clock::TimeReference;
 #[doc(hidden)]
 pub use flac::FlacStream;
 pub use source::{Channels, SampleSource};
+pub use summary::{Summary, Warning};
 #[doc(hidden)]
 pub use wav::{WavFormat, WavStream};
 

@@ -1,5 +1,5 @@
 //! The whole method over a recording's frames: the one way through the stages for every
-//! entry point ([`Analysis`](crate::stream::Analysis) drives it for files, readers and
+//! entry point ([`Analysis`](crate::localize::Analysis) drives it for files, readers and
 //! channels in memory, on one thread or several).
 //!
 //! Frames are analysed in blocks of [`BLOCK`] on the threads of the current rayon pool:
