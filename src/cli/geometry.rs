@@ -2,7 +2,7 @@
 
 use super::args::GeometryArgs;
 use crate::method::default_frame_size;
-use crate::record::ambiguity_note;
+use crate::record::metadata::ambiguity_note;
 use crate::Geometry;
 use anyhow::Result;
 use std::fmt::Write as _;

@@ -15,6 +15,7 @@
 
 mod read;
 
+#[cfg(feature = "cli")]
 pub(crate) use read::read_plot_file;
 pub use read::{read_plot_data, PlotData, PlotFile};
 

@@ -4,8 +4,7 @@
 
 use crate::method::Threshold;
 use crate::record::{
-    read_result, read_result_file, DetectionRecord, EventRecord, ReadError, ResultInfo,
-    ResultRecord,
+    read_result, DetectionRecord, EventRecord, ReadError, ResultInfo, ResultRecord,
 };
 use crate::Config;
 use serde::Deserialize;
@@ -107,8 +106,9 @@ pub fn read_plot_data(input: impl std::io::Read) -> Result<PlotData, ReadError> 
 }
 
 /// Reads a result file, or standard input for `-` (see [`read_plot_data`]).
+#[cfg(feature = "cli")]
 pub(crate) fn read_plot_file(path: &std::path::Path) -> Result<PlotData, ReadError> {
-    gather(|each| read_result_file(path, each))
+    gather(|each| crate::record::read_result_file(path, each))
 }
 
 /// The records and the document's figures that `read` hands over, as drawn.

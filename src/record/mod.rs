@@ -11,7 +11,7 @@ mod csv;
 mod detection;
 mod event;
 mod json;
-mod metadata;
+pub(crate) mod metadata;
 mod read;
 mod source;
 pub(crate) mod truth;
@@ -21,12 +21,12 @@ pub(crate) use self::csv::CsvExporter;
 pub(crate) use self::json::{JsonExporter, NdjsonExporter};
 pub use detection::DetectionRecord;
 pub use event::EventRecord;
-pub(crate) use metadata::ambiguity_note;
 pub use metadata::{FileEntry, GeometryInfo, MicInfo, RunMetadata, Tool};
 pub use read::{
     parse_detections, read_detections, read_result, read_result_file, ReadError, ResultInfo,
     ResultRecord,
 };
+#[cfg(feature = "cli")]
 pub(crate) use read::{read_detections_with_info, MAX_TRUTH_BYTES};
 pub use source::{SourceRecord, Sources};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};

@@ -29,6 +29,7 @@ mod source;
 #[doc(hidden)]
 pub mod wav;
 
+#[cfg(feature = "cli")]
 pub(crate) use render::simulate_read;
 pub use render::{simulate, simulate_file, Simulation};
 pub use scene::SceneFile;

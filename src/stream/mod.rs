@@ -18,7 +18,9 @@ mod summary;
 mod wav;
 pub(crate) mod wpe;
 
-pub(crate) use crate::text::{io_reason, read_text, read_text_from};
+#[cfg(feature = "cli")]
+pub(crate) use crate::text::read_text_from;
+pub(crate) use crate::text::{io_reason, read_text};
 pub use audio::AudioStream;
 pub use clock::ClockOrigin;
 #[doc(hidden)]
