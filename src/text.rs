@@ -42,9 +42,9 @@ pub(crate) fn io_reason(e: &io::Error) -> String {
 /// A number as a message shows it: as Rust writes it between 1e-4 and 1e9 (`0.35`,
 /// `48000`), in exponent form outside (`1e300`, `1e-300`), never hundreds of digits.
 #[derive(Debug, Clone, Copy)]
-pub struct Shown(pub f64);
+pub struct BriefNumber(pub f64);
 
-impl std::fmt::Display for Shown {
+impl std::fmt::Display for BriefNumber {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let v = self.0;
         if !v.is_finite() || v == 0.0 || (1e-4..1e9).contains(&v.abs()) {
@@ -57,7 +57,12 @@ impl std::fmt::Display for Shown {
 
 /// Three numbers as a message shows them: `[1, 2, 1e300]`.
 pub(crate) fn shown3(v: &[f64; 3]) -> String {
-    format!("[{}, {}, {}]", Shown(v[0]), Shown(v[1]), Shown(v[2]))
+    format!(
+        "[{}, {}, {}]",
+        BriefNumber(v[0]),
+        BriefNumber(v[1]),
+        BriefNumber(v[2])
+    )
 }
 
 /// `v` rounded to `decimals` places, with -0 written as 0.

@@ -150,7 +150,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
     let show_progress = !args.quiet && io::stderr().is_terminal() && !rows_on_terminal;
     let mut all_ok = true;
     let mut files = Vec::new();
-    let said = Said::default();
+    let said = SaidOnce::default();
     for path in &paths {
         if let Some(why) = refused.get(path) {
             error(why);
@@ -182,11 +182,11 @@ pub fn run(args: &AnalyzeArgs) -> Result<bool> {
 /// What has been said once per run (the array's coarse delays and a band's narrowness,
 /// per sample rate).
 #[derive(Default)]
-pub(super) struct Said(
+pub(super) struct SaidOnce(
     std::sync::Mutex<std::collections::HashSet<(std::mem::Discriminant<Warning>, u32)>>,
 );
 
-impl Said {
+impl SaidOnce {
     /// Whether `w` (at `rate`) is said for the first time in this run.
     fn first(&self, w: &Warning, rate: u32) -> bool {
         self.0
@@ -206,7 +206,7 @@ pub(super) fn analyze_one(
     file: Option<std::fs::File>,
     out: &mut Output,
     show_progress: bool,
-    said: &Said,
+    said: &SaidOnce,
 ) -> Result<FileEntry> {
     let opened = match file {
         Some(file) => localizer.open_file(path, file),

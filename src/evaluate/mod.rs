@@ -77,7 +77,7 @@ fn check_truth(truth: &Truth) -> Result<(), EvaluateError> {
     if !(d.is_finite() && d > 0.0 && d <= MAX_DURATION_S) {
         return bad(format!(
             "duration_s {} is not between 0 and {MAX_DURATION_S} s",
-            crate::text::Shown(d)
+            crate::text::BriefNumber(d)
         ));
     }
     for s in &truth.sources {

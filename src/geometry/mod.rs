@@ -360,7 +360,7 @@ impl Geometry {
                         "mics {} and {} are {} um apart, closer than {} um: no delay between them can be measured (positions in metres? give each microphone its own position)",
                         i + 1,
                         j + 1,
-                        crate::text::Shown(crate::text::fixed(d * 1e6, 3)),
+                        crate::text::BriefNumber(crate::text::fixed(d * 1e6, 3)),
                         MIN_SPACING_M * 1e6
                     );
                 }

@@ -4,7 +4,7 @@
 //! a 3x3 matrix.
 
 use super::GeometryError;
-use crate::text::{fixed, Shown};
+use crate::text::{fixed, BriefNumber};
 use nalgebra::{Matrix3, Vector3};
 use serde::Deserialize;
 
@@ -116,7 +116,7 @@ impl OrientationEntry {
                     fail!(
                         GeometryError::Invalid,
                         "[orientation] matrix is not a rotation (its rows must be orthogonal unit vectors and its determinant 1; it is {}{})",
-                        Shown(fixed(det, 4)),
+                        BriefNumber(fixed(det, 4)),
                         if det < 0.0 { ": a mirror image, one axis reversed" } else { "" }
                     );
                 }

@@ -3,7 +3,7 @@
 //! Nothing in the numbers is wrong in itself, so the only sign is an implausible size;
 //! this says which unit the numbers likely are in and by what to divide them.
 
-use crate::text::{fixed, Shown};
+use crate::text::{fixed, BriefNumber};
 
 /// The apertures (metres) of the arrays people build: from a 1 cm cluster of MEMS
 /// microphones to a 2 m frame.
@@ -16,11 +16,11 @@ pub const WIDE_APERTURE_M: f64 = 1.5;
 /// `3.5 mm`.
 pub fn shown_length(m: f64) -> String {
     if m >= 1.0 {
-        format!("{} m", Shown(fixed(m, 3)))
+        format!("{} m", BriefNumber(fixed(m, 3)))
     } else if m >= 0.01 {
-        format!("{} cm", Shown(fixed(m * 100.0, 1)))
+        format!("{} cm", BriefNumber(fixed(m * 100.0, 1)))
     } else {
-        format!("{} mm", Shown(fixed(m * 1000.0, 2)))
+        format!("{} mm", BriefNumber(fixed(m * 1000.0, 2)))
     }
 }
 

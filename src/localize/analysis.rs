@@ -4,7 +4,7 @@
 
 use crate::geometry::Geometry;
 use crate::method::frames::FrameBlock;
-use crate::method::{Analyzer, Detection, Params, ParamsError};
+use crate::method::{Detection, Engine, Params, ParamsError};
 use crate::stream::source::{Channels, Framer, SampleSource};
 use crate::stream::wpe::{Filtered, Wpe};
 use crate::stream::{AudioStream, ClockOrigin, InputError, Summary, Warning};
@@ -39,7 +39,7 @@ pub(crate) const COARSE_DELAY_SAMPLES: f64 = 10.0;
 pub struct Analysis<S> {
     source: S,
     framer: Framer,
-    analyzer: Analyzer,
+    analyzer: Engine,
     /// The input's dereverberation, with [`Params::wpe`](crate::Params::wpe).
     wpe: Option<Wpe>,
 }
@@ -175,7 +175,7 @@ impl<S: SampleSource> Analysis<S> {
         }
         let sample_rate = source.sample_rate();
         let analyzer =
-            Analyzer::new(geometry, sample_rate, params).map_err(|e| fail(&name, e.into()))?;
+            Engine::new(geometry, sample_rate, params).map_err(|e| fail(&name, e.into()))?;
         if params.wpe {
             let bytes = crate::stream::wpe::filter_bytes(geometry.mics.len(), sample_rate);
             if bytes > crate::stream::wpe::MAX_BYTES {

@@ -206,7 +206,7 @@ pub enum Output {
 /// What a finished (or failed) recording reports.
 #[derive(Debug, Clone)]
 #[non_exhaustive]
-pub struct Report {
+pub struct RunReport {
     /// The method's summary: format, frames, counters, warnings.
     pub summary: Summary,
     /// What the tracker made of the detections (`None` untracked).
@@ -254,7 +254,7 @@ impl<S: SampleSource> Recording<'_, S> {
     pub fn run(
         self,
         sink: impl FnMut(Output) -> Result<(), OutputError>,
-    ) -> (Report, Result<(), RunError>) {
+    ) -> (RunReport, Result<(), RunError>) {
         self.run_observed(|_| Ok(()), sink)
     }
 
@@ -265,7 +265,7 @@ impl<S: SampleSource> Recording<'_, S> {
         self,
         mut frame: impl FnMut(u64) -> Result<(), OutputError>,
         mut sink: impl FnMut(Output) -> Result<(), OutputError>,
-    ) -> (Report, Result<(), RunError>) {
+    ) -> (RunReport, Result<(), RunError>) {
         let settings = &self.localizer.settings;
         let geometry = &self.localizer.geometry;
         let name = self.analysis.name().to_string();
@@ -279,7 +279,7 @@ impl<S: SampleSource> Recording<'_, S> {
         let hop = self.analysis.frame_size() as f64 / 2.0 / rate;
         let method = &settings.method;
         let mut tracker = (settings.track.clone()).map(|p| {
-            Tracker::for_array(p, geometry, rate, speed).looking(
+            Tracker::for_array(p, geometry, rate, speed).with_evidence_window(
                 hop * method.average_frames as f64,
                 method.candidates,
                 method.background_s.map_or(0.0, |_| {
@@ -356,7 +356,7 @@ impl<S: SampleSource> Recording<'_, S> {
             times.tracking += tracking;
             times.output += output;
         }
-        let report = Report {
+        let report = RunReport {
             summary,
             tracking: tracker.as_ref().map(Tracker::stats),
             rows: rows.get(),

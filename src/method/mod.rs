@@ -46,7 +46,7 @@ pub use paper::{correlation, direction, frames, pairs, peaks, search, spectrum, 
 pub(crate) use beyond::threshold;
 pub use beyond::threshold::Threshold;
 pub use beyond::{Dereverb, Room, Talkers};
-pub(crate) use engine::analyzer::Analyzer;
+pub(crate) use engine::analyzer::Engine;
 pub use outcome::{Detection, Detections, FrameStats, StageTimes};
 pub use paper::frames::{FrameSize, Framing};
 pub use paper::peaks::Interpolation;

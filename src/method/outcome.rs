@@ -306,8 +306,8 @@ impl<'a> Clock<'a> {
         Clock { times, last }
     }
 
-    /// Adds the time since the last lap to the stage `pick` selects.
-    pub fn lap(&mut self, pick: fn(&mut StageTimes) -> &mut Duration) {
+    /// Adds the time since the last charge to the stage `pick` selects.
+    pub fn charge(&mut self, pick: fn(&mut StageTimes) -> &mut Duration) {
         if let (Some(t), Some(times)) = (self.last.as_mut(), self.times.as_deref_mut()) {
             let now = Instant::now();
             *pick(times) += now - *t;

@@ -273,11 +273,11 @@ pub enum ParamsError {
     )]
     FrameSize(usize),
     /// The frame length in milliseconds is not a positive number.
-    #[error("the frame length must be a positive number of milliseconds, got {}", crate::text::Shown(*.0))]
+    #[error("the frame length must be a positive number of milliseconds, got {}", crate::text::BriefNumber(*.0))]
     FrameMs(f64),
     /// The frame length in milliseconds is not 16 to `MAX_FRAME_SIZE` samples at the
     /// recording's rate.
-    #[error("a frame of {} ms at {sample_rate} Hz would be {} samples; frames are 16 to {MAX_FRAME_SIZE} samples ({:.2} to {:.0} ms at this rate)", crate::text::Shown(*ms), crate::text::Shown(ms * *sample_rate as f64 / 1000.0), 16000.0 / *sample_rate as f64, MAX_FRAME_SIZE as f64 * 1000.0 / *sample_rate as f64)]
+    #[error("a frame of {} ms at {sample_rate} Hz would be {} samples; frames are 16 to {MAX_FRAME_SIZE} samples ({:.2} to {:.0} ms at this rate)", crate::text::BriefNumber(*ms), crate::text::BriefNumber(ms * *sample_rate as f64 / 1000.0), 16000.0 / *sample_rate as f64, MAX_FRAME_SIZE as f64 * 1000.0 / *sample_rate as f64)]
     FrameMsRange {
         /// The frame length asked for (ms).
         ms: f64,
@@ -293,7 +293,7 @@ pub enum ParamsError {
         end_s: Option<f64>,
     },
     /// `--band` is not a range of frequencies.
-    #[error("the band must be LOW-HIGH in Hz with 0 <= LOW < HIGH, got {}-{}", crate::text::Shown(*low), crate::text::Shown(*high))]
+    #[error("the band must be LOW-HIGH in Hz with 0 <= LOW < HIGH, got {}-{}", crate::text::BriefNumber(*low), crate::text::BriefNumber(*high))]
     Band {
         /// Its lower edge (Hz).
         low: f64,
@@ -301,7 +301,7 @@ pub enum ParamsError {
         high: f64,
     },
     /// `--band` holds too few of the frame's frequency bins at the recording's rate.
-    #[error("the band {}-{} Hz holds {bins} frequency bin(s) of a {frame_size}-sample frame at {sample_rate} Hz (one every {} Hz, up to {} Hz); at least {MIN_BAND_BINS} are needed: widen the band or lengthen the frame (--frame-size)", crate::text::Shown(*low), crate::text::Shown(*high), crate::text::Shown(crate::text::fixed(*sample_rate as f64 / *frame_size as f64, 2)), sample_rate / 2)]
+    #[error("the band {}-{} Hz holds {bins} frequency bin(s) of a {frame_size}-sample frame at {sample_rate} Hz (one every {} Hz, up to {} Hz); at least {MIN_BAND_BINS} are needed: widen the band or lengthen the frame (--frame-size)", crate::text::BriefNumber(*low), crate::text::BriefNumber(*high), crate::text::BriefNumber(crate::text::fixed(*sample_rate as f64 / *frame_size as f64, 2)), sample_rate / 2)]
     BandTooNarrow {
         /// Its lower edge (Hz).
         low: f64,
@@ -343,13 +343,13 @@ pub enum ParamsError {
     #[error("the number of peaks per pair must be between 1 and {MAX_PEAKS}, got {0}")]
     Peaks(usize),
     /// The tolerance is negative or not a number.
-    #[error("the consistency tolerance must be a non-negative number of samples, got {}", crate::text::Shown(f64::from(*.0)))]
+    #[error("the consistency tolerance must be a non-negative number of samples, got {}", crate::text::BriefNumber(f64::from(*.0)))]
     Tolerance(f32),
     /// The tolerance in microseconds is negative or not a number.
-    #[error("the consistency tolerance must be a non-negative number of microseconds, got {}", crate::text::Shown(*.0))]
+    #[error("the consistency tolerance must be a non-negative number of microseconds, got {}", crate::text::BriefNumber(*.0))]
     ToleranceUs(f64),
     /// The residual gate is not a positive number of microseconds.
-    #[error("the residual gate must be a positive number of microseconds, got {}", crate::text::Shown(*.0))]
+    #[error("the residual gate must be a positive number of microseconds, got {}", crate::text::BriefNumber(*.0))]
     ResidualGate(f64),
     /// The number of frames averaged is 0 or more than 64.
     #[error("the number of frames to average must be between 1 and {MAX_AVERAGE_FRAMES}, got {0}")]
@@ -358,25 +358,25 @@ pub enum ParamsError {
     #[error("the most sources per frame must be 1 to 4, got {0}")]
     MaxSources(usize),
     /// The candidates' share of the threshold is not in (0, 1].
-    #[error("the candidates' share of the threshold must be over 0 and at most 1, got {}", crate::text::Shown(*.0))]
+    #[error("the candidates' share of the threshold must be over 0 and at most 1, got {}", crate::text::BriefNumber(*.0))]
     Candidates(f64),
     /// The riders' share of the threshold is not in (0, 1].
-    #[error("the riders' share of the threshold must be over 0 and at most 1, got {}", crate::text::Shown(*.0))]
+    #[error("the riders' share of the threshold must be over 0 and at most 1, got {}", crate::text::BriefNumber(*.0))]
     Riders(f64),
     /// The threshold's allowance for chance is negative or not a number.
-    #[error("the threshold's allowance for chance must be a non-negative number of standard deviations, got {}", crate::text::Shown(*.0))]
+    #[error("the threshold's allowance for chance must be a non-negative number of standard deviations, got {}", crate::text::BriefNumber(*.0))]
     ThresholdSigmas(f64),
     /// The reverberation share is outside 0 to 1.
-    #[error("the share of late reverberation must be between 0 and 1, got {}", crate::text::Shown(f64::from(*.0)))]
+    #[error("the share of late reverberation must be between 0 and 1, got {}", crate::text::BriefNumber(f64::from(*.0)))]
     ReverbLevel(f32),
     /// The background's time constant is not a positive number of seconds.
-    #[error("the background's time constant must be a positive number of seconds, got {}", crate::text::Shown(*.0))]
+    #[error("the background's time constant must be a positive number of seconds, got {}", crate::text::BriefNumber(*.0))]
     BackgroundS(f64),
     /// The learned patterns' longer average has no positive time constant.
-    #[error("the time constant of the average the talkers' patterns are removed from must be a positive number of seconds, got {}", crate::text::Shown(*.0))]
+    #[error("the time constant of the average the talkers' patterns are removed from must be a positive number of seconds, got {}", crate::text::BriefNumber(*.0))]
     PatternsS(f64),
     /// The threshold is not a number.
-    #[error("the detection threshold must be a number, got {}", crate::text::Shown(*.0))]
+    #[error("the detection threshold must be a number, got {}", crate::text::BriefNumber(*.0))]
     MinScore(f64),
     /// The speed of sound is outside `SPEED_OF_SOUND_RANGE`.
     #[error("the speed of sound must be {low} to {high} m/s, got {0:e}", low = SPEED_OF_SOUND_RANGE.0, high = SPEED_OF_SOUND_RANGE.1)]

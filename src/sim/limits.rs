@@ -5,7 +5,7 @@
 use super::room::image_count;
 use super::scene::{SceneFile, SignalKind};
 use super::SceneError;
-use crate::text::{shown3, Shown};
+use crate::text::{shown3, BriefNumber};
 
 /// The longest scene (seconds).
 pub(crate) const MAX_DURATION_S: f64 = 3600.0;
@@ -66,7 +66,7 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
     require!(
         scene.duration.is_finite() && scene.duration > 0.0 && scene.duration <= MAX_DURATION_S,
         "duration must be between 0 and {MAX_DURATION_S} seconds, got {}",
-        Shown(scene.duration)
+        BriefNumber(scene.duration)
     );
     require!(
         (scene.duration * fs).round() >= 1.0,
@@ -80,7 +80,7 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
         "speed_of_sound must be between {} and {} m/s, got {}",
         SPEED_RANGE.0,
         SPEED_RANGE.1,
-        Shown(c)
+        BriefNumber(c)
     );
     if let Some(room) = &scene.room {
         require!(
@@ -118,13 +118,13 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
         require!(
             s.level_db.is_finite() && (-200.0..=40.0).contains(&s.level_db),
             "{what}: level_db must be between -200 and 40 dBFS, got {}",
-            Shown(s.level_db)
+            BriefNumber(s.level_db)
         );
         if let Some(d) = s.distance {
             require!(
                 d > 0.0 && d <= MAX_DISTANCE_M,
                 "{what}: distance must be between 0 and {MAX_DISTANCE_M} m, got {}",
-                Shown(d)
+                BriefNumber(d)
             );
         }
         if let Some(turn) = s.turn_deg_per_s {
@@ -135,7 +135,7 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
             require!(
                 turn.abs() <= MAX_TURN_DEG_S,
                 "{what}: turn_deg_per_s must be at most {MAX_TURN_DEG_S} deg/s either way, got {}",
-                Shown(turn)
+                BriefNumber(turn)
             );
         }
         if s.signal == SignalKind::Clicks {
@@ -143,7 +143,7 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
             require!(
                 rate > 0.0 && rate <= 1000.0,
                 "{what}: rate must be between 0 and 1000 clicks per second, got {}",
-                Shown(rate)
+                BriefNumber(rate)
             );
         }
         if s.signal == SignalKind::Tone {
@@ -152,7 +152,7 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
                 f > 0.0 && f < fs / 2.0,
                 "{what}: frequency must be between 0 and {} Hz (half the sample rate), got {}",
                 fs / 2.0,
-                Shown(f)
+                BriefNumber(f)
             );
         }
     }
@@ -160,14 +160,14 @@ pub(crate) fn check_scene(scene: &SceneFile) -> Result<(), SceneError> {
         require!(
             noise.snr_db.is_finite() && (-100.0..=100.0).contains(&noise.snr_db),
             "[noise] snr_db must be between -100 and 100 dB, got {}",
-            Shown(noise.snr_db)
+            BriefNumber(noise.snr_db)
         );
         require!(
             noise
                 .sensor_db
                 .is_none_or(|d| d.is_finite() && (-200.0..=40.0).contains(&d)),
             "[noise] sensor_db must be between -200 and 40 dBFS, got {}",
-            Shown(noise.sensor_db.unwrap_or(f64::NAN))
+            BriefNumber(noise.sensor_db.unwrap_or(f64::NAN))
         );
         require!(
             noise

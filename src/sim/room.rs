@@ -49,7 +49,7 @@ impl Room {
             fail!(
                 SceneError::Invalid,
                 "rt60 must be a non-negative number of seconds, got {}",
-                crate::text::Shown(rt60)
+                crate::text::BriefNumber(rt60)
             );
         }
         if rt60 == 0.0 {
@@ -116,7 +116,7 @@ impl Room {
             fail!(
                 SceneError::Invalid,
                 "wall absorption must be in (0, 1], got {}",
-                crate::text::Shown(absorption)
+                crate::text::BriefNumber(absorption)
             );
         }
         Ok(Room {

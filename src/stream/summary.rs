@@ -84,7 +84,7 @@ impl fmt::Display for Warning {
                 f,
                 "the band holds {bins} frequency bins of a {frame_size}-sample frame at {sample_rate} Hz: a source's correlation stands at most about sqrt(2 x {bins}) = {:.1} chance deviations high, and the threshold asks for {}, so only clear, coherent sources are found (a longer frame, --frame-size {}, has about {} bins)",
                 (2.0 * *bins as f64).sqrt(),
-                crate::text::Shown(*sigmas),
+                crate::text::BriefNumber(*sigmas),
                 frame_size * 4,
                 bins * 4
             ),
@@ -123,7 +123,7 @@ impl fmt::Display for Warning {
                     Some(t) => write!(
                         f,
                         ", against a threshold of {} per pair",
-                        crate::text::Shown(*t)
+                        crate::text::BriefNumber(*t)
                     )?,
                     None => write!(f, ", against the threshold calibrated from each frame's background")?,
                 }

@@ -429,7 +429,7 @@ impl TrackParams {
                 fail!(
                     TrackParamsError::Invalid,
                     "{what} must be a positive number, got {}",
-                    crate::text::Shown(v)
+                    crate::text::BriefNumber(v)
                 );
             }
         }
@@ -441,7 +441,7 @@ impl TrackParams {
                 fail!(
                     TrackParamsError::Invalid,
                     "{what} must be at most {MAX_DELAY_S} s (rows wait that long in memory), got {}",
-                    crate::text::Shown(v)
+                    crate::text::BriefNumber(v)
                 );
             }
         }
@@ -453,7 +453,7 @@ impl TrackParams {
                 TrackParamsError::Invalid,
                 "the false sources an hour must be over 0 and at most {}, got {}",
                 evidence::CANDIDATES_PER_HOUR,
-                crate::text::Shown(self.false_per_hour)
+                crate::text::BriefNumber(self.false_per_hour)
             );
         }
         if !(self.candidate_gate_samples.is_finite()
@@ -462,36 +462,36 @@ impl TrackParams {
             fail!(
                 TrackParamsError::Invalid,
                 "the candidates' gate in samples must be 0 to 100, got {}",
-                crate::text::Shown(self.candidate_gate_samples)
+                crate::text::BriefNumber(self.candidate_gate_samples)
             );
         }
         if !(self.weak_span_s.is_finite() && (0.0..=self.confirm_s).contains(&self.weak_span_s)) {
             fail!(
                 TrackParamsError::Invalid,
                 "the span of a run of candidates must be 0 to the confirmation window ({} s), got {}",
-                crate::text::Shown(self.confirm_s),
-                crate::text::Shown(self.weak_span_s)
+                crate::text::BriefNumber(self.confirm_s),
+                crate::text::BriefNumber(self.weak_span_s)
             );
         }
         if !(self.alone_s.is_finite() && (0.0..=MAX_DELAY_S).contains(&self.alone_s)) {
             fail!(
                 TrackParamsError::Invalid,
                 "the time a detection must be heard alone must be 0 to {MAX_DELAY_S} s, got {}",
-                crate::text::Shown(self.alone_s)
+                crate::text::BriefNumber(self.alone_s)
             );
         }
         if !(self.smooth_s.is_finite() && (0.0..=MAX_SMOOTH_S).contains(&self.smooth_s)) {
             fail!(
                 TrackParamsError::Invalid,
                 "the smoothing window must be 0 to {MAX_SMOOTH_S} s, got {}",
-                crate::text::Shown(self.smooth_s)
+                crate::text::BriefNumber(self.smooth_s)
             );
         }
         if !(self.max_speed_deg_s.is_finite() && self.max_speed_deg_s >= 0.0) {
             fail!(
                 TrackParamsError::Invalid,
                 "the largest speed must be a non-negative number, got {}",
-                crate::text::Shown(self.max_speed_deg_s)
+                crate::text::BriefNumber(self.max_speed_deg_s)
             );
         }
         if self.confirm_hits == 0 || self.confirm_hits > 1000 {

@@ -71,14 +71,14 @@ impl Smoother {
         while self.done < self.rows.len()
             && self.rows[self.done].detection.time_s + self.half_s < from_s
         {
-            self.give_out(out);
+            self.emit_next(out);
         }
     }
 
     /// The end of the recording: every waiting row goes out.
     pub fn finish(&mut self, out: &mut Vec<Tracked>) {
         while self.done < self.rows.len() {
-            self.give_out(out);
+            self.emit_next(out);
         }
         self.rows.clear();
         self.done = 0;
@@ -127,7 +127,7 @@ impl Smoother {
 
     /// Smooths the first waiting row and gives it out; forgets the rows no waiting row
     /// needs any more.
-    fn give_out(&mut self, out: &mut Vec<Tracked>) {
+    fn emit_next(&mut self, out: &mut Vec<Tracked>) {
         let mut row = self.rows[self.done].clone();
         if let Some(source) = row.source {
             let t = row.detection.time_s;

@@ -162,7 +162,7 @@ impl Tracker {
     /// after `warmup_s` seconds (0: from the start, or never): until then a candidate
     /// under the threshold may be that background (a fan beside the array), and tells
     /// nothing.
-    pub fn looking(mut self, look_s: f64, floor: f64, warmup_s: f64) -> Self {
+    pub fn with_evidence_window(mut self, look_s: f64, floor: f64, warmup_s: f64) -> Self {
         self.evidence = Evidence::new(look_s, floor, self.params.false_per_hour);
         self.warmup_s = warmup_s;
         self

@@ -27,7 +27,7 @@
 
 mod stamp;
 
-use super::analyze::{analyze_one, prepare, Output, Said, Written};
+use super::analyze::{analyze_one, prepare, Output, SaidOnce, Written};
 use super::args::{AnalyzeArgs, WarningKind};
 use super::inputs::Input;
 use super::outdir::{Entry, OutDir};
@@ -258,7 +258,7 @@ pub fn run(args: &AnalyzeArgs, dir_path: &Path) -> Result<bool> {
         .map(|(_, input)| input)
         .collect();
     let started = Instant::now();
-    let said = Said::default();
+    let said = SaidOnce::default();
     let recipe = recipe(
         args,
         &serde_json::to_string(&localizer.metadata(&geometry_path))?,
@@ -343,7 +343,7 @@ fn one(
     localizer: &crate::Localizer,
     dir: &OutDir,
     recipe: &str,
-    said: &Said,
+    said: &SaidOnce,
     input: &Input,
     geometry_path: &str,
 ) -> Result<(BatchFile, f64)> {

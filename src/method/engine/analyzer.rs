@@ -31,7 +31,7 @@ use std::time::{Duration, Instant};
 
 /// The method's state over one recording: the checked setup, one [`Worker`] per thread,
 /// the noise estimate and the counters.
-pub(crate) struct Analyzer {
+pub(crate) struct Engine {
     setup: Setup,
     workers: Vec<Mutex<(Worker, StageTimes)>>,
     sequential: Sequential,
@@ -60,7 +60,7 @@ pub(crate) struct Analyzer {
     times: Option<StageTimes>,
 }
 
-impl Analyzer {
+impl Engine {
     /// Checks `params` against the array and the sample rate, and plans every stage.
     pub fn new(
         geometry: &Geometry,
@@ -71,7 +71,7 @@ impl Analyzer {
         // The frames finished before a call (spans), those waiting, a block's.
         let carried = setup.params.average_frames - 1;
         let (span, most) = (2 * carried, carried + BLOCK);
-        Ok(Analyzer {
+        Ok(Engine {
             workers: (0..rayon::current_num_threads())
                 .map(|_| Mutex::new((Worker::new(&setup), StageTimes::default())))
                 .collect(),
@@ -171,7 +171,7 @@ impl Analyzer {
     /// finishes, in frame order, with the index of the first. A frame is finished once
     /// the [`Params::average_frames`](crate::method::Params::average_frames)` - 1` frames
     /// after it are weighed (whether its correlations can be left out depends on them),
-    /// so the last of a block wait for the next block or for [`Analyzer::finish`]:
+    /// so the last of a block wait for the next block or for [`Engine::finish`]:
     /// the output does not depend on where blocks end. `meanwhile` runs on the calling
     /// thread while the pool works, when there is more than one thread (the caller
     /// reads the next block).
@@ -194,7 +194,7 @@ impl Analyzer {
     }
 
     /// Finishes the frames still waiting for the frames after them (at the end of the
-    /// recording) and returns their detections as [`Analyzer::analyse`] does.
+    /// recording) and returns their detections as [`Engine::analyse`] does.
     pub fn finish(&mut self) -> (u64, &[Detections]) {
         let done = self.analyse_block(None);
         self.tally(done)

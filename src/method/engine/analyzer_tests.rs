@@ -11,7 +11,7 @@ use crate::stream::source::{Channels, Framer, SampleSource};
 use crate::stream::InputError;
 
 /// Every frame's detection (or none), in order.
-fn run(analyzer: &mut Analyzer, channels: &[Vec<f32>]) -> Vec<Option<Detection>> {
+fn run(analyzer: &mut Engine, channels: &[Vec<f32>]) -> Vec<Option<Detection>> {
     let mut source = Channels::new("t", channels.iter().map(|c| &c[..]).collect(), 48000)
         .expect("channels of one length");
     run_all(analyzer, &mut source)
@@ -21,7 +21,7 @@ fn run(analyzer: &mut Analyzer, channels: &[Vec<f32>]) -> Vec<Option<Detection>>
 }
 
 /// Every frame's detections, in order, from `source` a block at a time.
-fn run_all(analyzer: &mut Analyzer, source: &mut dyn SampleSource) -> Vec<Detections> {
+fn run_all(analyzer: &mut Engine, source: &mut dyn SampleSource) -> Vec<Detections> {
     let mics = source.channels();
     let first = analyzer.priming_frames();
     let mut framer = Framer::new(analyzer.frame_size(), (0..mics).collect(), mics, first);
@@ -107,13 +107,13 @@ fn a_steady_fan_in_free_field_is_background() {
         background_s: None,
         ..Params::default()
     };
-    let mut analyzer = Analyzer::new(&geometry, 48000, &without).unwrap();
+    let mut analyzer = Engine::new(&geometry, 48000, &without).unwrap();
     let reported = run(&mut analyzer, &alone).into_iter().flatten().count();
     assert!(
         reported > 200,
         "{reported} of 750 frames without the background"
     );
-    let mut analyzer = Analyzer::new(&geometry, 48000, &Params::default()).unwrap();
+    let mut analyzer = Engine::new(&geometry, 48000, &Params::default()).unwrap();
     let found: Vec<Detection> = run(&mut analyzer, &alone).into_iter().flatten().collect();
     assert!(
         found.len() <= 1,
@@ -131,7 +131,7 @@ fn a_steady_fan_in_free_field_is_background() {
             level: 0.04,
         },
     ]);
-    let mut analyzer = Analyzer::new(&geometry, 48000, &Params::default()).unwrap();
+    let mut analyzer = Engine::new(&geometry, 48000, &Params::default()).unwrap();
     let found: Vec<Detection> = run(&mut analyzer, &with_talker)
         .into_iter()
         .flatten()
@@ -250,8 +250,8 @@ fn pruning_changes_no_detection() {
             riders: if further { DEFAULT_RIDERS } else { 1.0 },
             ..Params::default()
         };
-        let mut pruned = Analyzer::new(&geometry, 48000, &params).unwrap();
-        let mut full = Analyzer::new(&geometry, 48000, &params).unwrap();
+        let mut pruned = Engine::new(&geometry, 48000, &params).unwrap();
+        let mut full = Engine::new(&geometry, 48000, &params).unwrap();
         full.disable_pruning();
         pruned.enable_stage_timing();
         full.enable_stage_timing();
@@ -350,7 +350,7 @@ fn the_output_does_not_depend_on_where_blocks_end() {
     };
     let slices = || channels.iter().map(|c| &c[..]).collect::<Vec<_>>();
     let mut whole = Channels::new("t", slices(), 48000).unwrap();
-    let mut analyzer = Analyzer::new(&geometry, 48000, &params).unwrap();
+    let mut analyzer = Engine::new(&geometry, 48000, &params).unwrap();
     analyzer.enable_stage_timing();
     let want = run_all(&mut analyzer, &mut whole);
     let skipped = analyzer.stage_times().unwrap().skipped_pairs;
@@ -358,7 +358,7 @@ fn the_output_does_not_depend_on_where_blocks_end() {
         inner: Channels::new("t", slices(), 48000).unwrap(),
         reads: 0,
     };
-    let mut analyzer = Analyzer::new(&geometry, 48000, &params).unwrap();
+    let mut analyzer = Engine::new(&geometry, 48000, &params).unwrap();
     let got = run_all(&mut analyzer, &mut trickle);
     let count = |all: &[Detections]| all.iter().map(|d| d.as_slice().len()).sum::<usize>();
     let (detected, found) = (

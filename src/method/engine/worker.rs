@@ -2,7 +2,7 @@
 //! thread: spectra (eq. 2), weights (eq. 4-5), the weighted PHAT correlation of every
 //! pair (eq. 6), its M peaks (eq. 7), the consistency search (eq. 8), the direction
 //! (eq. 13). The noise estimate `X_n(k)` that the weights need depends on every earlier
-//! frame, so [`Analyzer`](crate::method::Analyzer) computes it in frame order between
+//! frame, so [`Engine`](crate::method::Engine) computes it in frame order between
 //! [`Worker::spectra`] and [`Worker::weigh`]; a frame's correlations may be averaged
 //! with those of the frames before it, so [`Worker::correlate`] keeps them in the frame's
 //! state for [`Worker::decide`].
@@ -112,7 +112,7 @@ impl Worker {
             out,
             &mut edges,
         );
-        clock.lap(|t| &mut t.correlation);
+        clock.charge(|t| &mut t.correlation);
         (reach, edges)
     }
 
@@ -201,7 +201,7 @@ impl Worker {
         for &m in &state.live {
             whiten(&state.spectra[m], &state.weights, &mut self.whitened[m]);
         }
-        clock.lap(|t| &mut t.weighting);
+        clock.charge(|t| &mut t.weighting);
         let alone = setup.params.average_frames == 1 && self.prune && !state.teaches;
         let threshold = state.floor.min(state.rider_floor) * pairs as f64;
         let overshoot = setup.params.interpolation.overshoot() as f32;
@@ -241,7 +241,7 @@ impl Worker {
                 done += 1;
             }
         }
-        clock.lap(|t| &mut t.correlation);
+        clock.charge(|t| &mut t.correlation);
         state.correlated = Correlated::Yes;
         state.edges = edges;
     }
@@ -298,7 +298,7 @@ impl Worker {
         if state.live.len() < 2 {
             return Outcome::Unsolved;
         }
-        let outcome = self.decide_down_to(setup, span, index, &mut clock, state.floor);
+        let outcome = self.decide_with_floor(setup, span, index, &mut clock, state.floor);
         // A frame that gives nothing down to the candidates' share is searched again down
         // to the riders' ([`Params::riders`](crate::method::Params::riders)): what the frames
         // that gave something give is left as it was.
@@ -319,7 +319,7 @@ impl Worker {
     }
 
     /// [`Worker::decide`] with candidates down to `floor` per pair.
-    fn decide_down_to(
+    fn decide_with_floor(
         &mut self,
         setup: &Setup,
         span: &[FrameState],
@@ -391,7 +391,7 @@ impl Worker {
             for b in a + 1..k {
                 // The pairs left add at most the ceiling each.
                 if self.prune && best_possible + left as f64 * ceiling < threshold {
-                    clock.lap(|t| &mut t.peaks);
+                    clock.charge(|t| &mut t.peaks);
                     return Outcome::BelowThreshold(
                         false,
                         (best_possible + left as f64 * ceiling) / pairs,
@@ -429,12 +429,12 @@ impl Worker {
                 best_possible += peaks.first().map_or(0.0, |p| p.value as f64);
             }
         }
-        clock.lap(|t| &mut t.peaks);
+        clock.charge(|t| &mut t.peaks);
         if self.prune && best_possible < threshold {
             return Outcome::BelowThreshold(false, best_possible / pairs, false);
         }
         self.searcher.search(k, &self.peaks);
-        clock.lap(|t| &mut t.search);
+        clock.charge(|t| &mut t.search);
         let budget = self.searcher.exhausted();
         let first = match self.searcher.solution() {
             None => Outcome::Inconsistent(budget),
@@ -450,9 +450,9 @@ impl Worker {
                 Direction::None => Outcome::Unsolved,
             },
         };
-        clock.lap(|t| &mut t.direction);
+        clock.charge(|t| &mut t.direction);
         let outcome = self.steer(setup, state, index, threshold, first);
-        clock.lap(|t| &mut t.steered);
+        clock.charge(|t| &mut t.steered);
         outcome
     }
 
