@@ -1,9 +1,8 @@
 #!/usr/bin/env bash
 # Are two builds' answers the same, byte for byte? For refactors that must not change
-# what is found: rows, events, sources, JSON detections (the metadata's `parameters`
-# left out) at nine flag sets, on the example and on every scene
-# folder given (each holding rec.wav and array.toml, as benches/check.py --work writes
-# them).
+# what is found: rows, events, sources and JSON documents (the metadata's `parameters`
+# and `tool` left out), at nine flag sets, on the example and on every scene folder
+# given (each holding rec.wav and array.toml, as benches/check.py --work writes them).
 #   benches/same_answers.sh OLD_SSL NEW_SSL [SCENE_DIR ...]
 set -uo pipefail
 old=$1; new=$2; shift 2
@@ -17,8 +16,8 @@ for c in "${cases[@]}"; do
     set -- $c
     for f in "${flags[@]}"; do
         if [[ $f == *json* ]]; then
-            a=$($old analyze "$1" -g "$2" $f -q | jq -c 'del(.parameters)')
-            b=$($new analyze "$1" -g "$2" $f -q | jq -c 'del(.parameters)')
+            a=$($old analyze "$1" -g "$2" $f -q | jq -c 'del(.parameters, .tool)')
+            b=$($new analyze "$1" -g "$2" $f -q | jq -c 'del(.parameters, .tool)')
         else
             a=$($old analyze "$1" -g "$2" $f -q 2>&1)
             b=$($new analyze "$1" -g "$2" $f -q 2>&1)
