@@ -201,12 +201,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }),
         ("tolerance 20 us", {
             let mut p = params.clone();
-            p.tolerance_us = Some(20.0);
+            p.tolerance = ssl::method::Tolerance::Us(20.0);
             p
         }),
         ("tolerance 80 us", {
             let mut p = params.clone();
-            p.tolerance_us = Some(80.0);
+            p.tolerance = ssl::method::Tolerance::Us(80.0);
             p
         }),
         ("no residual gate", {
@@ -229,7 +229,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ),
         ("fixed threshold, no reverberation (--min-score 0.5)", {
             let mut p = params.clone();
-            p.threshold_sigmas = None;
+            p.threshold = ssl::method::Threshold::Fixed { per_pair: 0.5 };
             p.reverb_level = 0.0;
             p
         }),

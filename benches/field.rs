@@ -217,8 +217,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         return rt60_snr_grid(dir.path(), &params, started);
     }
     eprintln!(
-        "tolerance {:?} us, residual gate {:?} us, averaged over {} frames",
-        params.tolerance_us, params.residual_gate_us, params.average_frames
+        "tolerance {:?}, residual gate {:?} us, averaged over {} frames",
+        params.tolerance, params.residual_gate_us, params.average_frames
     );
     println!(
         "| array | rate | events / mean error / azimuth error / confidently wrong / background false per min / near fan false per min |"

@@ -226,8 +226,7 @@ fn main() {
             "tolerance 0.5",
             {
                 let mut p = base.clone();
-                p.tolerance = 0.5;
-                p.tolerance_us = None;
+                p.tolerance = ssl::method::Tolerance::Samples(0.5);
                 p
             },
         ),
@@ -235,8 +234,7 @@ fn main() {
             "tolerance 1",
             {
                 let mut p = base.clone();
-                p.tolerance = 1.0;
-                p.tolerance_us = None;
+                p.tolerance = ssl::method::Tolerance::Samples(1.0);
                 p
             },
         ),
@@ -244,8 +242,7 @@ fn main() {
             "tolerance 3",
             {
                 let mut p = base.clone();
-                p.tolerance = 3.0;
-                p.tolerance_us = None;
+                p.tolerance = ssl::method::Tolerance::Samples(3.0);
                 p
             },
         ),
@@ -253,8 +250,7 @@ fn main() {
             "tolerance 4",
             {
                 let mut p = base.clone();
-                p.tolerance = 4.0;
-                p.tolerance_us = None;
+                p.tolerance = ssl::method::Tolerance::Samples(4.0);
                 p
             },
         ),
@@ -286,8 +282,7 @@ fn main() {
             "threshold 0.4 per pair",
             {
                 let mut p = base.clone();
-                p.min_score_per_pair = 0.4;
-                p.threshold_sigmas = None;
+                p.threshold = ssl::method::Threshold::Fixed { per_pair: 0.4 };
                 p
             },
         ),
@@ -295,8 +290,7 @@ fn main() {
             "threshold 0.6 per pair",
             {
                 let mut p = base.clone();
-                p.min_score_per_pair = 0.6;
-                p.threshold_sigmas = None;
+                p.threshold = ssl::method::Threshold::Fixed { per_pair: 0.6 };
                 p
             },
         ),
@@ -304,8 +298,7 @@ fn main() {
             "no threshold",
             {
                 let mut p = base.clone();
-                p.min_score_per_pair = f64::NEG_INFINITY;
-                p.threshold_sigmas = None;
+                p.threshold = ssl::method::Threshold::Fixed { per_pair: f64::NEG_INFINITY };
                 p
             },
         ),
@@ -323,8 +316,9 @@ fn main() {
         // Score distributions without a threshold, to choose the default threshold.
         let open = {
             let mut p = Params::default();
-            p.min_score_per_pair = f64::NEG_INFINITY;
-            p.threshold_sigmas = None;
+            p.threshold = ssl::method::Threshold::Fixed {
+                per_pair: f64::NEG_INFINITY,
+            };
             p
         };
         let pct = |v: &mut Vec<f64>, p: f64| {

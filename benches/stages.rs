@@ -189,8 +189,7 @@ fn stages(c: &mut Timer) {
     // --min-score 0: no correlation can be skipped.
     let every_pair = {
         let mut p = Params::default();
-        p.min_score_per_pair = 0.0;
-        p.threshold_sigmas = None;
+        p.threshold = ssl::method::Threshold::Fixed { per_pair: 0.0 };
         p
     };
     let g = geometry(&pos);

@@ -172,14 +172,6 @@ impl Config {
     pub fn settings(&self) -> Result<Settings, SettingsError> {
         let r = self.resolved();
         let (framing, weighting, room, talkers) = (&r.framing, &r.weighting, &r.room, &r.talkers);
-        let (tolerance, tolerance_us) = match r.tolerance {
-            Tolerance::Samples(s) => (s as f32, None),
-            Tolerance::Us(us) => (PAPER_TOLERANCE as f32, Some(us)),
-        };
-        let (min_score_per_pair, threshold_sigmas) = match r.threshold {
-            Threshold::Fixed { per_pair } => (per_pair, None),
-            Threshold::Calibrated { sigmas } => (PAPER_MIN_SCORE_PER_PAIR, Some(sigmas)),
-        };
         let positive = |v: f64| (v > 0.0).then_some(v);
         let method = Params {
             frame_size: match framing.size {
@@ -194,12 +186,10 @@ impl Config {
             gamma: weighting.gamma as f32,
             weighting: weighting.on,
             peaks: r.peaks.count,
-            tolerance,
-            tolerance_us,
+            tolerance: r.tolerance,
             residual_gate_us: positive(room.residual_gate_us),
             speed_of_sound: r.speed_of_sound,
-            min_score_per_pair,
-            threshold_sigmas,
+            threshold: r.threshold,
             reverb_level: weighting.reverb_level.unwrap_or(0.0) as f32,
             window: framing.window,
             interpolation: r.peaks.interpolation.unwrap_or(Interpolation::Cosine),
@@ -277,8 +267,13 @@ mod tests {
         assert!(m.steered && m.frame_sources && m.bin_votes_on());
         assert_eq!((m.max_sources, m.candidates, m.riders), (2, 0.4, 0.3));
         assert_eq!(m.patterns_s, Some(DEFAULT_PATTERNS_S));
-        assert_eq!(m.threshold_sigmas, Some(DEFAULT_THRESHOLD_SIGMAS));
-        assert_eq!(m.tolerance_us, Some(DEFAULT_TOLERANCE_US));
+        assert_eq!(
+            m.threshold,
+            Threshold::Calibrated {
+                sigmas: DEFAULT_THRESHOLD_SIGMAS
+            }
+        );
+        assert_eq!(m.tolerance, Tolerance::Us(DEFAULT_TOLERANCE_US));
     }
 
     #[test]
@@ -294,10 +289,10 @@ mod tests {
     #[test]
     fn the_paper_preset_is_the_published_method() {
         let m = settings(&Config::paper()).method;
-        assert_eq!((m.tolerance, m.tolerance_us), (2.0, None));
+        assert_eq!(m.tolerance, Tolerance::Samples(2.0));
         assert_eq!(m.residual_gate_us, None);
         assert_eq!((m.average_frames, m.background_s), (1, None));
-        assert_eq!((m.threshold_sigmas, m.min_score_per_pair), (None, 0.5));
+        assert_eq!(m.threshold, Threshold::Fixed { per_pair: 0.5 });
         assert_eq!((m.reverb_level, m.dereverb), (0.0, Dereverb::Off));
         assert_eq!(m.interpolation, Interpolation::Parabolic);
         assert!(!m.steered && m.max_sources == 1 && m.candidates == 1.0);
@@ -310,7 +305,7 @@ mod tests {
     #[test]
     fn a_fixed_threshold_turns_off_what_only_the_calibrated_one_allows() {
         let m = settings(&Config::fixed_threshold(0.3)).method;
-        assert_eq!((m.min_score_per_pair, m.threshold_sigmas), (0.3, None));
+        assert_eq!(m.threshold, Threshold::Fixed { per_pair: 0.3 });
         assert_eq!(m.reverb_level, 0.0);
         assert!(!m.steered && !m.bin_votes && m.max_sources == 1);
         assert_eq!((m.candidates, m.riders), (1.0, 1.0));

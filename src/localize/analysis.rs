@@ -4,7 +4,7 @@
 
 use crate::geometry::Geometry;
 use crate::method::frames::FrameBlock;
-use crate::method::{Detection, Engine, Params, ParamsError};
+use crate::method::{Detection, Engine, Params, ParamsError, Threshold};
 use crate::stream::source::{Channels, Framer, SampleSource};
 use crate::stream::wpe::{Filtered, Wpe};
 use crate::stream::{AudioStream, ClockOrigin, InputError, Summary, Warning};
@@ -421,7 +421,10 @@ impl<S: SampleSource> Analysis<S> {
         }
         let params = self.analyzer.params();
         let bins = self.analyzer.band_bins();
-        let sigmas = params.threshold_sigmas.filter(|_| params.band_hz.is_some());
+        let sigmas = match params.threshold {
+            Threshold::Calibrated { sigmas } => Some(sigmas).filter(|_| params.band_hz.is_some()),
+            Threshold::Fixed { .. } => None,
+        };
         if let Some(sigmas) = sigmas.filter(|z| (2.0 * bins as f64).sqrt() < NARROW_BAND_MARGIN * z)
         {
             warnings.push(Warning::NarrowBand {
@@ -440,10 +443,10 @@ impl<S: SampleSource> Analysis<S> {
                 frames: stats.frames,
                 best_per_pair: stats.best_score_per_pair,
                 bound_per_pair: stats.best_bound_per_pair,
-                threshold_per_pair: params
-                    .threshold_sigmas
-                    .is_none()
-                    .then_some(params.min_score_per_pair),
+                threshold_per_pair: match params.threshold {
+                    Threshold::Fixed { per_pair } => Some(per_pair),
+                    Threshold::Calibrated { .. } => None,
+                },
                 steady: params.weighting
                     && stats.power_range.is_some_and(|(lo, hi)| hi <= 4.0 * lo),
             });

@@ -6,6 +6,7 @@
 
 use super::paper::correlation::weight_energy;
 use super::paper::pairs::{pair_count, pair_index};
+use super::paper::search::Tolerance;
 use super::params::{
     default_frame_size, frame_size_for_ms, Params, ParamsError, MAX_FRAME_SIZE, MIN_BAND_BINS,
 };
@@ -15,7 +16,7 @@ use crate::geometry::Geometry;
 #[derive(Debug, Clone)]
 pub(crate) struct Layout {
     pub geometry: Geometry,
-    /// The parameters, with the tolerance in samples at this rate.
+    /// The parameters.
     pub params: Params,
     /// Frame size N.
     pub n: usize,
@@ -34,6 +35,8 @@ pub(crate) struct Layout {
     pub windows_len: usize,
     /// The bins analysed, `first..=last` (`--band`; all of `0..=N/2` without one).
     pub band: (usize, usize),
+    /// The consistency tolerance of eq. (8) in samples at this rate.
+    pub tolerance: f32,
 }
 
 impl Layout {
@@ -55,11 +58,12 @@ impl Layout {
             Some(ms) => frame_size_for_ms(ms, sample_rate),
             None => default_frame_size(sample_rate),
         });
-        let mut params = params.clone();
-        if let Some(us) = params.tolerance_us {
+        let params = params.clone();
+        let tolerance = match params.tolerance {
             // Not under one sample: at low rates the peaks' own error is that large.
-            params.tolerance = (us * sample_rate as f64 / 1e6).max(1.0) as f32;
-        }
+            Tolerance::Us(us) => (us * sample_rate as f64 / 1e6).max(1.0) as f32,
+            Tolerance::Samples(s) => s as f32,
+        };
         let speed = params.speed_of_sound.unwrap_or(geometry.speed_of_sound);
         let rate = sample_rate as f64;
         let mics = geometry.mics.len();
@@ -119,6 +123,7 @@ impl Layout {
             window_starts,
             windows_len,
             band,
+            tolerance,
         })
     }
 

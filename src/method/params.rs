@@ -1,13 +1,13 @@
 //! The method's parameters, their defaults, and their validation against an array and a
 //! sample rate.
 
-use super::beyond::threshold::{DEFAULT_THRESHOLD_SIGMAS, PAPER_MIN_SCORE_PER_PAIR};
+use super::beyond::threshold::Threshold;
 use super::beyond::{
     Dereverb, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S, DEFAULT_RESIDUAL_GATE_US,
     MAX_AVERAGE_FRAMES, MAX_SOURCES,
 };
 use super::paper::peaks::{Interpolation, DEFAULT_PEAKS, MAX_PEAKS};
-use super::paper::search::{DEFAULT_TOLERANCE_US, PAPER_TOLERANCE};
+use super::paper::search::Tolerance;
 use super::paper::spectrum::Window;
 use super::paper::weighting::NoiseSettings;
 use super::paper::weighting::DEFAULT_REVERB_LEVEL;
@@ -34,20 +34,15 @@ pub struct Params {
     pub weighting: bool,
     /// M, peaks kept per pair, 1 to `MAX_PEAKS` ([`Peaks::count`](crate::method::Peaks::count)).
     pub peaks: usize,
-    /// Consistency tolerance of eq. (8) in samples, when `tolerance_us` is `None`
-    /// ([`Tolerance`](crate::method::Tolerance)).
-    pub tolerance: f32,
-    /// Consistency tolerance in microseconds ([`Tolerance::Us`](crate::method::Tolerance::Us)).
-    pub tolerance_us: Option<f64>,
+    /// Consistency tolerance of eq. (8) ([`Tolerance`](crate::method::Tolerance)); the
+    /// layout has it in samples at the recording's rate.
+    pub tolerance: Tolerance,
     /// The residual gate in microseconds (`None`: none; [`Room::residual_gate_us`](crate::method::Room::residual_gate_us)).
     pub residual_gate_us: Option<f64>,
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
-    /// The fixed threshold per pair, used when `threshold_sigmas` is `None`
-    /// ([`Threshold::Fixed`](crate::method::Threshold::Fixed)).
-    pub min_score_per_pair: f64,
-    /// The calibrated threshold's sigmas ([`Threshold::Calibrated`](crate::method::Threshold::Calibrated)).
-    pub threshold_sigmas: Option<f64>,
+    /// When a frame's best set is a detection ([`Threshold`](crate::method::Threshold)).
+    pub threshold: Threshold,
     /// Late reverberation's share in the noise estimate, smoothed over `REVERB_TAU_S`
     /// ([`Weighting::reverb_level`](crate::method::Weighting::reverb_level)).
     pub reverb_level: f32,
@@ -125,10 +120,12 @@ impl Params {
         if !(1..=MAX_SOURCES).contains(&self.max_sources) {
             return Err(ParamsError::MaxSources(self.max_sources));
         }
-        match self.tolerance_us {
-            Some(us) if !(us.is_finite() && us >= 0.0) => return Err(ParamsError::ToleranceUs(us)),
-            None if !(self.tolerance.is_finite() && self.tolerance >= 0.0) => {
-                return Err(ParamsError::Tolerance(self.tolerance))
+        match self.tolerance {
+            Tolerance::Us(us) if !(us.is_finite() && us >= 0.0) => {
+                return Err(ParamsError::ToleranceUs(us))
+            }
+            Tolerance::Samples(s) if !(s.is_finite() && s >= 0.0) => {
+                return Err(ParamsError::Tolerance(s as f32))
             }
             _ => {}
         }
@@ -151,11 +148,14 @@ impl Params {
         {
             return Err(ParamsError::Band { low, high });
         }
-        if let Some(z) = self
-            .threshold_sigmas
-            .filter(|z| !(z.is_finite() && *z >= 0.0))
-        {
-            return Err(ParamsError::ThresholdSigmas(z));
+        match self.threshold {
+            Threshold::Calibrated { sigmas } if !(sigmas.is_finite() && sigmas >= 0.0) => {
+                return Err(ParamsError::ThresholdSigmas(sigmas))
+            }
+            Threshold::Fixed { per_pair } if per_pair.is_nan() => {
+                return Err(ParamsError::MinScore(per_pair))
+            }
+            _ => {}
         }
         if !(0.0..=1.0).contains(&self.reverb_level) {
             return Err(ParamsError::ReverbLevel(self.reverb_level));
@@ -165,9 +165,6 @@ impl Params {
         }
         if let Some(s) = self.patterns_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
             return Err(ParamsError::PatternsS(s));
-        }
-        if self.min_score_per_pair.is_nan() {
-            return Err(ParamsError::MinScore(self.min_score_per_pair));
         }
         if let Some(c) = self.speed_of_sound.filter(|&c| !speed_of_sound_ok(c)) {
             return Err(ParamsError::SpeedOfSound(c));
@@ -192,17 +189,15 @@ impl Default for Params {
             gamma: crate::method::weighting::GAMMA as f32,
             weighting: true,
             peaks: DEFAULT_PEAKS,
-            tolerance: PAPER_TOLERANCE as f32,
-            tolerance_us: Some(DEFAULT_TOLERANCE_US),
+            tolerance: Tolerance::default(),
             residual_gate_us: Some(DEFAULT_RESIDUAL_GATE_US),
             speed_of_sound: None,
-            min_score_per_pair: PAPER_MIN_SCORE_PER_PAIR,
             window: Window::Hann,
             interpolation: Interpolation::Cosine,
             max_work: DEFAULT_MAX_WORK,
             noise: NoiseSettings::default(),
             average_frames: DEFAULT_AVERAGE_FRAMES,
-            threshold_sigmas: Some(DEFAULT_THRESHOLD_SIGMAS),
+            threshold: Threshold::default(),
             reverb_level: DEFAULT_REVERB_LEVEL as f32,
             background_s: Some(DEFAULT_BACKGROUND_S),
             steered: false,

@@ -40,7 +40,9 @@ fn office(
     let path = write(dir, "office.toml", &scene);
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
     let mut params = support::tracked_params();
-    params.tolerance_us = tolerance_us.or(params.tolerance_us);
+    if let Some(us) = tolerance_us {
+        params.tolerance = ssl::method::Tolerance::Us(us);
+    }
     let track = ssl::track::TrackParams::default();
     harness::analyse_scene(dir, &scene, geometry, &params, Some(track)).unwrap()
 }

@@ -267,7 +267,7 @@ fn a_steady_run_of_candidates_is_a_talker() {
     for (tolerance_us, seed) in [(40.0, 5003), (40.0, 5004), (50.0, 5003), (50.0, 5004)] {
         let params = {
             let mut p = support::tracked_params();
-            p.tolerance_us = Some(tolerance_us);
+            p.tolerance = ssl::method::Tolerance::Us(tolerance_us);
             p
         };
         let head = format!(

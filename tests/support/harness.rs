@@ -113,20 +113,25 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             // late reverberation, without the steered response or candidates (as
             // `ssl analyze --min-score`).
             _ if arg == "fixed" || arg.starts_with("min=") => {
-                if let Some((_, v)) = arg.split_once('=') {
-                    params.min_score_per_pair = v.parse().expect("min takes a number");
-                }
-                let mut fixed = ssl::Config::fixed_threshold(params.min_score_per_pair);
+                let per_pair = match arg.split_once('=') {
+                    Some((_, v)) => v.parse().expect("min takes a number"),
+                    None => 0.5,
+                };
+                let mut fixed = ssl::Config::fixed_threshold(per_pair);
                 fixed.tracking.on = false;
                 let f = fixed.settings().expect("valid").method;
-                params.threshold_sigmas = f.threshold_sigmas;
+                params.threshold = f.threshold;
                 params.reverb_level = f.reverb_level;
                 params.steered = f.steered;
                 params.max_sources = f.max_sources;
                 params.candidates = 1.0;
             }
             // The calibrated threshold's sigmas of chance correlation.
-            Some("sig") => params.threshold_sigmas = Some(value("sig")),
+            Some("sig") => {
+                params.threshold = ssl::method::Threshold::Calibrated {
+                    sigmas: value("sig"),
+                }
+            }
             // The share of late reverberation in the noise estimate.
             Some("rev") => params.reverb_level = value("rev") as f32,
             // The coherent background's time constant (0: none).
@@ -171,7 +176,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
     }
     // A tolerance and a residual gate in microseconds (0 turns the gate off).
     if let Some(&us) = numbers.first() {
-        params.tolerance_us = Some(us);
+        params.tolerance = ssl::method::Tolerance::Us(us);
     }
     if let Some(&gate) = numbers.get(1) {
         params.residual_gate_us = (gate > 0.0).then_some(gate);

@@ -224,10 +224,10 @@ impl Patterns {
     /// [`NOW_SAMPLES`] (or the tolerance, when smaller) of `u`'s delay, summed over the
     /// pairs.
     fn score_now(&self, setup: &Layout, span: &[FrameState], u: &Vector3<f64>) -> f64 {
-        let reach = 2.0 * setup.params.tolerance as f64 + CLEAR_SAMPLES as f64;
+        let reach = 2.0 * setup.tolerance as f64 + CLEAR_SAMPLES as f64;
         let state = span.last().expect("a frame");
         let (live, mics) = (&state.live, setup.mics());
-        let tolerance = (setup.params.tolerance as f64).min(NOW_SAMPLES);
+        let tolerance = (setup.tolerance as f64).min(NOW_SAMPLES);
         let mut total = 0.0;
         for (i, &a) in live.iter().enumerate() {
             for &b in &live[i + 1..] {
@@ -426,7 +426,7 @@ impl Patterns {
                 live: &state.live,
                 mics: setup.mics(),
                 found: &self.directions,
-                tolerance: setup.params.tolerance,
+                tolerance: setup.tolerance,
                 floor,
             },
             solver,

@@ -11,7 +11,7 @@
 //! - **chance:** in bins whose phases are random, a pair's correlation at one lag,
 //!   `(1/N) sum_k w_k^2 cos(phi_k)` over the N bins of eq. (6), has a standard deviation
 //!   `sigma = sqrt(2 sum_{k=1}^{N/2-1} w_k^4) / N`; the threshold allows
-//!   [`Params::threshold_sigmas`](crate::method::Params::threshold_sigmas) of them (default 6:
+//!   [`Threshold::Calibrated`]`::sigmas` of them (default 6:
 //!   the best of thousands of candidate sets still stays under it);
 //! - **a coherent background:** a spherically diffuse noise field has a coherence of
 //!   `sin(2 pi f d / c) / (2 pi f d / c)` between microphones `d` apart; its mean

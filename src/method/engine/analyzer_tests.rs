@@ -4,7 +4,7 @@ use super::*;
 use crate::geometry::unit_from_angles;
 use crate::method::beyond::{DEFAULT_CANDIDATES, DEFAULT_MAX_SOURCES, DEFAULT_RIDERS};
 use crate::method::outcome::Detection;
-use crate::method::Interpolation;
+use crate::method::{Interpolation, Threshold};
 use crate::sim::freefield::{render, Place, Scene, Source};
 use crate::sim::signals::Signal;
 use crate::stream::source::{Channels, Framer, SampleSource};
@@ -191,27 +191,28 @@ fn pruning_changes_no_detection() {
     // The fixed threshold prunes most; the calibrated one is lower and prunes less;
     // the frames the steady background learns from are never left out.
     let default = Params::default();
+    const FIXED: Threshold = Threshold::Fixed { per_pair: 0.5 };
     let cases = [
-        (Interpolation::Parabolic, 1, None, None, false),
-        (Interpolation::None, 1, None, None, false),
+        (Interpolation::Parabolic, 1, FIXED, None, false),
+        (Interpolation::None, 1, FIXED, None, false),
         (
             Interpolation::Parabolic,
             1,
-            None,
+            FIXED,
             default.background_s,
             false,
         ),
         (
             Interpolation::Parabolic,
             default.average_frames,
-            None,
+            FIXED,
             None,
             false,
         ),
         (
             Interpolation::Parabolic,
             default.average_frames,
-            default.threshold_sigmas,
+            default.threshold,
             default.background_s,
             false,
         ),
@@ -219,26 +220,20 @@ fn pruning_changes_no_detection() {
         (
             Interpolation::Cosine,
             default.average_frames,
-            default.threshold_sigmas,
+            default.threshold,
             default.background_s,
             true,
         ),
-        (
-            Interpolation::Cosine,
-            1,
-            default.threshold_sigmas,
-            None,
-            true,
-        ),
+        (Interpolation::Cosine, 1, default.threshold, None, true),
     ];
-    for (interpolation, average_frames, threshold_sigmas, background_s, further) in cases {
+    for (interpolation, average_frames, threshold, background_s, further) in cases {
         let params = Params {
             interpolation,
             average_frames,
-            threshold_sigmas,
+            threshold,
             background_s,
             // The fixed threshold is meant for the noise estimate without reverberation.
-            reverb_level: if threshold_sigmas.is_some() {
+            reverb_level: if threshold.is_calibrated() {
                 default.reverb_level
             } else {
                 0.0
@@ -263,7 +258,7 @@ fn pruning_changes_no_detection() {
         let riders = want.iter().flat_map(|d| d.as_slice()).filter(|d| d.rider);
         let (p, f) = (pruned.stage_times().unwrap(), full.stage_times().unwrap());
         eprintln!(
-            "{interpolation:?}, {average_frames} frames averaged, calibrated {threshold_sigmas:?}, background {background_s:?}, further sources {further}: {detections} of {frames} frames ({} riders), {} of {} pairs skipped",
+            "{interpolation:?}, {average_frames} frames averaged, threshold {threshold:?}, background {background_s:?}, further sources {further}: {detections} of {frames} frames ({} riders), {} of {} pairs skipped",
             riders.count(), p.skipped_pairs, f.correlated_pairs
         );
         assert_eq!(f.skipped_pairs, 0);
@@ -276,7 +271,7 @@ fn pruning_changes_no_detection() {
         // Averaged frames need their neighbours' correlations, so fewer are left out.
         let share = if average_frames == 1 { 5 } else { 100 };
         assert!(
-            threshold_sigmas.is_some()
+            threshold.is_calibrated()
                 || background_s.is_some()
                 || p.skipped_pairs * share > f.correlated_pairs,
             "{} of {} skipped",

@@ -66,7 +66,7 @@ impl Worker {
             peaks: (0..pair_count(mics))
                 .map(|_| Vec::with_capacity(setup.params.peaks))
                 .collect(),
-            searcher: Searcher::new(setup.params.tolerance, setup.params.max_work),
+            searcher: Searcher::new(setup.tolerance, setup.params.max_work),
             solvers: HashMap::new(),
             averaged: if setup.params.steered {
                 vec![0.0; setup.windows_len]
@@ -165,7 +165,7 @@ impl Worker {
             setup.params.candidates
         };
         state.rider_floor = state.threshold * riders;
-        state.steady = setup.params.threshold_sigmas.is_some()
+        state.steady = setup.params.threshold.is_calibrated()
             && setup.params.weighting
             && state.ceiling <= setup.threshold.steady_ceiling;
         if let Some(votes) = &setup.votes {
@@ -500,7 +500,7 @@ impl Worker {
                     live: &state.live,
                     mics: setup.mics(),
                     found: &directions,
-                    tolerance: setup.params.tolerance,
+                    tolerance: setup.tolerance,
                     floor,
                 },
                 solver,
