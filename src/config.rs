@@ -174,14 +174,7 @@ impl Config {
         let (framing, weighting, room, talkers) = (&r.framing, &r.weighting, &r.room, &r.talkers);
         let positive = |v: f64| (v > 0.0).then_some(v);
         let method = Params {
-            frame_size: match framing.size {
-                crate::method::FrameSize::Samples(n) => Some(n),
-                _ => None,
-            },
-            frame_ms: match framing.size {
-                crate::method::FrameSize::Ms(ms) => Some(ms),
-                _ => None,
-            },
+            frame_size: framing.size,
             alpha: weighting.alpha as f32,
             gamma: weighting.gamma as f32,
             weighting: weighting.on,

@@ -5,6 +5,7 @@
 //! stages; the engine's [`Setup`](super::engine::setup::Setup) holds them beside this.
 
 use super::paper::correlation::weight_energy;
+use super::paper::frames::FrameSize;
 use super::paper::pairs::{pair_count, pair_index};
 use super::paper::search::Tolerance;
 use super::params::{
@@ -47,17 +48,18 @@ impl Layout {
         params: &Params,
     ) -> Result<Self, ParamsError> {
         params.check()?;
-        if let Some(ms) = params.frame_ms.filter(|_| params.frame_size.is_none()) {
+        if let FrameSize::Ms(ms) = params.frame_size {
             // The nearest power of two, which must be a frame size (not clamped to one).
             let p = (ms * sample_rate as f64 / 1000.0).log2().round();
             if !(4.0..=MAX_FRAME_SIZE.trailing_zeros() as f64).contains(&p) {
                 return Err(ParamsError::FrameMsRange { ms, sample_rate });
             }
         }
-        let n = params.frame_size.unwrap_or_else(|| match params.frame_ms {
-            Some(ms) => frame_size_for_ms(ms, sample_rate),
-            None => default_frame_size(sample_rate),
-        });
+        let n = match params.frame_size {
+            FrameSize::Samples(n) => n,
+            FrameSize::Ms(ms) => frame_size_for_ms(ms, sample_rate),
+            FrameSize::Auto => default_frame_size(sample_rate),
+        };
         let params = params.clone();
         let tolerance = match params.tolerance {
             // Not under one sample: at low rates the peaks' own error is that large.

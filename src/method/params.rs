@@ -6,6 +6,7 @@ use super::beyond::{
     Dereverb, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S, DEFAULT_RESIDUAL_GATE_US,
     MAX_AVERAGE_FRAMES, MAX_SOURCES,
 };
+use super::paper::frames::FrameSize;
 use super::paper::peaks::{Interpolation, DEFAULT_PEAKS, MAX_PEAKS};
 use super::paper::search::Tolerance;
 use super::paper::spectrum::Window;
@@ -21,11 +22,10 @@ use crate::geometry::{speed_of_sound_ok, SPEED_OF_SOUND_RANGE};
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[non_exhaustive]
 pub struct Params {
-    /// Frame size N in samples ([`Framing::size`](crate::method::Framing::size); `None`:
-    /// from `frame_ms`, else `default_frame_size` of the sample rate).
-    pub frame_size: Option<usize>,
-    /// Frame length in milliseconds when `frame_size` is `None` (`frame_size_for_ms`).
-    pub frame_ms: Option<f64>,
+    /// Frame size N ([`Framing::size`](crate::method::Framing::size)): about 21 ms at
+    /// each rate (`default_frame_size`), a number of samples, or the power of two
+    /// nearest a length in milliseconds (`frame_size_for_ms`).
+    pub frame_size: FrameSize,
     /// `alpha` of eq. (4) ([`Weighting::alpha`](crate::method::Weighting::alpha)).
     pub alpha: f32,
     /// `gamma` of eq. (5) ([`Weighting::gamma`](crate::method::Weighting::gamma)).
@@ -96,14 +96,14 @@ impl Params {
     /// Checks every parameter that needs no recording (the frame against the array's
     /// delays is checked when a recording's sample rate is known).
     pub fn check(&self) -> Result<(), ParamsError> {
-        if let Some(ms) = self.frame_ms.filter(|ms| !(ms.is_finite() && *ms > 0.0)) {
-            return Err(ParamsError::FrameMs(ms));
-        }
-        if let Some(n) = self
-            .frame_size
-            .filter(|n| !(16..=MAX_FRAME_SIZE).contains(n) || n % 2 != 0)
-        {
-            return Err(ParamsError::FrameSize(n));
+        match self.frame_size {
+            FrameSize::Ms(ms) if !(ms.is_finite() && ms > 0.0) => {
+                return Err(ParamsError::FrameMs(ms))
+            }
+            FrameSize::Samples(n) if !(16..=MAX_FRAME_SIZE).contains(&n) || n % 2 != 0 => {
+                return Err(ParamsError::FrameSize(n))
+            }
+            _ => {}
         }
         if self.peaks == 0 || self.peaks > MAX_PEAKS {
             return Err(ParamsError::Peaks(self.peaks));
@@ -183,8 +183,7 @@ impl Params {
 impl Default for Params {
     fn default() -> Self {
         Params {
-            frame_size: None,
-            frame_ms: None,
+            frame_size: FrameSize::Auto,
             alpha: crate::method::weighting::ALPHA as f32,
             gamma: crate::method::weighting::GAMMA as f32,
             weighting: true,

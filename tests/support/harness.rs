@@ -150,7 +150,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             // Further sources from each frame's own correlations (1: on, the default).
             Some("own") => params.frame_sources = value("own") > 0.0,
             // The frame length in milliseconds.
-            Some("ms") => params.frame_ms = Some(value("ms")),
+            Some("ms") => params.frame_size = ssl::method::FrameSize::Ms(value("ms")),
             // Frames each correlation is averaged over.
             Some("avg") => params.average_frames = value("avg") as usize,
             // The peaks' sub-sample refinement, by name.
