@@ -136,10 +136,8 @@ pub(crate) struct ThresholdPlan {
     /// A frame whose weights' ceiling is under this has nothing above the noise
     /// estimate ([`STEADY_FRAME`]), in the units of `peak_ceiling`.
     pub steady_ceiling: f64,
-    /// The calibrated threshold's allowance for chance, or `None` for the fixed one.
-    pub(crate) sigmas: Option<f64>,
-    /// The fixed threshold per pair.
-    pub(crate) fixed: f64,
+    /// Calibrated or fixed.
+    pub(crate) choice: Threshold,
     /// Frame size N.
     pub(crate) n: usize,
 }
@@ -150,13 +148,15 @@ impl ThresholdPlan {
         self.per_pair_spread(weights, 1.0)
     }
 
-    /// [`Threshold::per_pair`] of an average whose chance fluctuation is `spread` times a
+    /// [`ThresholdPlan::per_pair`] of an average whose chance fluctuation is `spread` times a
     /// frame's (the calibrated threshold's chance part scales with it; a fixed threshold
     /// does not).
     pub fn per_pair_spread(&self, weights: &[f32], spread: f64) -> f64 {
-        match self.sigmas {
-            Some(z) => self.diffuse_floor + z * chance_sigma(weights, self.n) * spread,
-            None => self.fixed,
+        match self.choice {
+            Threshold::Calibrated { sigmas } => {
+                self.diffuse_floor + sigmas * chance_sigma(weights, self.n) * spread
+            }
+            Threshold::Fixed { per_pair } => per_pair,
         }
     }
 }

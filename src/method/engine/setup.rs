@@ -6,7 +6,7 @@ use crate::geometry::Geometry;
 use crate::method::beyond::background;
 use crate::method::beyond::dereverb::DiffuseCoherence;
 use crate::method::beyond::threshold::{
-    diffuse_coherence, steady_weight, Threshold, ThresholdPlan, DIFFUSE_MARGIN, STEADY_FRAME,
+    diffuse_coherence, steady_weight, ThresholdPlan, DIFFUSE_MARGIN, STEADY_FRAME,
 };
 use crate::method::beyond::votes::BinVotes;
 use crate::method::layout::Layout;
@@ -84,14 +84,7 @@ fn threshold_plan(layout: &Layout) -> ThresholdPlan {
             * layout.band_share()
             * params.interpolation.overshoot()
             * (1.0 + 1e-3),
-        sigmas: match params.threshold {
-            Threshold::Calibrated { sigmas } => Some(sigmas),
-            Threshold::Fixed { .. } => None,
-        },
-        fixed: match params.threshold {
-            Threshold::Fixed { per_pair } => per_pair,
-            Threshold::Calibrated { .. } => 0.0,
-        },
+        choice: params.threshold,
         n: layout.n,
     }
 }
