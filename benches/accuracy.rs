@@ -186,17 +186,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("full method (defaults)", params.clone()),
         ("plain PHAT (no spectral weighting)", {
             let mut p = params.clone();
-            p.weighting = false;
+            p.weighting.on = false;
             p
         }),
         ("single peak per pair (M = 1)", {
             let mut p = params.clone();
-            p.peaks = 1;
+            p.peaks.count = 1;
             p
         }),
         ("integer lags (no interpolation)", {
             let mut p = params.clone();
-            p.interpolation = Interpolation::None;
+            p.peaks.interpolation = Some(Interpolation::None);
             p
         }),
         ("tolerance 20 us", {
@@ -211,31 +211,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }),
         ("no residual gate", {
             let mut p = params.clone();
-            p.residual_gate_us = None;
+            p.room.residual_gate_us = 0.0;
             p
         }),
         ("no background subtraction (--background-s 0)", {
             let mut p = params.clone();
-            p.background_s = None;
+            p.room.background_s = 0.0;
             p
         }),
         (
             "calibrated threshold, no reverberation (--reverb-level 0)",
             {
                 let mut p = params.clone();
-                p.reverb_level = 0.0;
+                p.weighting.reverb_level = Some(0.0);
                 p
             },
         ),
         ("fixed threshold, no reverberation (--min-score 0.5)", {
             let mut p = params.clone();
             p.threshold = ssl::method::Threshold::Fixed { per_pair: 0.5 };
-            p.reverb_level = 0.0;
+            p.weighting.reverb_level = Some(0.0);
             p
         }),
         ("no averaging over frames", {
             let mut p = params.clone();
-            p.average_frames = 1;
+            p.room.average_frames = 1;
             p
         }),
         (
@@ -255,7 +255,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "tracked, without candidates (--candidates 1)",
         {
             let mut p = support::for_tracker(params.clone());
-            p.candidates = 1.0;
+            p.talkers.candidates = Some(1.0);
             p
         },
         Some(TrackParams::default()),
@@ -265,7 +265,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         {
             let mut p = support::for_tracker(params.clone());
             p.steered = false;
-            p.max_sources = 1;
+            p.talkers.max_sources = 1;
             p
         },
         Some(TrackParams::default()),

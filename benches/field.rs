@@ -218,7 +218,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     }
     eprintln!(
         "tolerance {:?}, residual gate {:?} us, averaged over {} frames",
-        params.tolerance, params.residual_gate_us, params.average_frames
+        params.tolerance, params.room.residual_gate_us, params.room.average_frames
     );
     println!(
         "| array | rate | events / mean error / azimuth error / confidently wrong / background false per min / near fan false per min |"

@@ -194,7 +194,7 @@ fn main() {
             "parabolic peaks",
             {
                 let mut p = base.clone();
-                p.interpolation = Interpolation::Parabolic;
+                p.peaks.interpolation = Some(Interpolation::Parabolic);
                 p
             },
         ),
@@ -202,7 +202,7 @@ fn main() {
             "window: Hamming",
             {
                 let mut p = base.clone();
-                p.window = Window::Hamming;
+                p.framing.window = Window::Hamming;
                 p
             },
         ),
@@ -210,7 +210,7 @@ fn main() {
             "window: rectangular",
             {
                 let mut p = base.clone();
-                p.window = Window::Rectangular;
+                p.framing.window = Window::Rectangular;
                 p
             },
         ),
@@ -218,7 +218,7 @@ fn main() {
             "integer lags (no interpolation)",
             {
                 let mut p = base.clone();
-                p.interpolation = Interpolation::None;
+                p.peaks.interpolation = Some(Interpolation::None);
                 p
             },
         ),
@@ -258,7 +258,7 @@ fn main() {
             "plain PHAT (no weighting)",
             {
                 let mut p = base.clone();
-                p.weighting = false;
+                p.weighting.on = false;
                 p
             },
         ),
@@ -266,7 +266,7 @@ fn main() {
             "M = 1 peak per pair",
             {
                 let mut p = base.clone();
-                p.peaks = 1;
+                p.peaks.count = 1;
                 p
             },
         ),
@@ -274,7 +274,7 @@ fn main() {
             "M = 4 peaks per pair",
             {
                 let mut p = base.clone();
-                p.peaks = 4;
+                p.peaks.count = 4;
                 p
             },
         ),

@@ -171,35 +171,17 @@ impl Config {
     /// The method's parameters and the tracker's this configuration asks for, checked.
     pub fn settings(&self) -> Result<Settings, SettingsError> {
         let r = self.resolved();
-        let (framing, weighting, room, talkers) = (&r.framing, &r.weighting, &r.room, &r.talkers);
-        let positive = |v: f64| (v > 0.0).then_some(v);
         let method = Params {
-            frame_size: framing.size,
-            alpha: weighting.alpha as f32,
-            gamma: weighting.gamma as f32,
-            weighting: weighting.on,
-            peaks: r.peaks.count,
+            framing: r.framing,
+            weighting: r.weighting,
+            peaks: r.peaks,
             tolerance: r.tolerance,
-            residual_gate_us: positive(room.residual_gate_us),
-            speed_of_sound: r.speed_of_sound,
             threshold: r.threshold,
-            reverb_level: weighting.reverb_level.unwrap_or(0.0) as f32,
-            window: framing.window,
-            interpolation: r.peaks.interpolation.unwrap_or(Interpolation::Cosine),
-            background_s: positive(room.background_s),
-            dereverb: room.dereverb,
-            average_frames: room.average_frames,
-            steered: r.for_tracker(),
-            frame_sources: r.for_tracker(),
-            patterns_s: positive(talkers.patterns_s),
-            max_sources: talkers.max_sources,
-            candidates: talkers.candidates.unwrap_or(1.0),
-            riders: talkers.riders.unwrap_or(1.0),
-            wpe: room.wpe,
-            start_s: framing.start_s,
-            end_s: framing.end_s,
-            band_hz: weighting.band_hz,
-            bin_votes: talkers.bin_votes,
+            room: r.room,
+            talkers: r.talkers,
+            speed_of_sound: r.speed_of_sound,
+            steered: self.for_tracker(),
+            frame_sources: self.for_tracker(),
             ..Params::default()
         };
         Settings::new(method, r.tracking.params())
@@ -258,8 +240,15 @@ mod tests {
         let m = &s.method;
         assert!(s.track.is_some());
         assert!(m.steered && m.frame_sources && m.bin_votes_on());
-        assert_eq!((m.max_sources, m.candidates, m.riders), (2, 0.4, 0.3));
-        assert_eq!(m.patterns_s, Some(DEFAULT_PATTERNS_S));
+        assert_eq!(
+            (
+                m.talkers.max_sources,
+                m.talkers.candidate_share(),
+                m.talkers.rider_share()
+            ),
+            (2, 0.4, 0.3)
+        );
+        assert_eq!(m.talkers.patterns_tau_s(), Some(DEFAULT_PATTERNS_S));
         assert_eq!(
             m.threshold,
             Threshold::Calibrated {
@@ -276,36 +265,56 @@ mod tests {
         assert_eq!(s.method, Params::default());
         let m = &s.method;
         assert!(!m.steered && !m.frame_sources && !m.bin_votes_on());
-        assert_eq!((m.max_sources, m.candidates, m.riders), (1, 1.0, 1.0));
+        assert_eq!(
+            (
+                m.talkers.max_sources,
+                m.talkers.candidate_share(),
+                m.talkers.rider_share()
+            ),
+            (1, 1.0, 1.0)
+        );
     }
 
     #[test]
     fn the_paper_preset_is_the_published_method() {
         let m = settings(&Config::paper()).method;
         assert_eq!(m.tolerance, Tolerance::Samples(2.0));
-        assert_eq!(m.residual_gate_us, None);
-        assert_eq!((m.average_frames, m.background_s), (1, None));
+        assert_eq!(m.room.gate_us(), None);
+        assert_eq!(
+            (m.room.average_frames, m.room.background_tau_s()),
+            (1, None)
+        );
         assert_eq!(m.threshold, Threshold::Fixed { per_pair: 0.5 });
-        assert_eq!((m.reverb_level, m.dereverb), (0.0, Dereverb::Off));
-        assert_eq!(m.interpolation, Interpolation::Parabolic);
-        assert!(!m.steered && m.max_sources == 1 && m.candidates == 1.0);
+        assert_eq!(
+            (m.weighting.reverb_share(), m.room.dereverb),
+            (0.0, Dereverb::Off)
+        );
+        assert_eq!(m.peaks.refinement(), Interpolation::Parabolic);
+        assert!(!m.steered && m.talkers.max_sources == 1);
+        assert_eq!(m.talkers.candidate_share(), 1.0);
         // A given interpolation is kept.
         let mut c = Config::paper();
         c.peaks.interpolation = Some(Interpolation::Cosine);
-        assert_eq!(settings(&c).method.interpolation, Interpolation::Cosine);
+        assert_eq!(
+            settings(&c).method.peaks.refinement(),
+            Interpolation::Cosine
+        );
     }
 
     #[test]
     fn a_fixed_threshold_turns_off_what_only_the_calibrated_one_allows() {
         let m = settings(&Config::fixed_threshold(0.3)).method;
         assert_eq!(m.threshold, Threshold::Fixed { per_pair: 0.3 });
-        assert_eq!(m.reverb_level, 0.0);
-        assert!(!m.steered && !m.bin_votes && m.max_sources == 1);
-        assert_eq!((m.candidates, m.riders), (1.0, 1.0));
+        assert_eq!(m.weighting.reverb_share(), 0.0);
+        assert!(!m.steered && !m.talkers.bin_votes && m.talkers.max_sources == 1);
+        assert_eq!(
+            (m.talkers.candidate_share(), m.talkers.rider_share()),
+            (1.0, 1.0)
+        );
         // Candidates asked for are kept for the tracker.
         let mut c = Config::fixed_threshold(0.3);
         c.talkers.candidates = Some(0.5);
-        assert_eq!(settings(&c).method.candidates, 0.5);
+        assert_eq!(settings(&c).method.talkers.candidate_share(), 0.5);
     }
 
     /// Every preset, and each with the choices a preset leaves open given: resolving

@@ -62,7 +62,7 @@ fn analysing_frames_does_not_allocate() {
     for dereverb in [Dereverb::Auto, Dereverb::On] {
         let params = {
             let mut p = support::tracked_params();
-            p.dereverb = dereverb;
+            p.room.dereverb = dereverb;
             p
         };
         count_allocations(&pool, &ch, &g, &params);

@@ -40,7 +40,7 @@ pub struct Analysis<S> {
     source: S,
     framer: Framer,
     analyzer: Engine,
-    /// The input's dereverberation, with [`Params::wpe`](crate::Params::wpe).
+    /// The input's dereverberation, with [`Room::wpe`](crate::method::Room::wpe).
     wpe: Option<Wpe>,
 }
 
@@ -176,7 +176,7 @@ impl<S: SampleSource> Analysis<S> {
         let sample_rate = source.sample_rate();
         let analyzer =
             Engine::new(geometry, sample_rate, params).map_err(|e| fail(&name, e.into()))?;
-        if params.wpe {
+        if params.room.wpe {
             let bytes = crate::stream::wpe::filter_bytes(geometry.mics.len(), sample_rate);
             if bytes > crate::stream::wpe::MAX_BYTES {
                 let e = crate::method::ParamsError::WpeTooLarge {
@@ -191,19 +191,20 @@ impl<S: SampleSource> Analysis<S> {
         let n = analyzer.frame_size();
         // `--start` and `--end`: the first frame and the sample frames read from it.
         let hop = analyzer.hop() as u64;
-        let first = (params.start_s * sample_rate as f64 / hop as f64).floor() as u64;
+        let first = (params.framing.start_s * sample_rate as f64 / hop as f64).floor() as u64;
         let limit = params
+            .framing
             .end_s
             .map(|e| ((e * sample_rate as f64).round() as u64).saturating_sub(first * hop));
         let span = |total: u64| {
             let after = total.saturating_sub(first * hop);
             limit.map_or(after, |l| after.min(l))
         };
-        let spanned = params.start_s > 0.0 || params.end_s.is_some();
+        let spanned = params.framing.start_s > 0.0 || params.framing.end_s.is_some();
         if let Some(total) = source.frames().filter(|&f| spanned && span(f) < n as u64) {
             let kind = ErrorKind::SpanTooShort {
-                start_s: params.start_s,
-                end_s: params.end_s,
+                start_s: params.framing.start_s,
+                end_s: params.framing.end_s,
                 samples: span(total),
                 total,
                 frame_size: n,
@@ -226,7 +227,7 @@ impl<S: SampleSource> Analysis<S> {
             analyzer.priming_frames(),
         )
         .span(first, limit);
-        let wpe = params.wpe.then(|| {
+        let wpe = params.room.wpe.then(|| {
             let mics = geometry.mics.iter().map(|m| m.channel).collect();
             Wpe::new(channels, mics, sample_rate)
         });
@@ -296,7 +297,7 @@ impl<S: SampleSource> Analysis<S> {
     }
 
     /// Streams every frame through the method. `sink` sees each frame's index and its
-    /// detections (none, one, or with [`Params::max_sources`](crate::Params::max_sources)
+    /// detections (none, one, or with [`Talkers::max_sources`](crate::method::Talkers::max_sources)
     /// over 1 several, strongest first), in frame order; [`ControlFlow::Break`] stops the run (a closed
     /// output). Returns the summary of what was analysed and the error that stopped the
     /// recording, if any (the frames before a read error are analysed first).
@@ -422,7 +423,9 @@ impl<S: SampleSource> Analysis<S> {
         let params = self.analyzer.params();
         let bins = self.analyzer.band_bins();
         let sigmas = match params.threshold {
-            Threshold::Calibrated { sigmas } => Some(sigmas).filter(|_| params.band_hz.is_some()),
+            Threshold::Calibrated { sigmas } => {
+                Some(sigmas).filter(|_| params.weighting.band_hz.is_some())
+            }
             Threshold::Fixed { .. } => None,
         };
         if let Some(sigmas) = sigmas.filter(|z| (2.0 * bins as f64).sqrt() < NARROW_BAND_MARGIN * z)
@@ -447,7 +450,7 @@ impl<S: SampleSource> Analysis<S> {
                     Threshold::Fixed { per_pair } => Some(per_pair),
                     Threshold::Calibrated { .. } => None,
                 },
-                steady: params.weighting
+                steady: params.weighting.on
                     && stats.power_range.is_some_and(|(lo, hi)| hi <= 4.0 * lo),
             });
         }

@@ -280,9 +280,9 @@ impl<S: SampleSource> Recording<'_, S> {
         let method = &settings.method;
         let mut tracker = (settings.track.clone()).map(|p| {
             Tracker::for_array(p, geometry, rate, speed).with_evidence_window(
-                hop * method.average_frames as f64,
-                method.candidates,
-                method.background_s.map_or(0.0, |_| {
+                hop * method.room.average_frames as f64,
+                method.talkers.candidate_share(),
+                method.room.background_tau_s().map_or(0.0, |_| {
                     hop * crate::method::beyond::background::WARMUP_FRAMES as f64
                 }),
             )

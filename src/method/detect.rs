@@ -49,7 +49,7 @@ pub(crate) fn direction(
         return Direction::None;
     };
     let residual = solver.residual_m(&solution.lags, &u);
-    if let Some(gate) = setup.params.residual_gate_us {
+    if let Some(gate) = setup.params.room.gate_us() {
         if residual / setup.speed * 1e6 > gate {
             return Direction::Gated;
         }

@@ -48,14 +48,14 @@ impl Layout {
         params: &Params,
     ) -> Result<Self, ParamsError> {
         params.check()?;
-        if let FrameSize::Ms(ms) = params.frame_size {
+        if let FrameSize::Ms(ms) = params.framing.size {
             // The nearest power of two, which must be a frame size (not clamped to one).
             let p = (ms * sample_rate as f64 / 1000.0).log2().round();
             if !(4.0..=MAX_FRAME_SIZE.trailing_zeros() as f64).contains(&p) {
                 return Err(ParamsError::FrameMsRange { ms, sample_rate });
             }
         }
-        let n = match params.frame_size {
+        let n = match params.framing.size {
             FrameSize::Samples(n) => n,
             FrameSize::Ms(ms) => frame_size_for_ms(ms, sample_rate),
             FrameSize::Auto => default_frame_size(sample_rate),
@@ -86,7 +86,7 @@ impl Layout {
                 needed: ((widest + 2) * 2).next_power_of_two(),
             });
         }
-        let band = match params.band_hz {
+        let band = match params.weighting.band_hz {
             None => (0, n / 2),
             Some((low, high)) => {
                 let per_bin = rate / n as f64;

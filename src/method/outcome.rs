@@ -25,7 +25,7 @@ pub struct Detection {
     /// Microphones that took part (dead channels are left out).
     pub mics: usize,
     /// The score over the frame's detection threshold. Under 1: a candidate, reported
-    /// only with [`Params::candidates`](crate::Params::candidates) under 1, for a
+    /// only with [`Talkers::candidates`](crate::method::Talkers::candidates) under 1, for a
     /// [`Tracker`](crate::track::Tracker) to confirm or drop (infinite with a threshold
     /// of 0).
     pub margin: f64,
@@ -40,8 +40,8 @@ pub struct Detection {
     /// (docs/interface.md, "Detections"; docs/method.md, "Uncertainty").
     pub uncertainty_deg: f64,
     /// A rider: from a frame that gave nothing down to
-    /// [`Params::candidates`](crate::Params::candidates), found in its own correlations
-    /// down to [`Params::riders`](crate::Params::riders); a tracker only lets it add a row to a
+    /// [`Talkers::candidates`](crate::method::Talkers::candidates), found in its own correlations
+    /// down to [`Talkers::riders`](crate::method::Talkers::riders); a tracker only lets it add a row to a
     /// talking track (see [`track`](crate::track)).
     pub rider: bool,
 }

@@ -2,101 +2,60 @@
 //! sample rate.
 
 use super::beyond::threshold::Threshold;
-use super::beyond::{
-    Dereverb, DEFAULT_AVERAGE_FRAMES, DEFAULT_BACKGROUND_S, DEFAULT_RESIDUAL_GATE_US,
-    MAX_AVERAGE_FRAMES, MAX_SOURCES,
-};
-use super::paper::frames::FrameSize;
-use super::paper::peaks::{Interpolation, DEFAULT_PEAKS, MAX_PEAKS};
+use super::beyond::{Room, Talkers, MAX_AVERAGE_FRAMES, MAX_SOURCES};
+use super::paper::frames::{FrameSize, Framing};
+use super::paper::peaks::{Interpolation, Peaks, MAX_PEAKS};
 use super::paper::search::Tolerance;
-use super::paper::spectrum::Window;
-use super::paper::weighting::NoiseSettings;
-use super::paper::weighting::DEFAULT_REVERB_LEVEL;
+use super::paper::weighting::{NoiseSettings, Weighting, DEFAULT_REVERB_LEVEL};
 use crate::geometry::{speed_of_sound_ok, SPEED_OF_SOUND_RANGE};
 
-/// The method's parameters as its stages read them: a [`Config`](crate::Config) resolved
-/// ([`Config::settings`](crate::Config::settings)), flat, with the tuning a configuration
-/// does not reach. Each field is declared, with its unit, default and flag, in the
-/// configuration's section named beside it. `Params::default()` is the method alone, as
-/// `ssl analyze --no-track` runs it.
+/// The method's parameters as its stages read them: the configuration's sections
+/// resolved ([`Config::settings`](crate::Config::settings)), each read by its own
+/// stage, with the tuning a configuration does not reach. Each section is declared,
+/// with its units, defaults and flags, in its stage's file. `Params::default()` is the
+/// method alone, as `ssl analyze --no-track` runs it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[non_exhaustive]
 pub struct Params {
-    /// Frame size N ([`Framing::size`](crate::method::Framing::size)): about 21 ms at
-    /// each rate (`default_frame_size`), a number of samples, or the power of two
-    /// nearest a length in milliseconds (`frame_size_for_ms`).
-    pub frame_size: FrameSize,
-    /// `alpha` of eq. (4) ([`Weighting::alpha`](crate::method::Weighting::alpha)).
-    pub alpha: f32,
-    /// `gamma` of eq. (5) ([`Weighting::gamma`](crate::method::Weighting::gamma)).
-    pub gamma: f32,
-    /// The spectral weighting on ([`Weighting::on`](crate::method::Weighting::on)).
-    pub weighting: bool,
-    /// M, peaks kept per pair, 1 to `MAX_PEAKS` ([`Peaks::count`](crate::method::Peaks::count)).
-    pub peaks: usize,
-    /// Consistency tolerance of eq. (8) ([`Tolerance`](crate::method::Tolerance)); the
-    /// layout has it in samples at the recording's rate.
+    /// Frames: size, window and the span analysed.
+    pub framing: Framing,
+    /// The spectral weighting of eq. (4)-(5) and the band (its reverberation share
+    /// resolved).
+    pub weighting: Weighting,
+    /// The peaks kept per pair (eq. 7; the refinement resolved).
+    pub peaks: Peaks,
+    /// Consistency tolerance of eq. (8); the layout has it in samples at the
+    /// recording's rate.
     pub tolerance: Tolerance,
-    /// The residual gate in microseconds (`None`: none; [`Room::residual_gate_us`](crate::method::Room::residual_gate_us)).
-    pub residual_gate_us: Option<f64>,
+    /// When a frame's best set is a detection.
+    pub threshold: Threshold,
+    /// The room's reverberation and background, taken out.
+    pub room: Room,
+    /// Several talkers at once (the shares resolved; one source and none without a
+    /// tracker).
+    pub talkers: Talkers,
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
-    /// When a frame's best set is a detection ([`Threshold`](crate::method::Threshold)).
-    pub threshold: Threshold,
-    /// Late reverberation's share in the noise estimate, smoothed over `REVERB_TAU_S`
-    /// ([`Weighting::reverb_level`](crate::method::Weighting::reverb_level)).
-    pub reverb_level: f32,
-    /// The analysis window ([`Framing::window`](crate::method::Framing::window)).
-    pub window: Window,
-    /// Sub-sample refinement of the peaks ([`Peaks::interpolation`](crate::method::Peaks::interpolation)).
-    pub interpolation: Interpolation,
+    /// The steered response: a direction for frames whose pairs do not all agree, and
+    /// further sources (on with a tracker under the calibrated threshold).
+    pub steered: bool,
+    /// Further sources from each frame's own correlations beside the averaged ones' (on
+    /// with a tracker under the calibrated threshold).
+    pub frame_sources: bool,
     /// The consistency search's budget per frame, in candidate matches
     /// ([`Searcher::work`](crate::method::search::Searcher::work)); a frame that reaches
     /// it gives the best set found so far, and the run warns.
     pub max_work: u64,
     /// The noise estimator behind `X_n(k)`.
     pub noise: NoiseSettings,
-    /// Frames each pair's correlation is averaged over ([`Room::average_frames`](crate::method::Room::average_frames)).
-    pub average_frames: usize,
-    /// The coherent background's time constant (`None`: none; [`Room::background_s`](crate::method::Room::background_s)).
-    pub background_s: Option<f64>,
-    /// The steered response: a direction for frames whose pairs do not all agree, and
-    /// further sources (on with a tracker under the calibrated threshold).
-    pub steered: bool,
-    /// The most sources one frame gives ([`Talkers::max_sources`](crate::method::Talkers::max_sources)).
-    pub max_sources: usize,
-    /// Further sources from each frame's own correlations beside the averaged ones' (on
-    /// with a tracker under the calibrated threshold).
-    pub frame_sources: bool,
-    /// The talkers' patterns' time constant (`None`: none; [`Talkers::patterns_s`](crate::method::Talkers::patterns_s)).
-    pub patterns_s: Option<f64>,
-    /// Candidates' share of the threshold (1: none; [`Talkers::candidates`](crate::method::Talkers::candidates)),
-    /// reported with [`Detection::margin`](super::Detection::margin) under 1.
-    pub candidates: f64,
-    /// Riders' share of the threshold (1: none; [`Talkers::riders`](crate::method::Talkers::riders)),
-    /// reported as [`Detection::rider`](super::Detection::rider).
-    pub riders: f64,
-    /// When the diffuse part is removed ([`Room::dereverb`](crate::method::Room::dereverb)).
-    pub dereverb: Dereverb,
-    /// The input dereverberated first ([`Room::wpe`](crate::method::Room::wpe)).
-    pub wpe: bool,
-    /// Where the analysis starts (seconds), rounded down to a whole hop
-    /// ([`Framing::start_s`](crate::method::Framing::start_s)).
-    pub start_s: f64,
-    /// Where it ends (seconds; `None`: the end; [`Framing::end_s`](crate::method::Framing::end_s)).
-    pub end_s: Option<f64>,
-    /// Riders from single frequency bins, with a tracker to ride along
-    /// ([`Talkers::bin_votes`](crate::method::Talkers::bin_votes)).
-    pub bin_votes: bool,
-    /// The frequencies analysed, `(low, high)` in Hz ([`Weighting::band_hz`](crate::method::Weighting::band_hz)).
-    pub band_hz: Option<(f64, f64)>,
 }
 
 impl Params {
     /// Checks every parameter that needs no recording (the frame against the array's
-    /// delays is checked when a recording's sample rate is known).
+    /// delays is checked when a recording's sample rate is known), section by section.
     pub fn check(&self) -> Result<(), ParamsError> {
-        match self.frame_size {
+        let framing = &self.framing;
+        match framing.size {
             FrameSize::Ms(ms) if !(ms.is_finite() && ms > 0.0) => {
                 return Err(ParamsError::FrameMs(ms))
             }
@@ -105,20 +64,28 @@ impl Params {
             }
             _ => {}
         }
-        if self.peaks == 0 || self.peaks > MAX_PEAKS {
-            return Err(ParamsError::Peaks(self.peaks));
+        if !(framing.start_s.is_finite() && framing.start_s >= 0.0)
+            || framing
+                .end_s
+                .is_some_and(|e| !(e.is_finite() && e > framing.start_s))
+        {
+            return Err(ParamsError::Span {
+                start_s: framing.start_s,
+                end_s: framing.end_s,
+            });
         }
-        if !(1..=MAX_AVERAGE_FRAMES).contains(&self.average_frames) {
-            return Err(ParamsError::AverageFrames(self.average_frames));
+        let weighting = &self.weighting;
+        if let Some((low, high)) = weighting
+            .band_hz
+            .filter(|&(l, h)| !(l.is_finite() && h.is_finite() && l >= 0.0 && h > l))
+        {
+            return Err(ParamsError::Band { low, high });
         }
-        if !(self.candidates > 0.0 && self.candidates <= 1.0) {
-            return Err(ParamsError::Candidates(self.candidates));
+        if let Some(r) = weighting.reverb_level.filter(|r| !(0.0..=1.0).contains(r)) {
+            return Err(ParamsError::ReverbLevel(r as f32));
         }
-        if !(self.riders > 0.0 && self.riders <= 1.0) {
-            return Err(ParamsError::Riders(self.riders));
-        }
-        if !(1..=MAX_SOURCES).contains(&self.max_sources) {
-            return Err(ParamsError::MaxSources(self.max_sources));
+        if self.peaks.count == 0 || self.peaks.count > MAX_PEAKS {
+            return Err(ParamsError::Peaks(self.peaks.count));
         }
         match self.tolerance {
             Tolerance::Us(us) if !(us.is_finite() && us >= 0.0) => {
@@ -129,25 +96,6 @@ impl Params {
             }
             _ => {}
         }
-        if let Some(g) = self.residual_gate_us.filter(|g| g.is_nan() || *g <= 0.0) {
-            return Err(ParamsError::ResidualGate(g));
-        }
-        if !(self.start_s.is_finite() && self.start_s >= 0.0)
-            || self
-                .end_s
-                .is_some_and(|e| !(e.is_finite() && e > self.start_s))
-        {
-            return Err(ParamsError::Span {
-                start_s: self.start_s,
-                end_s: self.end_s,
-            });
-        }
-        if let Some((low, high)) = self
-            .band_hz
-            .filter(|&(l, h)| !(l.is_finite() && h.is_finite() && l >= 0.0 && h > l))
-        {
-            return Err(ParamsError::Band { low, high });
-        }
         match self.threshold {
             Threshold::Calibrated { sigmas } if !(sigmas.is_finite() && sigmas >= 0.0) => {
                 return Err(ParamsError::ThresholdSigmas(sigmas))
@@ -157,14 +105,28 @@ impl Params {
             }
             _ => {}
         }
-        if !(0.0..=1.0).contains(&self.reverb_level) {
-            return Err(ParamsError::ReverbLevel(self.reverb_level));
+        let room = &self.room;
+        if !(1..=MAX_AVERAGE_FRAMES).contains(&room.average_frames) {
+            return Err(ParamsError::AverageFrames(room.average_frames));
         }
-        if let Some(s) = self.background_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err(ParamsError::BackgroundS(s));
+        if !(room.residual_gate_us.is_finite() && room.residual_gate_us >= 0.0) {
+            return Err(ParamsError::ResidualGate(room.residual_gate_us));
         }
-        if let Some(s) = self.patterns_s.filter(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err(ParamsError::PatternsS(s));
+        if !(room.background_s.is_finite() && room.background_s >= 0.0) {
+            return Err(ParamsError::BackgroundS(room.background_s));
+        }
+        let talkers = &self.talkers;
+        if !(1..=MAX_SOURCES).contains(&talkers.max_sources) {
+            return Err(ParamsError::MaxSources(talkers.max_sources));
+        }
+        if let Some(c) = talkers.candidates.filter(|c| !(*c > 0.0 && *c <= 1.0)) {
+            return Err(ParamsError::Candidates(c));
+        }
+        if let Some(r) = talkers.riders.filter(|r| !(*r > 0.0 && *r <= 1.0)) {
+            return Err(ParamsError::Riders(r));
+        }
+        if !(talkers.patterns_s.is_finite() && talkers.patterns_s >= 0.0) {
+            return Err(ParamsError::PatternsS(talkers.patterns_s));
         }
         if let Some(c) = self.speed_of_sound.filter(|&c| !speed_of_sound_ok(c)) {
             return Err(ParamsError::SpeedOfSound(c));
@@ -172,45 +134,35 @@ impl Params {
         Ok(())
     }
 
-    /// Whether riders come from the bins' directions: [`Params::bin_votes`], and a
-    /// tracker to ride along (`candidates` under 1). On arrays too large for them there
-    /// are none either way (see `method/beyond/votes.rs`).
+    /// Whether riders come from the bins' directions: [`Talkers::bin_votes`], and a
+    /// tracker to ride along (candidates under the threshold). On arrays too large for
+    /// them there are none either way (see `method/beyond/votes.rs`).
     pub fn bin_votes_on(&self) -> bool {
-        self.bin_votes && self.candidates < 1.0
+        self.talkers.bin_votes && self.talkers.candidate_share() < 1.0
     }
 }
 
 impl Default for Params {
     fn default() -> Self {
         Params {
-            frame_size: FrameSize::Auto,
-            alpha: crate::method::weighting::ALPHA as f32,
-            gamma: crate::method::weighting::GAMMA as f32,
-            weighting: true,
-            peaks: DEFAULT_PEAKS,
+            framing: Framing::default(),
+            weighting: Weighting {
+                reverb_level: Some(DEFAULT_REVERB_LEVEL),
+                ..Weighting::default()
+            },
+            peaks: Peaks {
+                interpolation: Some(Interpolation::Cosine),
+                ..Peaks::default()
+            },
             tolerance: Tolerance::default(),
-            residual_gate_us: Some(DEFAULT_RESIDUAL_GATE_US),
+            threshold: Threshold::default(),
+            room: Room::default(),
+            talkers: Talkers::alone(),
             speed_of_sound: None,
-            window: Window::Hann,
-            interpolation: Interpolation::Cosine,
+            steered: false,
+            frame_sources: false,
             max_work: DEFAULT_MAX_WORK,
             noise: NoiseSettings::default(),
-            average_frames: DEFAULT_AVERAGE_FRAMES,
-            threshold: Threshold::default(),
-            reverb_level: DEFAULT_REVERB_LEVEL as f32,
-            background_s: Some(DEFAULT_BACKGROUND_S),
-            steered: false,
-            max_sources: 1,
-            frame_sources: false,
-            patterns_s: None,
-            candidates: 1.0,
-            riders: 1.0,
-            dereverb: Dereverb::Auto,
-            wpe: false,
-            start_s: 0.0,
-            end_s: None,
-            bin_votes: false,
-            band_hz: None,
         }
     }
 }
@@ -342,8 +294,8 @@ pub enum ParamsError {
     /// The tolerance in microseconds is negative or not a number.
     #[error("the consistency tolerance must be a non-negative number of microseconds, got {}", crate::text::BriefNumber(*.0))]
     ToleranceUs(f64),
-    /// The residual gate is not a positive number of microseconds.
-    #[error("the residual gate must be a positive number of microseconds, got {}", crate::text::BriefNumber(*.0))]
+    /// The residual gate is negative or not a number.
+    #[error("the residual gate must be a number of microseconds, 0 or more (0: none), got {}", crate::text::BriefNumber(*.0))]
     ResidualGate(f64),
     /// The number of frames averaged is 0 or more than 64.
     #[error("the number of frames to average must be between 1 and {MAX_AVERAGE_FRAMES}, got {0}")]
@@ -363,11 +315,11 @@ pub enum ParamsError {
     /// The reverberation share is outside 0 to 1.
     #[error("the share of late reverberation must be between 0 and 1, got {}", crate::text::BriefNumber(f64::from(*.0)))]
     ReverbLevel(f32),
-    /// The background's time constant is not a positive number of seconds.
-    #[error("the background's time constant must be a positive number of seconds, got {}", crate::text::BriefNumber(*.0))]
+    /// The background's time constant is negative or not a number.
+    #[error("the background's time constant must be a number of seconds, 0 or more (0: none), got {}", crate::text::BriefNumber(*.0))]
     BackgroundS(f64),
-    /// The learned patterns' longer average has no positive time constant.
-    #[error("the time constant of the average the talkers' patterns are removed from must be a positive number of seconds, got {}", crate::text::BriefNumber(*.0))]
+    /// The learned patterns' time constant is negative or not a number.
+    #[error("the time constant of the average the talkers' patterns are removed from must be a number of seconds, 0 or more (0: none), got {}", crate::text::BriefNumber(*.0))]
     PatternsS(f64),
     /// The threshold is not a number.
     #[error("the detection threshold must be a number, got {}", crate::text::BriefNumber(*.0))]

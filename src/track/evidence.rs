@@ -4,7 +4,7 @@
 //! Two hypotheses about a candidate: *source* (a sound keeps coming from that
 //! direction) and *clutter* (chance detections: background leaks, a talker's
 //! reflections and strays). A *look* is the span one averaged correlation covers
-//! ([`Params::average_frames`](crate::Params::average_frames) hops): detections
+//! ([`Room::average_frames`](crate::method::Room::average_frames) hops): detections
 //! within one look share most of their data, so a look is one observation, counted
 //! once, by its best detection.
 //!

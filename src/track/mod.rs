@@ -13,7 +13,7 @@
 //!   gate, when heard again;
 //! - **riders ride along:** a rider ([`Detection::rider`](crate::method::Detection::rider):
 //!   from a frame that gave nothing down to the candidates' share, found down to
-//!   [`Params::riders`](crate::Params::riders)) only adds a row to the nearest talking
+//!   [`Talkers::riders`](crate::method::Talkers::riders)) only adds a row to the nearest talking
 //!   track within the candidates' gate that none of the frame's other detections
 //!   joined; the track is left as it was (its direction, and the time it was last
 //!   heard, are the other detections'), and the rider starts, joins and confirms no
@@ -223,7 +223,7 @@ pub struct TrackParams {
     /// track.
     pub confirm_hits: usize,
     /// Or this many detections of any margin, one of them at or above the threshold
-    /// (candidates included, see [`Params::candidates`](crate::Params::candidates)).
+    /// (candidates included, see [`Talkers::candidates`](crate::method::Talkers::candidates)).
     pub confirm_candidates: usize,
     /// Or this many detections of any margin, none of them above the threshold: a run
     /// of candidates at one direction this dense is a source (a talker that other
@@ -276,7 +276,7 @@ pub struct TrackParams {
     /// [`ConfirmBy::Rules`] (with the evidence: 1.5 candidates' gates).
     pub gate_deg: f64,
     /// The gate (degrees) of a candidate under the detection threshold (see
-    /// [`Params::candidates`](crate::Params::candidates)): it never widens.
+    /// [`Talkers::candidates`](crate::method::Talkers::candidates)): it never widens.
     pub candidate_gate_deg: f64,
     /// A candidate's gate is at least this many samples of delay error on every pair,
     /// as the angle it moves a direction on the array at the recording's rate

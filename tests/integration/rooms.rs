@@ -116,7 +116,7 @@ fn two_talkers(
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
     let params = {
         let mut p = support::tracked_params();
-        p.wpe = wpe;
+        p.room.wpe = wpe;
         p
     };
     let track = ssl::track::TrackParams::default();
@@ -180,7 +180,7 @@ fn a_fan_next_to_the_array_is_background_with_dereverberation_too() {
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
     let params = {
         let mut p = support::tracked_params();
-        p.wpe = true;
+        p.room.wpe = true;
         p
     };
     let track = ssl::track::TrackParams::default();

@@ -337,7 +337,7 @@ fn waiting_longer_keeps_a_talkers_first_detections() {
     let (dir, geometry, room) = PapersRoom::prism(48000, true);
     let params = {
         let mut p = support::tracked_params();
-        p.patterns_s = None;
+        p.talkers.patterns_s = 0.0;
         p
     };
     let mut windows = Vec::new();
@@ -403,10 +403,10 @@ fn removing_a_talkers_pattern_finds_the_other() {
     let (dir, geometry, room) = PapersRoom::prism(48000, true);
     let mut windows = Vec::new();
     for seed in [11, 12, 13] {
-        for patterns_s in [None, Some(ssl::Config::default().talkers.patterns_s)] {
+        for patterns_s in [0.0, ssl::Config::default().talkers.patterns_s] {
             let params = {
                 let mut p = support::tracked_params();
-                p.patterns_s = patterns_s;
+                p.talkers.patterns_s = patterns_s;
                 p
             };
             eprint!("seed {seed}, patterns {patterns_s:?}: ");
@@ -477,7 +477,7 @@ fn riders_add_a_talkers_weakest_frames() {
         ] {
             let params = {
                 let mut p = support::tracked_params();
-                p.riders = riders;
+                p.talkers.riders = Some(riders);
                 p
             };
             // Each frame's own direction: a rider's row would move its track's
@@ -526,7 +526,7 @@ fn single_bins_find_the_talker_another_hides_on_a_small_circle() {
         for bin_votes in [false, true] {
             let params = {
                 let mut p = support::tracked_params();
-                p.bin_votes = bin_votes;
+                p.talkers.bin_votes = bin_votes;
                 p
             };
             eprint!("seed {seed}, bin votes {bin_votes}: ");

@@ -121,10 +121,10 @@ pub fn params_from(args: &[String]) -> ssl::Params {
                 fixed.tracking.on = false;
                 let f = fixed.settings().expect("valid").method;
                 params.threshold = f.threshold;
-                params.reverb_level = f.reverb_level;
+                params.weighting.reverb_level = f.weighting.reverb_level;
                 params.steered = f.steered;
-                params.max_sources = f.max_sources;
-                params.candidates = 1.0;
+                params.talkers.max_sources = f.talkers.max_sources;
+                params.talkers.candidates = Some(1.0);
             }
             // The calibrated threshold's sigmas of chance correlation.
             Some("sig") => {
@@ -133,34 +133,34 @@ pub fn params_from(args: &[String]) -> ssl::Params {
                 }
             }
             // The share of late reverberation in the noise estimate.
-            Some("rev") => params.reverb_level = value("rev") as f32,
+            Some("rev") => params.weighting.reverb_level = Some(value("rev")),
             // The coherent background's time constant (0: none).
-            Some("bg") => params.background_s = Some(value("bg")).filter(|&s| s > 0.0),
+            Some("bg") => params.room.background_s = value("bg"),
             // The steered response (0: off).
             Some("steer") => params.steered = value("steer") > 0.0,
             // Candidates down to this share of the threshold.
-            Some("cand") => params.candidates = value("cand"),
+            Some("cand") => params.talkers.candidates = Some(value("cand")),
             // Riders down to this share of the threshold (1: none).
-            Some("riders") => params.riders = value("riders"),
+            Some("riders") => params.talkers.riders = Some(value("riders")),
             // The most sources per frame.
-            Some("k") => params.max_sources = value("k") as usize,
+            Some("k") => params.talkers.max_sources = value("k") as usize,
             // Each talker's pattern removed before a second look (its longer average's
             // time constant, seconds; 0: none, the default).
-            Some("pat") => params.patterns_s = Some(value("pat")).filter(|&s| s > 0.0),
+            Some("pat") => params.talkers.patterns_s = value("pat"),
             // Further sources from each frame's own correlations (1: on, the default).
             Some("own") => params.frame_sources = value("own") > 0.0,
             // The frame length in milliseconds.
-            Some("ms") => params.frame_size = ssl::method::FrameSize::Ms(value("ms")),
+            Some("ms") => params.framing.size = ssl::method::FrameSize::Ms(value("ms")),
             // Frames each correlation is averaged over.
-            Some("avg") => params.average_frames = value("avg") as usize,
+            Some("avg") => params.room.average_frames = value("avg") as usize,
             // The peaks' sub-sample refinement, by name.
-            Some("interp") => params.interpolation = named(arg),
+            Some("interp") => params.peaks.interpolation = Some(named(arg)),
             // When the diffuse part is removed, by name.
-            Some("drv") => params.dereverb = named(arg),
+            Some("drv") => params.room.dereverb = named(arg),
             // The input dereverberated first (`--wpe`).
-            _ if arg == "wpe" => params.wpe = true,
+            _ if arg == "wpe" => params.room.wpe = true,
             // No riders from the bins' directions (`--no-bin-votes`).
-            _ if arg == "novotes" => params.bin_votes = false,
+            _ if arg == "novotes" => params.talkers.bin_votes = false,
             // The tracker's (see `track_from`).
             Some(
                 "by" | "fph" | "weak" | "tight" | "tightdeg" | "span" | "alone" | "confirm"
@@ -179,7 +179,7 @@ pub fn params_from(args: &[String]) -> ssl::Params {
         params.tolerance = ssl::method::Tolerance::Us(us);
     }
     if let Some(&gate) = numbers.get(1) {
-        params.residual_gate_us = (gate > 0.0).then_some(gate);
+        params.room.residual_gate_us = gate;
     }
     params
 }

@@ -77,11 +77,11 @@ pub fn untracked(params: ssl::Params) -> ssl::Params {
 /// sources, patterns, candidates, riders) taken from `from`.
 fn tracker_fields(mut params: ssl::Params, from: &ssl::Params) -> ssl::Params {
     params.steered = from.steered;
-    params.max_sources = from.max_sources;
     params.frame_sources = from.frame_sources;
-    params.patterns_s = from.patterns_s;
-    params.candidates = from.candidates;
-    params.riders = from.riders;
+    params.talkers.max_sources = from.talkers.max_sources;
+    params.talkers.patterns_s = from.talkers.patterns_s;
+    params.talkers.candidates = from.talkers.candidates;
+    params.talkers.riders = from.talkers.riders;
     params
 }
 

@@ -12,7 +12,7 @@
 //!   fan's frames measure 1.3-1.8 times), one
 //!   frame in [`STRIDE`] (so that the frames it needs are few enough to correlate even
 //!   when no detection needs them): a running mean at first, then an exponential
-//!   average over [`Params::background_s`](crate::method::Params::background_s);
+//!   average over [`Room::background_s`](crate::method::Room::background_s);
 //! - only the positive part is subtracted, so no value grows: the ceilings and bounds
 //!   that leave out correlations stay exact, and a source where the background has
 //!   nothing is scored as before.
@@ -50,8 +50,11 @@ pub const WARMUP_FRAMES: u64 = 4 * STRIDE;
 /// The ceiling under which a frame's weights let it teach the background ([`GATE`] times
 /// a frame at the noise level), in the units of `peak_ceiling`.
 pub fn gate(params: &Params) -> f64 {
-    let w = steady_weight(params.alpha, params.reverb_level);
-    GATE * w * w * params.interpolation.overshoot() * (1.0 + 1e-3)
+    let w = steady_weight(
+        params.weighting.alpha as f32,
+        params.weighting.reverb_share(),
+    );
+    GATE * w * w * params.peaks.refinement().overshoot() * (1.0 + 1e-3)
 }
 
 /// Every pair's background correlation at the lags searched, laid out as the frames'
@@ -67,7 +70,7 @@ pub(crate) struct Background {
 impl Background {
     /// An empty estimate, or `None` when the parameters leave it out.
     pub fn new(setup: &Layout) -> Option<Self> {
-        let tau = setup.params.background_s?;
+        let tau = setup.params.room.background_tau_s()?;
         let hop_s = setup.hop as f64 / setup.rate;
         Some(Background {
             windows: vec![0.0; setup.windows_len],
@@ -78,7 +81,7 @@ impl Background {
 
     /// Whether frame `index` teaches the background (it must then be correlated).
     pub fn teaches(params: &Params, gate: f64, state: &FrameState, index: u64) -> bool {
-        params.background_s.is_some() && index % STRIDE == 0 && state.ceiling <= gate
+        params.room.background_tau_s().is_some() && index % STRIDE == 0 && state.ceiling <= gate
     }
 
     /// In frame order: subtracts the background from each correlated frame's windows,

@@ -18,7 +18,7 @@
 //! ("Coherent-to-diffuse power ratio estimation for dereverberation", IEEE/ACM TASLP
 //! 2015; their DOA-independent estimator): the coherence `g` of each pair, from the
 //! cross- and auto-spectra summed over the frame and the ones before it (the frames
-//! [`Params::average_frames`](crate::method::Params::average_frames) averages), is modelled as
+//! [`Room::average_frames`](crate::method::Room::average_frames) averages), is modelled as
 //! `g = (c e^{-i w dT} + G) / (c + 1)` with `c` the ratio of direct to diffuse power.
 //! `|g (c + 1) - G| = c` is a quadratic in `c`; with its larger root, `g (c + 1) - G`
 //! is the direct sound's cross-spectrum up to a positive factor, and its phase replaces
@@ -106,7 +106,7 @@ impl Dereverberator {
         self.weights
             .iter_mut()
             .for_each(|w| *w = (*w / frames).sqrt());
-        let reach = peak_ceiling(&self.weights, setup.n, setup.params.interpolation);
+        let reach = peak_ceiling(&self.weights, setup.n, setup.params.peaks.refinement());
         let k = state.live.len();
         let mut list = (0..k).flat_map(|a| (a + 1..k).map(move |b| (a, b)));
         while let Some(first) = list.next() {

@@ -1,6 +1,6 @@
 //! Further sources from a frame's own correlations (beyond the paper).
 //!
-//! Averaging each pair's correlation over [`Params::average_frames`](crate::method::Params::average_frames)
+//! Averaging each pair's correlation over [`Room::average_frames`](crate::method::Room::average_frames)
 //! frames steadies a talker's delays in a reverberant room, but when two talk at once
 //! the average belongs to whichever dominated the span: the other, louder in the last
 //! frame alone, is not found there (the steered response's further sources read the

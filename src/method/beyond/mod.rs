@@ -81,6 +81,18 @@ impl Default for Room {
     }
 }
 
+impl Room {
+    /// The residual gate in microseconds, if on.
+    pub(crate) fn gate_us(&self) -> Option<f64> {
+        (self.residual_gate_us > 0.0).then_some(self.residual_gate_us)
+    }
+
+    /// The background's time constant in seconds, if it is subtracted.
+    pub(crate) fn background_tau_s(&self) -> Option<f64> {
+        (self.background_s > 0.0).then_some(self.background_s)
+    }
+}
+
 /// Several talkers at once: what the method reports beyond each frame's best source, for
 /// a tracker to confirm (beyond the paper; only with the calibrated threshold and a
 /// tracker).
@@ -104,6 +116,37 @@ pub struct Talkers {
     /// No riders from single frequency bins: on arrays a few centimetres across, each bin's own direction finds a talker that a louder one hides in the correlations, and adds its rows to that talker's track (two talkers on a 6-mic circle at 16 kHz: 60-70% of the 0.1 s windows instead of 56-66%)
     #[cfg_attr(feature = "cli", arg(long = "no-bin-votes", id = "no_bin_votes", action = clap::ArgAction::SetFalse, conflicts_with_all = ["no_track", "paper"], hide_short_help = true))]
     pub bin_votes: bool,
+}
+
+impl Talkers {
+    /// One source per frame and nothing below the threshold: the method alone, without
+    /// a tracker to confirm the rest.
+    pub(crate) fn alone() -> Self {
+        Talkers {
+            max_sources: 1,
+            candidates: Some(1.0),
+            riders: Some(1.0),
+            patterns_s: 0.0,
+            bin_votes: false,
+        }
+    }
+
+    /// Candidates' share of the threshold as the stages read it (1: none), reported with
+    /// [`Detection::margin`](super::Detection::margin) under 1.
+    pub(crate) fn candidate_share(&self) -> f64 {
+        self.candidates.unwrap_or(1.0)
+    }
+
+    /// Riders' share of the threshold as the stages read it (1: none), reported as
+    /// [`Detection::rider`](super::Detection::rider).
+    pub(crate) fn rider_share(&self) -> f64 {
+        self.riders.unwrap_or(1.0)
+    }
+
+    /// The talkers' patterns' time constant in seconds, if they are learned.
+    pub(crate) fn patterns_tau_s(&self) -> Option<f64> {
+        (self.patterns_s > 0.0).then_some(self.patterns_s)
+    }
 }
 
 impl Default for Talkers {

@@ -16,7 +16,7 @@
 //!   exponential average over [`PATTERN_S`]); up to [`SLOTS`] talkers are remembered,
 //!   the one learned from longest ago replaced first.
 //! - **The longer average:** every pair's correlation averaged exponentially over
-//!   [`Params::patterns_s`](crate::method::Params::patterns_s) (0.17 s; 0.25 s found 0-4
+//!   [`Talkers::patterns_s`](crate::method::Talkers::patterns_s) (0.17 s; 0.25 s found 0-4
 //!   points more on the tracking benchmark's prism, its meetings' rows 0.1 deg worse;
 //!   0.34 s left a meeting's rows 1.2 deg off, docs/tracking.md).
 //! - **Removal:** the first source's pattern times the least-squares gain that fits it
@@ -160,7 +160,7 @@ pub(crate) struct Patterns {
 impl Patterns {
     /// Nothing learned, or `None` when the parameters leave it out.
     pub fn new(setup: &Layout, threshold: &ThresholdPlan) -> Option<Self> {
-        let tau = setup.params.patterns_s?;
+        let tau = setup.params.talkers.patterns_tau_s()?;
         let longest = setup.max_lag.iter().copied().max().unwrap_or(0);
         if !setup.params.steered || longest < MIN_LAGS {
             return None;
@@ -186,7 +186,7 @@ impl Patterns {
     /// In frame order: folds each frame into the longer average, learns from the frames
     /// one source dominates, and adds to each frame that gives a source what the second
     /// look finds. `states` holds the block's frames after the `carried` before them
-    /// (each frame's span, [`Params::average_frames`](crate::method::Params::average_frames) in
+    /// (each frame's span, [`Room::average_frames`](crate::method::Room::average_frames) in
     /// all); `first` is the index of the block's first frame.
     pub fn apply(
         &mut self,
@@ -211,7 +211,7 @@ impl Patterns {
                 continue;
             }
             let slot = self.learn(setup, state, found, index);
-            if found.len() < setup.params.max_sources {
+            if found.len() < setup.params.talkers.max_sources {
                 if let Some(slot) = slot {
                     self.look(setup, span, found, slot, index);
                 }
@@ -419,7 +419,7 @@ impl Patterns {
         // The threshold of the longer average: the frame's with its chance part scaled
         // by the exponential average's spread over independent frames.
         let threshold = self.threshold.per_pair_spread(&state.weights, self.spread);
-        let floor = threshold * setup.params.candidates * pair_count(k) as f64;
+        let floor = threshold * setup.params.talkers.candidate_share() * pair_count(k) as f64;
         let Some(steer) = self.steered.search(
             &mut self.residual,
             &Query {

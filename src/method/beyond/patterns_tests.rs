@@ -42,20 +42,16 @@ fn patterns_are_learned_with_a_tracker_on_arrays_with_room_for_reflections() {
     assert!(patterns_of(&setup(&small, 48000, &tracked)).is_some());
     // Without a tracker (no steered response), or turned off: none.
     assert!(patterns_of(&setup(&large, 16000, &Params::default())).is_none());
-    let off = Params {
-        patterns_s: None,
-        ..tracked.clone()
-    };
+    let mut off = tracked.clone();
+    off.talkers.patterns_s = 0.0;
     assert!(patterns_of(&setup(&large, 16000, &off)).is_none());
 }
 
 #[test]
-fn a_time_constant_that_is_not_positive_is_refused() {
-    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let params = Params {
-            patterns_s: Some(bad),
-            ..crate::Config::default().settings().unwrap().method
-        };
+fn a_time_constant_that_is_negative_or_not_finite_is_refused() {
+    for bad in [-1.0, f64::NAN, f64::INFINITY] {
+        let mut params = crate::Config::default().settings().unwrap().method;
+        params.talkers.patterns_s = bad;
         assert!(Setup::new(&cube(0.4), 16000, &params).is_err(), "{bad}");
     }
 }

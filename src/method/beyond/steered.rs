@@ -216,7 +216,8 @@ impl Steered {
         let residual = self.residual_m(steer, solver);
         setup
             .params
-            .residual_gate_us
+            .room
+            .gate_us()
             .is_none_or(|gate| residual / setup.speed * 1e6 <= gate)
             .then_some(residual)
     }

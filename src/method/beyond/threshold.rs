@@ -21,10 +21,10 @@
 //!
 //! A frame with nothing above the noise estimate ([`STEADY_FRAME`]) gives no detection.
 //! Late reverberation is added to the noise estimate at the same time
-//! ([`Params::reverb_level`](crate::method::Params::reverb_level)): without the calibration it
+//! ([`Weighting::reverb_level`](crate::method::Weighting::reverb_level)): without the calibration it
 //! lowers speech scores under the fixed threshold, and without it the calibration
 //! sharpens nothing. Both are the defaults; `--min-score` (
-//! [`Params::fixed_threshold`](crate::method::Params::fixed_threshold)) restores the fixed
+//! [`Config::fixed_threshold`](crate::Config::fixed_threshold)) restores the fixed
 //! threshold without reverberation. A steady source next to the array, heard without
 //! reflections, passes this threshold: the steady background subtracted from the
 //! correlations ([`super::background`]) is what keeps it out.

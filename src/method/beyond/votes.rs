@@ -1,4 +1,4 @@
-//! Directions of single frequency bins (beyond the paper; [`Params::bin_votes`](crate::method::Params::bin_votes)): riders
+//! Directions of single frequency bins (beyond the paper; [`Talkers::bin_votes`](crate::method::Talkers::bin_votes)): riders
 //! for a talker that another one drowns in the correlations, on arrays a few
 //! centimetres across.
 //!
@@ -357,7 +357,7 @@ impl Band {
 /// of the bins' votes over `span` (the frame and those it averages): each peak apart
 /// from every detection (and from their floor and ceiling images), at the elevation
 /// where the frame's own correlations sum highest at its azimuth, scored by that sum,
-/// up to [`Params::max_sources`](crate::method::Params::max_sources) in all. Only beside a
+/// up to [`Talkers::max_sources`](crate::method::Talkers::max_sources) in all. Only beside a
 /// detection that is not a rider: in a frame that gave nothing, a peak is mostly the
 /// same talker, whose rows the correlations place better (the field benchmark's planar
 /// arrays gave 10-35% more confidently wrong rows with riders there). A frame the
@@ -373,7 +373,7 @@ pub(crate) fn add_riders(
     scratch: (&mut Vec<Vote>, &mut Vec<VotePeak>),
 ) {
     let state = span.last().expect("a frame");
-    let wanted = setup.params.max_sources;
+    let wanted = setup.params.talkers.max_sources;
     if found.as_slice().iter().all(|d| d.rider)
         || found.len() >= wanted
         || state.steady

@@ -69,7 +69,7 @@ impl Engine {
     ) -> Result<Self, ParamsError> {
         let setup = Setup::new(geometry, sample_rate, params)?;
         // The frames finished before a call (spans), those waiting, a block's.
-        let carried = setup.params.average_frames - 1;
+        let carried = setup.params.room.average_frames - 1;
         let (span, most) = (2 * carried, carried + BLOCK);
         Ok(Engine {
             workers: (0..rayon::current_num_threads())
@@ -169,7 +169,7 @@ impl Engine {
 
     /// Analyses the frames of `block` and returns the detections of the frames it
     /// finishes, in frame order, with the index of the first. A frame is finished once
-    /// the [`Params::average_frames`](crate::method::Params::average_frames)` - 1` frames
+    /// the [`Room::average_frames`](crate::method::Room::average_frames)` - 1` frames
     /// after it are weighed (whether its correlations can be left out depends on them),
     /// so the last of a block wait for the next block or for [`Engine::finish`]:
     /// the output does not depend on where blocks end. `meanwhile` runs on the calling
@@ -212,7 +212,7 @@ impl Engine {
     /// weighed (with `None`, at the end: every frame waiting); returns how many it
     /// finished.
     fn analyse_block(&mut self, block: Option<&FrameBlock>) -> usize {
-        let carried = self.setup.params.average_frames - 1;
+        let carried = self.setup.params.room.average_frames - 1;
         let waiting = self.waiting;
         if let Some(block) = block {
             // Frames are contiguous: the block's first follows those waiting.
@@ -260,7 +260,7 @@ impl Engine {
         let spectra = clock.elapsed();
         // The noise estimate, in frame order, then the weights.
         self.sequential
-            .estimate_noise(setup.params.weighting, states, live);
+            .estimate_noise(setup.params.weighting.on, states, live);
         let noise = clock.elapsed();
         states
             .par_iter_mut()

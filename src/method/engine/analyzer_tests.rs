@@ -103,10 +103,8 @@ fn a_steady_fan_in_free_field_is_background() {
         })
     };
     let alone = scene(vec![fan.clone()]);
-    let without = Params {
-        background_s: None,
-        ..Params::default()
-    };
+    let mut without = Params::default();
+    without.room.background_s = 0.0;
     let mut analyzer = Engine::new(&geometry, 48000, &without).unwrap();
     let reported = run(&mut analyzer, &alone).into_iter().flatten().count();
     assert!(
@@ -193,58 +191,58 @@ fn pruning_changes_no_detection() {
     let default = Params::default();
     const FIXED: Threshold = Threshold::Fixed { per_pair: 0.5 };
     let cases = [
-        (Interpolation::Parabolic, 1, FIXED, None, false),
-        (Interpolation::None, 1, FIXED, None, false),
+        (Interpolation::Parabolic, 1, FIXED, 0.0, false),
+        (Interpolation::None, 1, FIXED, 0.0, false),
         (
             Interpolation::Parabolic,
             1,
             FIXED,
-            default.background_s,
+            default.room.background_s,
             false,
         ),
         (
             Interpolation::Parabolic,
-            default.average_frames,
+            default.room.average_frames,
             FIXED,
-            None,
+            0.0,
             false,
         ),
         (
             Interpolation::Parabolic,
-            default.average_frames,
+            default.room.average_frames,
             default.threshold,
-            default.background_s,
+            default.room.background_s,
             false,
         ),
         // With further sources and riders (below the candidates' floor).
         (
             Interpolation::Cosine,
-            default.average_frames,
+            default.room.average_frames,
             default.threshold,
-            default.background_s,
+            default.room.background_s,
             true,
         ),
-        (Interpolation::Cosine, 1, default.threshold, None, true),
+        (Interpolation::Cosine, 1, default.threshold, 0.0, true),
     ];
     for (interpolation, average_frames, threshold, background_s, further) in cases {
-        let params = Params {
-            interpolation,
-            average_frames,
+        let mut params = Params {
             threshold,
-            background_s,
-            // The fixed threshold is meant for the noise estimate without reverberation.
-            reverb_level: if threshold.is_calibrated() {
-                default.reverb_level
-            } else {
-                0.0
-            },
             steered: further,
             frame_sources: further,
-            max_sources: if further { DEFAULT_MAX_SOURCES } else { 1 },
-            candidates: if further { DEFAULT_CANDIDATES } else { 1.0 },
-            riders: if further { DEFAULT_RIDERS } else { 1.0 },
             ..Params::default()
         };
+        params.peaks.interpolation = Some(interpolation);
+        params.room.average_frames = average_frames;
+        params.room.background_s = background_s;
+        // The fixed threshold is meant for the noise estimate without reverberation.
+        if !threshold.is_calibrated() {
+            params.weighting.reverb_level = Some(0.0);
+        }
+        if further {
+            params.talkers.max_sources = DEFAULT_MAX_SOURCES;
+            params.talkers.candidates = Some(DEFAULT_CANDIDATES);
+            params.talkers.riders = Some(DEFAULT_RIDERS);
+        }
         let mut pruned = Engine::new(&geometry, 48000, &params).unwrap();
         let mut full = Engine::new(&geometry, 48000, &params).unwrap();
         full.disable_pruning();
@@ -272,7 +270,7 @@ fn pruning_changes_no_detection() {
         let share = if average_frames == 1 { 5 } else { 100 };
         assert!(
             threshold.is_calibrated()
-                || background_s.is_some()
+                || background_s > 0.0
                 || p.skipped_pairs * share > f.correlated_pairs,
             "{} of {} skipped",
             p.skipped_pairs,
@@ -334,14 +332,16 @@ fn the_output_does_not_depend_on_where_blocks_end() {
         seed: 17,
     });
     // The defaults with the tracker (`ssl analyze`'s): further sources, riders, patterns.
-    let params = Params {
+    let mut params = Params {
         steered: true,
-        max_sources: crate::method::beyond::DEFAULT_MAX_SOURCES,
         frame_sources: true,
-        patterns_s: Some(crate::method::beyond::DEFAULT_PATTERNS_S),
-        candidates: crate::method::beyond::DEFAULT_CANDIDATES,
-        riders: crate::method::beyond::DEFAULT_RIDERS,
         ..Params::default()
+    };
+    params.talkers = crate::method::Talkers {
+        candidates: Some(crate::method::beyond::DEFAULT_CANDIDATES),
+        riders: Some(crate::method::beyond::DEFAULT_RIDERS),
+        bin_votes: false,
+        ..Default::default()
     };
     let slices = || channels.iter().map(|c| &c[..]).collect::<Vec<_>>();
     let mut whole = Channels::new("t", slices(), 48000).unwrap();

@@ -15,7 +15,7 @@ pub(crate) struct Sequential {
     pub stats: FrameStats,
     /// Frames of the next block to fold into the noise estimate before it is weighed.
     pub priming: usize,
-    /// The late-reverberation estimate added to `X_n(k)` (see [`Params::reverb_level`](crate::method::Params::reverb_level)).
+    /// The late-reverberation estimate added to `X_n(k)` (see [`Weighting::reverb_level`](crate::method::Weighting::reverb_level)).
     reverb: Vec<f32>,
     /// Its smoothing coefficient per frame and its share of `X(k)`.
     reverb_settings: Option<(f32, f32)>,
@@ -33,10 +33,10 @@ impl Sequential {
             },
             priming: ((PRIMING_S / hop_s).ceil() as usize).min(BLOCK),
             reverb: vec![0.0; setup.bins()],
-            reverb_settings: (setup.params.reverb_level > 0.0).then(|| {
+            reverb_settings: (setup.params.weighting.reverb_share() > 0.0).then(|| {
                 (
                     (-hop_s / REVERB_TAU_S).exp() as f32,
-                    setup.params.reverb_level,
+                    setup.params.weighting.reverb_share(),
                 )
             }),
         }

@@ -21,10 +21,10 @@ pub(crate) struct Setup {
     pub threshold: ThresholdPlan,
     /// A frame whose weights' ceiling is under this may teach the coherent background.
     pub background_gate: f64,
-    /// When the diffuse part is removed from the cross-spectra ([`Params::dereverb`]
+    /// When the diffuse part is removed from the cross-spectra ([`Room::dereverb`](crate::method::Room::dereverb)
     /// for this array): every pair's diffuse coherence at every bin.
     pub dereverb: Option<DiffuseCoherence>,
-    /// The bins' solvers when they vote ([`Params::bin_votes`] with a tracker, on an
+    /// The bins' solvers when they vote ([`Talkers::bin_votes`](crate::method::Talkers::bin_votes) with a tracker, on an
     /// array small enough).
     pub votes: Option<BinVotes>,
 }
@@ -47,6 +47,7 @@ impl Setup {
         let (n, rate, speed) = (layout.n, layout.rate, layout.speed);
         let params = &layout.params;
         let dereverb = params
+            .room
             .dereverb
             .applies(&geometry.shape)
             .then(|| DiffuseCoherence::new(geometry, n, rate, speed));
@@ -67,7 +68,10 @@ impl Setup {
 /// The detection threshold's plan for this layout: its floors for this array and rate.
 fn threshold_plan(layout: &Layout) -> ThresholdPlan {
     let params = &layout.params;
-    let w = steady_weight(params.alpha, params.reverb_level);
+    let w = steady_weight(
+        params.weighting.alpha as f32,
+        params.weighting.reverb_share(),
+    );
     ThresholdPlan {
         diffuse_floor: DIFFUSE_MARGIN
             * diffuse_coherence(
@@ -82,7 +86,7 @@ fn threshold_plan(layout: &Layout) -> ThresholdPlan {
             * w
             * w
             * layout.band_share()
-            * params.interpolation.overshoot()
+            * params.peaks.refinement().overshoot()
             * (1.0 + 1e-3),
         choice: params.threshold,
         n: layout.n,

@@ -59,12 +59,12 @@ impl Worker {
     pub fn new(setup: &Setup) -> Self {
         let mics = setup.mics();
         Worker {
-            fft: ForwardFft::new(setup.n, setup.params.window),
+            fft: ForwardFft::new(setup.n, setup.params.framing.window),
             correlator: Correlator::new(setup.n),
             window: Vec::with_capacity(setup.n),
             whitened: vec![vec![Complex32::default(); setup.bins()]; mics],
             peaks: (0..pair_count(mics))
-                .map(|_| Vec::with_capacity(setup.params.peaks))
+                .map(|_| Vec::with_capacity(setup.params.peaks.count))
                 .collect(),
             searcher: Searcher::new(setup.tolerance, setup.params.max_work),
             solvers: HashMap::new(),
@@ -139,12 +139,12 @@ impl Worker {
     /// After the noise estimate: the weights of eq. (4)-(5), and from them the ceiling
     /// no correlation value of the frame can exceed and the frame's threshold.
     pub fn weigh(setup: &Setup, state: &mut FrameState) {
-        if setup.params.weighting {
+        if setup.params.weighting.on {
             enhanced_weights(
                 &state.power,
                 &state.noise,
-                setup.params.alpha,
-                setup.params.gamma,
+                setup.params.weighting.alpha as f32,
+                setup.params.weighting.gamma as f32,
                 &mut state.weights,
             );
         }
@@ -154,19 +154,23 @@ impl Worker {
             state.weights[..first].fill(0.0);
             state.weights[last + 1..].fill(0.0);
         }
-        state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.interpolation);
+        state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.peaks.refinement());
         state.reach = state.ceiling;
         state.threshold = setup.threshold.per_pair(&state.weights);
-        state.floor = state.threshold * setup.params.candidates;
+        state.floor = state.threshold * setup.params.talkers.candidate_share();
         // Riders only beside candidates (with a tracker): without one, nothing to ride.
-        let riders = if setup.params.candidates < 1.0 {
-            setup.params.riders.min(setup.params.candidates)
+        let riders = if setup.params.talkers.candidate_share() < 1.0 {
+            setup
+                .params
+                .talkers
+                .rider_share()
+                .min(setup.params.talkers.candidate_share())
         } else {
-            setup.params.candidates
+            setup.params.talkers.candidate_share()
         };
         state.rider_floor = state.threshold * riders;
         state.steady = setup.params.threshold.is_calibrated()
-            && setup.params.weighting
+            && setup.params.weighting.on
             && state.ceiling <= setup.threshold.steady_ceiling;
         if let Some(votes) = &setup.votes {
             let mut out = std::mem::take(&mut state.votes);
@@ -202,9 +206,9 @@ impl Worker {
             whiten(&state.spectra[m], &state.weights, &mut self.whitened[m]);
         }
         clock.charge(|t| &mut t.weighting);
-        let alone = setup.params.average_frames == 1 && self.prune && !state.teaches;
+        let alone = setup.params.room.average_frames == 1 && self.prune && !state.teaches;
         let threshold = state.floor.min(state.rider_floor) * pairs as f64;
-        let overshoot = setup.params.interpolation.overshoot() as f32;
+        let overshoot = setup.params.peaks.refinement().overshoot() as f32;
         let norm = setup.n as f32;
         let whitened = &self.whitened;
         let live = &state.live;
@@ -247,7 +251,7 @@ impl Worker {
     }
 
     /// The stages after the correlations for the last frame of `span` (the frame and the
-    /// ones before it, [`Params::average_frames`](crate::method::Params::average_frames) in all):
+    /// ones before it, [`Room::average_frames`](crate::method::Room::average_frames) in all):
     /// each pair's correlation averaged over the live frames of `span`, its M peaks (eq.
     /// 7), the search (eq. 8), the direction (eq. 13). When the average gives no
     /// detection, the frame's own correlations are tried: averaging steadies the delays
@@ -300,7 +304,7 @@ impl Worker {
         }
         let outcome = self.decide_with_floor(setup, span, index, &mut clock, state.floor);
         // A frame that gives nothing down to the candidates' share is searched again down
-        // to the riders' ([`Params::riders`](crate::method::Params::riders)): what the frames
+        // to the riders' ([`Talkers::riders`](crate::method::Talkers::riders)): what the frames
         // that gave something give is left as it was.
         if matches!(outcome, Outcome::Detected(..)) || state.rider_floor >= state.floor {
             return outcome;
@@ -349,7 +353,7 @@ impl Worker {
         }
         if let Outcome::Detected(mut found, budget) = averaged {
             // Further sources from the frame's own correlations ([`crate::method::beyond::frame_sources`]).
-            let wanted = setup.params.max_sources;
+            let wanted = setup.params.talkers.max_sources;
             if setup.params.frame_sources && found.len() < wanted {
                 let own = &span[span.len() - 1..];
                 if let Outcome::Detected(more, _) =
@@ -421,8 +425,8 @@ impl Worker {
                 let peaks = &mut self.peaks[pair_index(a, b, k)];
                 find_peaks(
                     &self.window,
-                    setup.params.peaks,
-                    setup.params.interpolation,
+                    setup.params.peaks.count,
+                    setup.params.peaks.refinement(),
                     peaks,
                 );
                 // A pair without peaks leaves no consistent set (the search says so).
@@ -458,7 +462,7 @@ impl Worker {
 
     /// The steered response ([`crate::method::beyond::steered`]): a direction when the consistency
     /// search found none, and further sources after the first, up to
-    /// [`Params::max_sources`](crate::method::Params::max_sources).
+    /// [`Talkers::max_sources`](crate::method::Talkers::max_sources).
     fn steer(
         &mut self,
         setup: &Setup,
@@ -474,7 +478,7 @@ impl Worker {
             Outcome::Detected(found, budget) => (found, budget),
             _ => (Detections::default(), false),
         };
-        let wanted = setup.params.max_sources;
+        let wanted = setup.params.talkers.max_sources;
         if found.len() >= wanted {
             return first;
         }

@@ -91,6 +91,14 @@ impl Default for Peaks {
     }
 }
 
+impl Peaks {
+    /// The refinement as the stages read it (a resolved configuration always gives one;
+    /// none reads as the default, cosine).
+    pub(crate) fn refinement(&self) -> Interpolation {
+        self.interpolation.unwrap_or(Interpolation::Cosine)
+    }
+}
+
 /// The `m` highest local maxima of a correlation (eq. 7), ranked by their sample value,
 /// each refined per `interp`, then ordered by refined value, highest first (ties: smaller
 /// lag first). `window` holds `r(tau)` for `tau = -h..=h` (odd length `2h + 1`, from

@@ -59,6 +59,14 @@ impl Default for Weighting {
     }
 }
 
+impl Weighting {
+    /// The share of late reverberation in the noise estimate as the stages read it (a
+    /// resolved configuration always gives one; none reads as 0).
+    pub(crate) fn reverb_share(&self) -> f32 {
+        self.reverb_level.unwrap_or(0.0) as f32
+    }
+}
+
 /// A band of frequencies `LOW-HIGH` in Hz (`--band 300-3400`; a `k` suffix is kHz:
 /// `2k-8k`).
 #[cfg(feature = "cli")]
