@@ -16,6 +16,11 @@ const SMOOTHING_FRAME_S: f64 = 0.0107;
 /// degree of noise in its direction reads as several degrees per second.
 pub(super) const VELOCITY_SPAN_S: f64 = 0.5;
 
+/// A track heard this long (seconds) without turning faster than [`STILL_SPEED`] is
+/// taken as still before its turn is measured over [`VELOCITY_SPAN_S`]: a word is
+/// shorter than that, and a talker who said one is where he said it.
+pub(super) const STILL_SPAN_S: f64 = 0.25;
+
 /// A track measured turning slower than this (radians per second, 10 deg/s) is taken
 /// as still: the noise of a small array's directions measures about that much, and
 /// the gate follows slower talkers anyway.
@@ -85,6 +90,12 @@ impl Track {
         self.last_s = d.time_s;
         let (from, from_s) = self.anchor;
         let span = d.time_s - from_s;
+        if !self.measured && (STILL_SPAN_S..VELOCITY_SPAN_S).contains(&span) {
+            let turned = self.direction.angle(&from);
+            if turned < STILL_SPEED * span {
+                self.measured = true;
+            }
+        }
         if span >= VELOCITY_SPAN_S {
             let u = self.direction;
             let v = (u - from) / span;

@@ -31,6 +31,13 @@ const GATE_IN_CANDIDATE_GATES: f64 = 1.5;
 /// [`TrackParams::max_speed_deg_s`].
 const STILL_DRIFT_DEG_S: f64 = 3.0;
 
+/// With [`ConfirmBy::Evidence`], the most a still track's gate widens over a silence
+/// (degrees): a talker who speaks again where he was heard is within his gate (his
+/// rows' scatter and a shift in his seat), but a talker 12 deg from a silent one is
+/// not that one (five talkers in turn, 12-20 deg apart: the silent neighbour's widened
+/// gate took each new turn, and a person had several ids and an id several people).
+const STILL_WANDER_DEG: f64 = 3.0;
+
 /// With [`ConfirmBy::Evidence`], a stretch of activity ends after a silence as long as
 /// itself, at least this long (seconds) and at most [`TrackParams::end_s`]: each clap
 /// is its own event, a sentence's pauses are not ends.
@@ -215,7 +222,13 @@ impl Tracker {
                 speed.map_or(p.max_speed_deg_s, |v| STILL_DRIFT_DEG_S + v / 2.0),
             ),
         };
-        (base + growth * since.max(0.0)).min(p.max_gate_deg)
+        let widest = match (p.confirm_by, speed) {
+            (ConfirmBy::Evidence, Some(v)) if v == 0.0 => base + STILL_WANDER_DEG,
+            _ => p.max_gate_deg,
+        };
+        (base + growth * since.max(0.0))
+            .min(widest)
+            .min(p.max_gate_deg)
     }
 
     /// A track's gate at `now`.

@@ -121,6 +121,32 @@ fn two_talkers_taking_turns_keep_their_ids_and_outliers_are_dropped() {
     }
 }
 
+#[test]
+fn neighbours_in_turn_each_keep_their_own_id() {
+    // Five talkers 14 deg apart, each saying a 0.4 s word in turn with 0.4 s pauses,
+    // twice over in another order: each person one id, each id one person, one event
+    // a turn. (A silent neighbour's gate used to widen at 60 deg/s over the pause and
+    // take the next talker's word.)
+    let order = [0, 1, 2, 3, 4, 2, 0, 4, 1, 3];
+    let mut frames = vec![Vec::new(); 80 * order.len() + 150];
+    for (turn, &talker) in order.iter().enumerate() {
+        let start = 10 + 80 * turn;
+        for f in (start..start + 40).step_by(2) {
+            frames[f] = vec![talker as f64 * 14.0];
+        }
+    }
+    let (rows, events) = track(&frames);
+    assert_eq!(rows.len(), 20 * order.len());
+    let mut id_of = std::collections::BTreeMap::new();
+    for &(_, id, azimuth) in &rows {
+        let talker = (azimuth / 14.0).round() as u64;
+        assert_eq!(*id_of.entry(talker).or_insert(id), id, "talker {talker}");
+    }
+    let ids: std::collections::BTreeSet<u64> = id_of.values().copied().collect();
+    assert_eq!(ids.len(), 5, "{id_of:?}");
+    assert_eq!(events.len(), order.len(), "{events:?}");
+}
+
 /// The defaults, confirming by the rules of 0.2.0.
 fn rules() -> TrackParams {
     TrackParams {
