@@ -223,7 +223,7 @@ impl Tracker {
             ),
         };
         let widest = match (p.confirm_by, speed) {
-            (ConfirmBy::Evidence, Some(v)) if v == 0.0 => base + STILL_WANDER_DEG,
+            (ConfirmBy::Evidence, Some(0.0)) => base + STILL_WANDER_DEG,
             _ => p.max_gate_deg,
         };
         (base + growth * since.max(0.0))
