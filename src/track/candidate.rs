@@ -1,7 +1,7 @@
 //! A candidate track: detections that no track took, waiting to be confirmed (see the
 //! [`track`](super) module), and the gate within which further detections join it.
 
-use super::evidence::Test;
+use super::evidence::{Bursts, Test};
 use super::motion::Track;
 use super::{TrackParams, MAX_CANDIDATE_GATE_DEG};
 use crate::geometry::Geometry;
@@ -24,6 +24,8 @@ pub(super) struct Candidate {
     pub alone_s: f64,
     /// Its evidence (with [`ConfirmBy::Evidence`](super::ConfirmBy::Evidence)).
     pub test: Test,
+    /// Its evidence as a source heard in bursts, from its place's earlier candidates.
+    pub bursts: Bursts,
 }
 
 impl Candidate {

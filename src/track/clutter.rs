@@ -13,7 +13,6 @@
 //! does (the count over the time observed alone read such a tail as three a second in
 //! a recording's first second, and every later knock from that place was dropped).
 
-use super::evidence::CANDIDATE_RATE_PER_S;
 use nalgebra::Vector3;
 
 /// A cell's size (degrees of azimuth and of elevation): the candidates' gate.
@@ -23,8 +22,8 @@ pub(crate) const CELL_DEG: f64 = 5.0;
 pub(crate) const MEMORY_S: f64 = 30.0;
 
 /// The prior's weight (seconds of observation): for candidates under the threshold,
-/// one look of clutter ([`CANDIDATE_RATE_PER_S`]).
-pub(crate) const PRIOR_S: f64 = 1.0 / CANDIDATE_RATE_PER_S;
+/// five seconds, so that a fan's leaks (a few looks a second) outweigh it within seconds.
+pub(crate) const PRIOR_S: f64 = 5.0;
 
 const AZIMUTHS: usize = (360.0 / CELL_DEG) as usize;
 const ELEVATIONS: usize = (180.0 / CELL_DEG) as usize;

@@ -3,6 +3,7 @@
 //! module).
 
 use super::event::Accumulator;
+use super::evidence::Bursts;
 use crate::method::Detection;
 use nalgebra::Vector3;
 
@@ -40,10 +41,19 @@ pub(super) struct Track {
     anchor: (Vector3<f64>, f64),
     /// Whether its velocity has been measured yet (over [`VELOCITY_SPAN_S`]).
     measured: bool,
+    /// Its evidence as a source heard in bursts, kept on after it was confirmed: a
+    /// candidate at its place after a silence starts from it.
+    pub bursts: Bursts,
 }
 
 impl Track {
-    pub fn new(id: u64, direction: Vector3<f64>, last_s: f64, event: Option<Accumulator>) -> Self {
+    pub fn new(
+        id: u64,
+        direction: Vector3<f64>,
+        last_s: f64,
+        event: Option<Accumulator>,
+        bursts: Bursts,
+    ) -> Self {
         Track {
             id,
             direction,
@@ -52,6 +62,7 @@ impl Track {
             velocity: Vector3::zeros(),
             anchor: (direction, last_s),
             measured: false,
+            bursts,
         }
     }
 

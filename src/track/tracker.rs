@@ -3,7 +3,7 @@
 use super::candidate::{candidate_gate_deg, heard_alone, Candidate};
 use super::clutter::Clutter;
 use super::event::{Accumulator, Event};
-use super::evidence::{self, Evidence, Test, ACTIVE_S};
+use super::evidence::{self, Bursts, Evidence, Test, ACTIVE_S};
 use super::image::{in_vertical_plane, is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
 use super::output::{TrackStats, Tracked};
@@ -338,9 +338,19 @@ impl Tracker {
                 }
             }
             let widen = self.weak_widening(d);
+            // A source heard before at the detection's place explains it better than a
+            // candidate farther away (its own candidate takes that source's evidence).
+            let place = self.gate(Some(0.0), 0.0);
+            let known = self
+                .tracks
+                .iter()
+                .filter(|t| t.event.is_none())
+                .map(|t| self.distance(&d.direction, &t.direction))
+                .filter(|&angle| angle <= place)
+                .fold(f64::INFINITY, f64::min);
             for c in &self.candidates {
                 let angle = self.distance(&d.direction, &c.direction);
-                if angle <= gate(None, time_s - c.last_s) * widen {
+                if angle <= gate(None, time_s - c.last_s) * widen && angle < known {
                     pairs.push((angle, i, Slot::Candidate(c.key, 0)));
                 }
             }
@@ -434,13 +444,16 @@ impl Tracker {
             }
             let key = self.next_key;
             self.next_key += 1;
+            let look = self.evidence.look(d.time_s);
+            let bursts = self.place_of(&d.direction, look);
             self.candidates.push(Candidate {
                 key,
                 direction: d.direction,
                 last_s: d.time_s,
                 hits: VecDeque::new(),
                 alone_s: f64::NEG_INFINITY,
-                test: Test::new(self.evidence.look(d.time_s)),
+                test: Test::new(look),
+                bursts,
             });
             *placed = Some(self.join(d, Slot::Candidate(key, 0), frame));
         }
@@ -453,11 +466,18 @@ impl Tracker {
         let (max_speed, plane) = (self.max_speed(), self.plane);
         match slot {
             Slot::Track(id) => {
+                let heard =
+                    (self.params.confirm_by == ConfirmBy::Evidence).then(|| self.track_hit_nats(d));
+                let look = self.evidence.look(d.time_s);
+                let e = self.evidence;
                 let t = self
                     .tracks
                     .iter_mut()
                     .find(|t| t.id == id)
                     .expect("a live track");
+                if let Some(nats) = heard {
+                    t.bursts.hit(look, Some(nats), &e);
+                }
                 t.update(d, max_speed, plane);
                 match t.event.as_mut() {
                     Some(e) => e.add(d),
@@ -476,6 +496,13 @@ impl Tracker {
                     .iter()
                     .position(|c| c.key == key)
                     .expect("an open candidate");
+                // A source in bursts stays at its place: a detection farther from it
+                // than a candidate's gate (a gate widened for a source that might be
+                // moving) is as likely clutter as the area it was taken from is
+                // larger, the square of the distance (see `Bursts`).
+                let far = self.distance(&d.direction, &self.candidates[i].direction)
+                    / self.candidate_gate.max(1e-9);
+                let in_place = weighed.flatten().map(|n| n - 2.0 * far.max(1.0).ln());
                 let c = &mut self.candidates[i];
                 c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
@@ -489,7 +516,8 @@ impl Tracker {
                         let e = &self.evidence;
                         let look = e.look(d.time_s);
                         c.test.hit(look, weighed.flatten(), e);
-                        c.test.total() >= e.confirm_nats
+                        c.bursts.hit(look, in_place, e);
+                        c.test.total() >= e.confirm_nats || c.bursts.confirms(e)
                     }
                 };
                 if confirmed {
@@ -577,6 +605,7 @@ impl Tracker {
                     c.direction
                 };
                 t.last_s = t.last_s.max(c.last_s);
+                t.bursts = c.bursts;
                 t.id
             }
             None => {
@@ -600,7 +629,7 @@ impl Tracker {
                     event.add(d);
                 }
                 self.tracks
-                    .push(Track::new(id, c.direction, c.last_s, Some(event)));
+                    .push(Track::new(id, c.direction, c.last_s, Some(event), c.bursts));
                 id
             }
         };
@@ -615,6 +644,7 @@ impl Tracker {
     fn advance(&mut self, now: f64) {
         let p = &self.params;
         let (delay_s, end_s, forget_s) = (p.delay(), p.end_s, p.forget_s);
+        let by_evidence = p.confirm_by == ConfirmBy::Evidence;
         for c in &mut self.candidates {
             while c
                 .hits
@@ -625,8 +655,13 @@ impl Tracker {
                 self.resolved.insert(row, None);
             }
         }
-        self.candidates.retain(|c| !c.hits.is_empty());
-        if p.confirm_by == ConfirmBy::Evidence {
+        for i in (0..self.candidates.len()).rev() {
+            if !self.candidates[i].hits.is_empty() {
+                continue;
+            }
+            self.candidates.remove(i);
+        }
+        if by_evidence {
             self.weigh(now);
         }
         let by_length = self.params.confirm_by == ConfirmBy::Evidence;
@@ -644,6 +679,41 @@ impl Tracker {
             .retain(|t| t.event.is_some() || now - t.last_s <= forget_s);
     }
 
+    /// What a track's own detection `d` adds to its evidence as bursts: as a
+    /// candidate's ([`Tracker::hit_nats`]) with no track beside it.
+    fn track_hit_nats(&self, d: &Detection) -> f64 {
+        let margin = d.peak_margin.max(d.margin);
+        let floor = if margin >= 1.0 {
+            evidence::QUIET_RATE_PER_S
+        } else {
+            evidence::CANDIDATE_RATE_PER_S
+        };
+        let rate = self.clutter.rate(&d.direction, d.time_s, floor);
+        self.evidence.hit_nats(margin, rate)
+    }
+
+    /// The evidence as bursts a candidate starting at `direction` in look `look` takes
+    /// on: that of the nearest silent track within a still track's gate of where it was
+    /// last heard (a source heard there before), else none.
+    fn place_of(&self, direction: &Vector3<f64>, look: i64) -> Bursts {
+        let place = self.gate(Some(0.0), 0.0);
+        let track = self
+            .tracks
+            .iter()
+            .filter(|t| t.event.is_none())
+            .map(|t| (t, self.distance(direction, &t.direction)))
+            .filter(|&(_, angle)| angle <= place)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match track {
+            Some((t, _)) => {
+                let mut b = t.bursts;
+                b.close_to(look, &self.evidence, false);
+                b
+            }
+            None => Bursts::new(look),
+        }
+    }
+
     /// With [`ConfirmBy::Evidence`], time passes to `now` for every candidate's test:
     /// looks gone by without a detection count against it (but those in which a track
     /// was heard beside it), and a candidate whose evidence falls to
@@ -653,13 +723,18 @@ impl Tracker {
         self.clutter.observe(now);
         let look = self.evidence.look(now);
         let e = self.evidence;
+        for t in &mut self.tracks {
+            t.bursts.close_to(look, &e, false);
+        }
         let mut i = 0;
         while i < self.candidates.len() {
             let near = self.beside(&self.candidates[i].direction, now).0 || now < self.warmup_s;
             let c = &mut self.candidates[i];
             c.test.close_to(look, &e, near);
+            c.bursts.close_to(look, &e, near);
             if near {
                 c.test.mute();
+                c.bursts.mute();
             }
             if c.test.rejected() {
                 let c = self.candidates.remove(i);
