@@ -26,6 +26,8 @@ pub(super) struct Candidate {
     pub test: Test,
     /// Its evidence as a source heard in bursts, from its place's earlier candidates.
     pub bursts: Bursts,
+    /// The silent track whose place it started at and whose bursts it took on.
+    pub place: Option<u64>,
 }
 
 impl Candidate {

@@ -214,19 +214,21 @@ fn a_known_talkers_faint_word_is_his_again() {
     for f in (100..220).step_by(2) {
         frames[f] = vec![(-40.0, 2.0)];
     }
-    // The faint word: two detections in one look (2.97 and 2.98 s, both in look 46 of
-    // 64 ms), half the threshold.
+    // The faint word: two looks (2.97 and 2.98 s in look 46 of 64 ms, 3.04 s in look
+    // 47), half the threshold.
     frames[297] = vec![(20.5, 0.5)];
     frames[298] = vec![(19.8, 0.5)];
+    frames[304] = vec![(20.2, 0.5)];
     let (rows, events) = confirmed_rows(track_with(evidence(), &frames));
     let late: Vec<_> = rows.iter().filter(|r| r.0 >= 297).collect();
-    assert_eq!(late.len(), 2, "{rows:?}");
+    assert_eq!(late.len(), 3, "{rows:?}");
     assert!(late.iter().all(|r| r.1 == 1), "{late:?}");
     assert_eq!(events.len(), 3, "{events:?}");
     // The same look with no talker known there is nothing.
     let mut alone = vec![Vec::new(); 600];
     alone[297] = vec![(20.5, 0.5)];
     alone[298] = vec![(19.8, 0.5)];
+    alone[304] = vec![(20.2, 0.5)];
     let (rows, events) = track_with(evidence(), &alone);
     assert!(rows.is_empty() && events.is_empty(), "{rows:?} {events:?}");
 }
@@ -247,5 +249,27 @@ fn a_stray_at_a_known_place_beside_a_talker_is_not_that_source() {
     frames[251] = vec![(0.3, 0.45)];
     let (rows, events) = confirmed_rows(track_with(evidence(), &frames));
     assert!(rows.iter().all(|r| r.0 != 251), "{rows:?}");
+    assert_eq!(events.len(), 2, "{events:?}");
+}
+
+/// A known talker's faint word whose detections fall on both sides of where he was
+/// heard: each joins the candidate that took his place's evidence, so the word's looks
+/// add up (each starting its own candidate from his evidence, none did).
+#[test]
+fn a_faint_words_looks_add_up_at_a_known_place() {
+    let mut frames = vec![Vec::new(); 700];
+    for f in (10..40).step_by(3) {
+        frames[f] = vec![(20.0, 1.5)];
+    }
+    // The word: a detection each look (6.4 frames), 1.5 deg one side of the talker,
+    // then at his place, under the threshold.
+    for (k, f) in (300..340).step_by(7).enumerate() {
+        let azimuth = if k % 2 == 0 { 21.5 } else { 20.0 };
+        frames[f] = vec![(azimuth, 0.5)];
+    }
+    let (rows, events) = confirmed_rows(track_with(evidence(), &frames));
+    let late: Vec<_> = rows.iter().filter(|r| r.0 >= 300).collect();
+    assert!(late.len() >= 4, "{rows:?}");
+    assert!(late.iter().all(|r| r.1 == 1), "{late:?}");
     assert_eq!(events.len(), 2, "{events:?}");
 }

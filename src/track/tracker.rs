@@ -345,12 +345,13 @@ impl Tracker {
                 .tracks
                 .iter()
                 .filter(|t| t.event.is_none())
-                .map(|t| self.distance(&d.direction, &t.direction))
-                .filter(|&angle| angle <= place)
-                .fold(f64::INFINITY, f64::min);
+                .map(|t| (self.distance(&d.direction, &t.direction), t.id))
+                .filter(|&(angle, _)| angle <= place)
+                .min_by(|a, b| a.0.total_cmp(&b.0));
             for c in &self.candidates {
                 let angle = self.distance(&d.direction, &c.direction);
-                if angle <= gate(None, time_s - c.last_s) * widen && angle < known {
+                let explained = known.is_some_and(|(k, id)| k <= angle && c.place != Some(id));
+                if angle <= gate(None, time_s - c.last_s) * widen && !explained {
                     pairs.push((angle, i, Slot::Candidate(c.key, 0)));
                 }
             }
@@ -445,7 +446,7 @@ impl Tracker {
             let key = self.next_key;
             self.next_key += 1;
             let look = self.evidence.look(d.time_s);
-            let bursts = self.place_of(&d.direction, look);
+            let (bursts, place) = self.place_of(&d.direction, look);
             self.candidates.push(Candidate {
                 key,
                 direction: d.direction,
@@ -454,6 +455,7 @@ impl Tracker {
                 alone_s: f64::NEG_INFINITY,
                 test: Test::new(look),
                 bursts,
+                place,
             });
             *placed = Some(self.join(d, Slot::Candidate(key, 0), frame));
         }
@@ -695,7 +697,7 @@ impl Tracker {
     /// The evidence as bursts a candidate starting at `direction` in look `look` takes
     /// on: that of the nearest silent track within a still track's gate of where it was
     /// last heard (a source heard there before), else none.
-    fn place_of(&self, direction: &Vector3<f64>, look: i64) -> Bursts {
+    fn place_of(&self, direction: &Vector3<f64>, look: i64) -> (Bursts, Option<u64>) {
         let place = self.gate(Some(0.0), 0.0);
         let track = self
             .tracks
@@ -708,9 +710,9 @@ impl Tracker {
             Some((t, _)) => {
                 let mut b = t.bursts;
                 b.close_to(look, &self.evidence, false);
-                b
+                (b, Some(t.id))
             }
-            None => Bursts::new(look),
+            None => (Bursts::new(look), None),
         }
     }
 
