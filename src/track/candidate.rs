@@ -24,7 +24,8 @@ pub(super) struct Candidate {
     pub alone_s: f64,
     /// Its evidence (with [`ConfirmBy::Evidence`](super::ConfirmBy::Evidence)).
     pub test: Test,
-    /// Its evidence as a source heard in bursts, from its place's earlier candidates.
+    /// Its evidence as a source heard in bursts, taken on from the silent track at its
+    /// place (`place`) if there was one.
     pub bursts: Bursts,
     /// The silent track whose place it started at and whose bursts it took on.
     pub place: Option<u64>,

@@ -339,18 +339,11 @@ impl Tracker {
             }
             let widen = self.weak_widening(d);
             // A source heard before at the detection's place explains it better than a
-            // candidate farther away (its own candidate takes that source's evidence).
-            let place = self.gate(Some(0.0), 0.0);
-            let known = self
-                .tracks
-                .iter()
-                .filter(|t| t.event.is_none())
-                .map(|t| (self.distance(&d.direction, &t.direction), t.id))
-                .filter(|&(angle, _)| angle <= place)
-                .min_by(|a, b| a.0.total_cmp(&b.0));
+            // candidate farther away, but the candidate that took that source's evidence.
+            let known = self.silent_at(&d.direction);
             for c in &self.candidates {
                 let angle = self.distance(&d.direction, &c.direction);
-                let explained = known.is_some_and(|(k, id)| k <= angle && c.place != Some(id));
+                let explained = known.is_some_and(|(t, k)| k <= angle && c.place != Some(t.id));
                 if angle <= gate(None, time_s - c.last_s) * widen && !explained {
                     pairs.push((angle, i, Slot::Candidate(c.key, 0)));
                 }
@@ -694,19 +687,23 @@ impl Tracker {
         self.evidence.hit_nats(margin, rate)
     }
 
-    /// The evidence as bursts a candidate starting at `direction` in look `look` takes
-    /// on: that of the nearest silent track within a still track's gate of where it was
-    /// last heard (a source heard there before), else none.
-    fn place_of(&self, direction: &Vector3<f64>, look: i64) -> (Bursts, Option<u64>) {
+    /// The nearest silent track within a still track's gate of where it was last heard
+    /// (a source heard at `direction` before), with its distance (degrees).
+    fn silent_at(&self, direction: &Vector3<f64>) -> Option<(&Track, f64)> {
         let place = self.gate(Some(0.0), 0.0);
-        let track = self
-            .tracks
+        self.tracks
             .iter()
             .filter(|t| t.event.is_none())
             .map(|t| (t, self.distance(direction, &t.direction)))
             .filter(|&(_, angle)| angle <= place)
-            .min_by(|a, b| a.1.total_cmp(&b.1));
-        match track {
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// The evidence as bursts a candidate starting at `direction` in look `look` takes
+    /// on, with the track it takes it from: that of the silent track at its place
+    /// ([`Tracker::silent_at`]), else none.
+    fn place_of(&self, direction: &Vector3<f64>, look: i64) -> (Bursts, Option<u64>) {
+        match self.silent_at(direction) {
             Some((t, _)) => {
                 let mut b = t.bursts;
                 b.close_to(look, &self.evidence, false);
