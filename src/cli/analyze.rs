@@ -13,6 +13,7 @@ use crate::localize::{Output as Found, RunError};
 use crate::method::StageTimes;
 use crate::record::FileEntry;
 use crate::stream::{SampleSource, Warning};
+use crate::text::BriefNumber;
 use crate::{Analysis, Exporter, Format, Geometry, Localizer, OutputError, RunMetadata};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -300,37 +301,63 @@ fn shown_name(path: &str) -> &str {
     }
 }
 
-/// Why a tracked file gave no row although the method detected something: every
-/// detection (candidates included) was isolated, and the tracker with parameters `p`
-/// dropped it (or, with `--keep-unconfirmed`, wrote it without a source), with the rule
-/// a track needs. `None` when a track was confirmed or nothing was detected (the
-/// method's own warnings say why).
+/// Why a tracked file gave no row although the method detected something: the
+/// tracker with parameters `p` dropped every detection (candidates included), or with
+/// `--keep-unconfirmed` wrote it without a source. When five or more came from one
+/// place, says where, when and how close they came to a source (a faint talker in a
+/// reverberant room, docs/guide.md); otherwise they were isolated. `None` when a track
+/// was confirmed or nothing was detected (the method's own warnings say why).
 fn nothing_confirmed(
     stats: &crate::track::TrackStats,
     p: &crate::track::TrackParams,
 ) -> Option<String> {
     (stats.rows == 0 && stats.unconfirmed > 0).then(|| {
-        let rule = match p.confirm_by {
-            crate::track::ConfirmBy::Rules => format!(
-                "a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates",
-                p.confirm_hits, p.confirm_candidates, p.confirm_weak
-            ),
-            crate::track::ConfirmBy::Evidence => format!(
-                "none gathered the evidence a source needs for at most {} false sources an hour (--false-per-hour)",
-                p.false_per_hour
-            ),
-        };
-        if p.keep_unconfirmed {
-            format!(
-                "no source confirmed: all {} detections (candidates included) were isolated ({rule}); they are written with an empty source",
-                stats.unconfirmed
+        let all = stats.unconfirmed;
+        let (fate, tail) = if p.keep_unconfirmed {
+            (
+                format!("all {all} detections (candidates included) are written with an empty source"),
+                "",
             )
         } else {
-            format!(
-                "no source confirmed: the tracker dropped all {} detections (candidates included) as isolated ({rule}); --keep-unconfirmed writes them with an empty source, --no-track writes every frame's detection",
-                stats.unconfirmed
+            (
+                format!("the tracker dropped all {all} detections (candidates included)"),
+                "; --keep-unconfirmed writes them with an empty source, --no-track writes every frame's detection",
             )
-        }
+        };
+        let Some(place) = stats.faint else {
+            let rule = match p.confirm_by {
+                crate::track::ConfirmBy::Rules => format!(
+                    "a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates",
+                    p.confirm_hits, p.confirm_candidates, p.confirm_weak
+                ),
+                crate::track::ConfirmBy::Evidence => format!(
+                    "none gathered the evidence a source needs for at most {} false sources an hour (--false-per-hour)",
+                    p.false_per_hour
+                ),
+            };
+            return format!("no source confirmed: {fate} as isolated ({rule}){tail}");
+        };
+        let (azimuth, elevation) = crate::geometry::angles_deg(&place.direction);
+        let short = match (place.best_nats, place.needed_nats) {
+            (Some(best), Some(needed)) => format!(
+                "gathered at best {} of the {} nats of evidence a source needs for at most {} false sources an hour (--false-per-hour)",
+                BriefNumber((best * 10.0).round() / 10.0),
+                BriefNumber((needed * 10.0).round() / 10.0),
+                p.false_per_hour
+            ),
+            _ => format!(
+                "never made a track (a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates)",
+                p.confirm_hits, p.confirm_candidates, p.confirm_weak
+            ),
+        };
+        format!(
+            "no source confirmed: {fate}; {} of them came from one place, azimuth {} deg, elevation {} deg, from {} to {} s, and {short}: a source too faint to confirm (a talker across a reverberant room: --wpe --dereverb on hear more of one, docs/guide.md; or a steady noise such as a fan){tail}",
+            place.detections,
+            BriefNumber((azimuth * 10.0).round() / 10.0),
+            BriefNumber((elevation * 10.0).round() / 10.0),
+            BriefNumber((place.first_s * 100.0).round() / 100.0),
+            BriefNumber((place.last_s * 100.0).round() / 100.0),
+        )
     })
 }
 

@@ -2,6 +2,7 @@
 //! [`track`](super) module), and the gate within which further detections join it.
 
 use super::evidence::{Bursts, Test};
+use super::faint::FaintPlace;
 use super::motion::Track;
 use super::{TrackParams, MAX_CANDIDATE_GATE_DEG};
 use crate::geometry::Geometry;
@@ -29,9 +30,27 @@ pub(super) struct Candidate {
     pub bursts: Bursts,
     /// The silent track whose place it started at and whose bursts it took on.
     pub place: Option<u64>,
+    /// Its detections so far, the first one's time, and the most evidence it has
+    /// gathered (nats): what it adds to its place if it is dropped (see `faint`).
+    pub heard: u64,
+    pub first_s: f64,
+    pub best_nats: f64,
 }
 
 impl Candidate {
+    /// What it tells of its place if it is dropped unconfirmed (`needed_nats`: what a
+    /// source needs, with the evidence test).
+    pub fn as_place(&self, needed_nats: Option<f64>) -> FaintPlace {
+        FaintPlace {
+            direction: self.direction,
+            detections: self.heard,
+            first_s: self.first_s,
+            last_s: self.last_s,
+            best_nats: needed_nats.map(|_| self.best_nats),
+            needed_nats,
+        }
+    }
+
     /// The hits within the confirmation window (`window_s`) that ends at the latest.
     fn recent(&self, window_s: f64) -> impl Iterator<Item = &Detection> + Clone {
         let last = self

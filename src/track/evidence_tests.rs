@@ -273,3 +273,62 @@ fn a_faint_words_looks_add_up_at_a_known_place() {
     assert!(late.iter().all(|r| r.1 == 1), "{late:?}");
     assert_eq!(events.len(), 2, "{events:?}");
 }
+
+/// A talker too faint to confirm: a few candidates a word, a rider or two, words 1.2 s
+/// apart at 33 deg, with strays elsewhere. Nothing is confirmed at one false source in
+/// a thousand hours, and the tracker says where the talker was heard, over how long and
+/// how close he came; strays alone name no place.
+#[test]
+fn a_talker_too_faint_to_confirm_is_placed_in_what_the_run_says() {
+    let strict = TrackParams {
+        false_per_hour: 0.001,
+        ..evidence()
+    };
+    let run = |frames: &[Vec<(f64, f64, bool)>]| {
+        let mut tracker = Tracker::new(strict.clone());
+        for (i, found) in frames.iter().enumerate() {
+            let ds: Vec<Detection> = found
+                .iter()
+                .map(|&(a, margin, rider)| Detection {
+                    margin,
+                    peak_margin: margin,
+                    rider,
+                    ..detection(i as u64, a)
+                })
+                .collect();
+            tracker.push(i as f64 * HOP, &ds);
+            tracker.take_rows().for_each(drop);
+        }
+        tracker.finish();
+        assert_eq!(
+            tracker.take_rows().filter(|r| r.source.is_some()).count(),
+            0
+        );
+        tracker.stats()
+    };
+    let mut frames = vec![Vec::new(); 1000];
+    for word in 0..6 {
+        let at = 50 + word * 120;
+        for (k, f) in [at, at + 7, at + 14].into_iter().enumerate() {
+            frames[f] = vec![(33.0 + k as f64, 0.45, false)];
+        }
+        frames[at + 20] = vec![(31.5, 0.3, true)];
+        frames[at + 60] = vec![(-170.0 + 25.0 * word as f64, 0.45, false)];
+    }
+    let stats = run(&frames);
+    assert_eq!(stats.tracks, 0);
+    let place = stats.faint.expect("a faint place");
+    let (azimuth, _) = crate::geometry::angles_deg(&place.direction);
+    assert!((azimuth - 33.0).abs() < 1.5, "{place:?}");
+    assert_eq!(place.detections, 24);
+    assert!((place.first_s - 50.0 * HOP).abs() < 1e-9, "{place:?}");
+    assert!((place.last_s - 670.0 * HOP).abs() < 1e-9, "{place:?}");
+    let (best, needed) = (place.best_nats.unwrap(), place.needed_nats.unwrap());
+    assert!(best > 0.0 && best < needed, "{place:?}");
+    // The strays alone.
+    let strays: Vec<_> = frames
+        .iter()
+        .map(|f| f.iter().copied().filter(|d| d.0 < 0.0).collect())
+        .collect();
+    assert_eq!(run(&strays).faint, None);
+}

@@ -71,6 +71,7 @@ mod candidate;
 pub(crate) mod clutter;
 mod event;
 pub(crate) mod evidence;
+pub(crate) mod faint;
 pub(crate) mod image;
 mod motion;
 mod output;
@@ -78,6 +79,7 @@ pub mod smoother;
 mod tracker;
 
 pub use event::Event;
+pub use faint::FaintPlace;
 pub use output::{TrackStats, Tracked};
 pub use tracker::Tracker;
 

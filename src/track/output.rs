@@ -1,6 +1,7 @@
 //! What the tracker gives out: each row with its track's id, and what it made of a
 //! recording (see the [`track`](super) module).
 
+use super::faint::FaintPlace;
 use crate::method::Detection;
 
 /// A detection as the tracker gives it out: with its track's id.
@@ -16,7 +17,7 @@ pub struct Tracked {
 
 /// What a tracker made of a recording's detections (the JSON document's `files`
 /// entries carry it as `tracking`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TrackStats {
     /// Tracks confirmed (ids given).
     pub tracks: u64,
@@ -28,4 +29,9 @@ pub struct TrackStats {
     /// Of those, the detections of candidates taken for a talking track's floor or
     /// ceiling image (see `image.rs`).
     pub reflections: u64,
+    /// The place whose candidates, never confirmed, were heard most (five times or
+    /// more): where a source too faint to confirm may be. Not written in the JSON
+    /// document.
+    #[serde(skip)]
+    pub faint: Option<FaintPlace>,
 }

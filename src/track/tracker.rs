@@ -4,6 +4,7 @@ use super::candidate::{candidate_gate_deg, heard_alone, Candidate};
 use super::clutter::Clutter;
 use super::event::{Accumulator, Event};
 use super::evidence::{self, Bursts, Evidence, Test, ACTIVE_S};
+use super::faint::{self, FaintPlace, FaintPlaces};
 use super::image::{in_vertical_plane, is_vertical_image, IMAGE_TALKING_S};
 use super::motion::{smooth, Track};
 use super::output::{TrackStats, Tracked};
@@ -92,6 +93,8 @@ pub struct Tracker {
     ready: Vec<Tracked>,
     events: Vec<Event>,
     stats: TrackStats,
+    /// Where candidates dropped unconfirmed were heard.
+    faint: FaintPlaces,
     /// Per frame, reused: candidate pairings, detections placed, tracks and candidates
     /// taken (`true` for a track, then its id or key).
     pairs: Vec<(f64, usize, Slot)>,
@@ -152,6 +155,7 @@ impl Tracker {
             ready: Vec::new(),
             events: Vec::new(),
             stats: TrackStats::default(),
+            faint: FaintPlaces::default(),
             pairs: Vec::new(),
             used: Vec::new(),
             taken: Vec::new(),
@@ -434,6 +438,12 @@ impl Tracker {
                 } else {
                     self.stats.unconfirmed += 1;
                 }
+                if d.rider {
+                    // Heard in its frame's own correlations: it tells where something
+                    // faint may be (a talker too faint for the averaged ones).
+                    let gate = self.faint_gate();
+                    self.faint.add(FaintPlace::heard_once(d), gate);
+                }
                 continue;
             }
             let key = self.next_key;
@@ -449,6 +459,9 @@ impl Tracker {
                 test: Test::new(look),
                 bursts,
                 place,
+                heard: 0,
+                first_s: d.time_s,
+                best_nats: f64::NEG_INFINITY,
             });
             *placed = Some(self.join(d, Slot::Candidate(key, 0), frame));
         }
@@ -501,6 +514,7 @@ impl Tracker {
                 let c = &mut self.candidates[i];
                 c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
+                c.heard += 1;
                 c.hits.push_back((row, *d));
                 if frame.alone {
                     c.alone_s = d.time_s;
@@ -512,6 +526,7 @@ impl Tracker {
                         let look = e.look(d.time_s);
                         c.test.hit(look, weighed.flatten(), e);
                         c.bursts.hit(look, in_place, e);
+                        c.best_nats = c.best_nats.max(c.test.total()).max(c.bursts.total());
                         c.test.total() >= e.confirm_nats || c.bursts.confirms(e)
                     }
                 };
@@ -654,7 +669,8 @@ impl Tracker {
             if !self.candidates[i].hits.is_empty() {
                 continue;
             }
-            self.candidates.remove(i);
+            let c = self.candidates.remove(i);
+            self.unconfirmed_at(&c);
         }
         if by_evidence {
             self.weigh(now);
@@ -738,6 +754,7 @@ impl Tracker {
             if c.test.rejected() {
                 let c = self.candidates.remove(i);
                 self.clutter.learn(&c.direction, c.test.hit_looks, now);
+                self.unconfirmed_at(&c);
                 for (row, _) in c.hits {
                     self.resolved.insert(row, None);
                 }
@@ -777,6 +794,7 @@ impl Tracker {
     /// ends, and every row still waiting is given out or dropped.
     pub fn finish(&mut self) {
         for c in std::mem::take(&mut self.candidates) {
+            self.unconfirmed_at(&c);
             for (row, _) in c.hits {
                 self.resolved.insert(row, None);
             }
@@ -797,8 +815,22 @@ impl Tracker {
     pub fn stats(&self) -> TrackStats {
         TrackStats {
             tracks: self.next_id - 1,
+            faint: self.faint.most(),
             ..self.stats
         }
+    }
+
+    /// Candidate `c` is dropped unconfirmed: its detections count for its place.
+    fn unconfirmed_at(&mut self, c: &Candidate) {
+        let needed =
+            (self.params.confirm_by == ConfirmBy::Evidence).then_some(self.evidence.confirm_nats);
+        let gate = self.faint_gate();
+        self.faint.add(c.as_place(needed), gate);
+    }
+
+    /// How far apart (degrees) detections are still of one faint place.
+    fn faint_gate(&self) -> f64 {
+        faint::PLACE_GATES * self.gate(Some(0.0), 0.0)
     }
 
     /// The rows given out since the last call, in frame order.
