@@ -355,8 +355,8 @@ pub struct PlotArgs {
     #[arg(short, long, value_name = "SVG")]
     pub output: Option<PathBuf>,
 
-    /// Truth JSON written by `ssl simulate`: draw the true directions and score the result
-    #[arg(long, value_name = "JSON")]
+    /// The truth, as `ssl evaluate --truth` takes it (what `ssl simulate` writes, or a hand-written JSON, CSV or label file): draw the true directions and score the result
+    #[arg(long, value_name = "TRUTH")]
     pub truth: Option<PathBuf>,
 
     /// Draw only this file of the result (as the result names it)
@@ -370,7 +370,7 @@ pub struct PlotArgs {
 
 #[derive(Debug, Args)]
 pub struct EvaluateArgs {
-    /// The truth: what `ssl simulate` writes, or a hand-written JSON or CSV (docs/interface.md, "Ground truth of a measured setup"); or a folder holding each recording's truth as NAME.truth.json or NAME.truth.csv at the recording's relative path (the archive itself, when truths sit beside recordings): each recording is scored against its own, then all pooled
+    /// The truth: what `ssl simulate` writes, or a hand-written JSON, CSV (azimuths alone, moving sources, header names and separators as labs write them) or label file from Audacity, Praat or ELAN (docs/interface.md, "Ground truth of a measured setup"); or a folder holding each recording's truth as NAME.truth.json or NAME.truth.csv at the recording's relative path (the archive itself, when truths sit beside recordings): each recording is scored against its own, then all pooled
     #[arg(long, value_name = "FILE|DIR")]
     pub truth: PathBuf,
 

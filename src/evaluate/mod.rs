@@ -117,8 +117,8 @@ pub struct SourceReport {
     pub signal: String,
     /// Its azimuth (degrees).
     pub azimuth_deg: f64,
-    /// Its elevation (degrees).
-    pub elevation_deg: f64,
+    /// Its elevation (degrees), unless the truth gives its azimuth only.
+    pub elevation_deg: Option<f64>,
     /// Its distance (metres), when known.
     pub distance_m: Option<f64>,
     /// Detections counted for it (in frames wholly inside its intervals, nearest to it).
@@ -207,6 +207,14 @@ pub fn evaluate_by(
         return Err(EvaluateError::SeveralFiles(files.len()));
     }
     check_truth(truth)?;
+    // A truth of azimuths only is scored in azimuth (about z: the rows' azimuth_deg),
+    // whatever the array.
+    let azimuths = Metric::azimuth();
+    let metric = if truth.sources.iter().any(|s| s.azimuth_only) {
+        &azimuths
+    } else {
+        metric
+    };
     let dets = records
         .iter()
         .enumerate()
@@ -240,6 +248,7 @@ pub fn evaluate_by(
             Source::new(
                 unit(s.x, s.y, s.z).expect("checked"),
                 s.turn(),
+                s.waypoints.clone(),
                 s.active.iter().map(|&[a, b]| (a, b)).collect(),
             )
         })
@@ -259,20 +268,27 @@ pub fn evaluate_by(
 }
 
 /// A true source as scored: its direction (a moving one's when it starts turning), its
-/// turn, and its active intervals.
+/// turn or waypoints, and its active intervals.
 struct Source {
     direction: Vector3<f64>,
     turn: Option<(f64, f64)>,
+    waypoints: Vec<[f64; 3]>,
     intervals: Vec<(f64, f64)>,
     /// The intervals indexed.
     spans: Spans,
 }
 
 impl Source {
-    fn new(direction: Vector3<f64>, turn: Option<(f64, f64)>, intervals: Vec<(f64, f64)>) -> Self {
+    fn new(
+        direction: Vector3<f64>,
+        turn: Option<(f64, f64)>,
+        waypoints: Vec<[f64; 3]>,
+        intervals: Vec<(f64, f64)>,
+    ) -> Self {
         Source {
             direction,
             turn,
+            waypoints,
             spans: Spans::new(intervals.iter().copied()),
             intervals,
         }
@@ -280,7 +296,11 @@ impl Source {
 
     /// Its direction at time `t` (seconds).
     fn at(&self, t: f64) -> Vector3<f64> {
-        turned(&self.direction, self.turn, t)
+        if self.waypoints.is_empty() {
+            turned(&self.direction, self.turn, t)
+        } else {
+            crate::record::truth::along(&self.waypoints, t)
+        }
     }
 }
 
@@ -378,7 +398,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
             index: t.index,
             signal: t.signal.clone(),
             azimuth_deg: az,
-            elevation_deg: el,
+            elevation_deg: (!t.azimuth_only).then_some(el),
             distance_m: t.distance_m,
             detections: errors.len(),
             mean_error_deg: mean(&errors),

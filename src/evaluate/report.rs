@@ -20,11 +20,11 @@ impl Report {
         s += "source  signal   azimuth  elevation  distance  detections  mean_err  median_err  frames_detected  events_detected\n";
         for r in &self.sources {
             s += &format!(
-                "{:<6}  {:<7}  {:>7.1}  {:>9.1}  {:>8}  {:>10}  {:>8}  {:>10}  {:>15}  {:>15}\n",
+                "{:<6}  {:<7}  {:>7.1}  {:>9}  {:>8}  {:>10}  {:>8}  {:>10}  {:>15}  {:>15}\n",
                 r.index,
                 r.signal,
                 r.azimuth_deg,
-                r.elevation_deg,
+                opt(r.elevation_deg, 1),
                 opt(r.distance_m, 2),
                 r.detections,
                 opt(r.mean_error_deg, 2),

@@ -19,6 +19,8 @@ fn source(index: usize, direction: Vector3<f64>, active: Vec<[f64; 2]>) -> Truth
         active,
         turn_deg_per_s: None,
         turn_from_s: None,
+        waypoints: Vec::new(),
+        azimuth_only: false,
     }
 }
 

@@ -298,9 +298,15 @@ mod tests {
             Source::new(
                 unit_from_angles(0.0, 0.0),
                 None,
+                Vec::new(),
                 vec![(1.0, 3.0), (6.0, 8.0)],
             ),
-            Source::new(unit_from_angles(90.0, 0.0), None, vec![(2.0, 5.0)]),
+            Source::new(
+                unit_from_angles(90.0, 0.0),
+                None,
+                Vec::new(),
+                vec![(2.0, 5.0)],
+            ),
         ];
         let mut rows = Vec::new();
         // Track 1 follows source 0 through 1.2-2.8 s and again 6.5-7.5 s (a new event

@@ -432,7 +432,7 @@ fn draw_sky<DB: DrawingBackend>(
             .label("truth (black: crosses here, lines over time)")
             .legend(|(x, y)| Cross::new((x + 4, y), 4, BLACK.stroke_width(2)));
         // A moving source's path, from its cross on.
-        for s in t.sources.iter().filter(|s| s.turn().is_some()) {
+        for s in t.sources.iter().filter(|s| s.moves()) {
             for &[a, b] in &s.active {
                 for piece in truth_path(s, a, b) {
                     chart
@@ -504,7 +504,7 @@ fn plain(v: f64) -> String {
 /// sampled every 20 ms for a moving source (its two ends for a still one), in pieces
 /// that do not cross azimuth +-180.
 fn truth_path(s: &crate::record::TruthSource, a: f64, b: f64) -> Vec<Vec<(f64, f64, f64)>> {
-    let steps = if s.turn().is_some() {
+    let steps = if s.moves() {
         ((b - a) / 0.02).ceil().max(1.0) as usize
     } else {
         1

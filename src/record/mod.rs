@@ -16,6 +16,7 @@ mod read;
 mod source;
 pub(crate) mod truth;
 mod truth_forms;
+mod truth_labels;
 
 pub(crate) use self::csv::CsvExporter;
 pub(crate) use self::json::{JsonExporter, NdjsonExporter};

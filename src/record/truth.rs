@@ -104,6 +104,15 @@ pub struct TruthSource {
     /// (seconds).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub turn_from_s: Option<f64>,
+    /// A moving source given by hand (`path` in JSON): its direction at times, `[time_s, azimuth_deg,
+    /// elevation_deg]` in time order, followed straight between them (azimuth the short
+    /// way round) and held before the first and after the last.
+    #[serde(default, rename = "path", skip_serializing_if = "Vec::is_empty")]
+    pub waypoints: Vec<[f64; 3]>,
+    /// The truth gives its azimuth only (its elevation, unknown, is written 0): it is
+    /// scored in azimuth whatever the array.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub azimuth_only: bool,
 }
 
 impl TruthSource {
@@ -113,9 +122,19 @@ impl TruthSource {
     }
 
     /// The unit vector toward the source at time `t_s` (seconds), as heard at the array
-    /// centre: a moving source's direction turned about the array's z axis.
+    /// centre: a turning source's direction turned about the array's z axis, a source
+    /// with waypoints where they put it.
     pub fn direction_at(&self, t_s: f64) -> Vector3<f64> {
-        turned(&self.direction(), self.turn(), t_s)
+        if self.waypoints.is_empty() {
+            turned(&self.direction(), self.turn(), t_s)
+        } else {
+            along(&self.waypoints, t_s)
+        }
+    }
+
+    /// Whether it moves (a turn or waypoints).
+    pub fn moves(&self) -> bool {
+        self.turn().is_some() || self.waypoints.len() > 1
     }
 
     /// A moving source's turn (degrees per second) and the time it starts from.
@@ -133,6 +152,28 @@ pub(crate) fn turned(u: &Vector3<f64>, turn: Option<(f64, f64)>, t_s: f64) -> Ve
         }
         None => *u,
     }
+}
+
+/// The direction at `t_s` along `waypoints` (`[time_s, azimuth_deg, elevation_deg]`, in
+/// time order, at least one): straight between the two around it, the azimuth the short
+/// way round; the first before them, the last after.
+pub(crate) fn along(waypoints: &[[f64; 3]], t_s: f64) -> Vector3<f64> {
+    let at = |w: &[f64; 3]| crate::geometry::unit_from_angles(w[1], w[2]);
+    let next = waypoints.partition_point(|w| w[0] <= t_s);
+    if next == 0 {
+        return at(&waypoints[0]);
+    }
+    if next == waypoints.len() {
+        return at(&waypoints[next - 1]);
+    }
+    let (a, b) = (&waypoints[next - 1], &waypoints[next]);
+    let share = if b[0] > a[0] {
+        ((t_s - a[0]) / (b[0] - a[0])).clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let turn = (b[1] - a[1] + 180.0).rem_euclid(360.0) - 180.0;
+    crate::geometry::unit_from_angles(a[1] + share * turn, a[2] + share * (b[2] - a[2]))
 }
 
 /// The noise of the scene.

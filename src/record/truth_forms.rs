@@ -1,18 +1,22 @@
 //! A measured setup's ground truth, written by hand (docs/interface.md, "Ground truth of
 //! a measured setup"): the minimal JSON form
 //! `{"sources": [{"azimuth_deg": 30, "elevation_deg": 10, "intervals": [[0.5, 2.0]]}]}`
-//! (optional `name`, `x`/`y`/`z` instead of the angles, `duration_s`), or CSV with the
-//! header `source,start_s,end_s,azimuth_deg,elevation_deg` (one row per interval). Both
-//! become a [`Truth`] like the one `ssl simulate` writes, with what a hand cannot know
-//! left unknown (no room, no sample rate). Every problem is listed at once.
+//! (optional `name`, `x`/`y`/`z` instead of the angles, no elevation for an azimuth-only
+//! truth, `turn_deg_per_s` or `path` (waypoints) for a moving source, `duration_s`); CSV with a
+//! header naming its columns (`source,start_s,end_s,azimuth_deg,elevation_deg`, or the
+//! names labs use, separated by `,`, `;` or tabs, times in seconds or `m:ss.s`); or the
+//! label files of Audacity, Praat and ELAN (`truth_labels`). All become a [`Truth`] like
+//! the one `ssl simulate` writes, with what a hand cannot know left unknown (no room, no
+//! sample rate). Every problem is named once, with the lines it is on.
 
 use super::truth::{Truth, TruthArray, TruthSource};
+use super::truth_labels::{self, seconds, Piece};
 use crate::geometry::{angles_deg, unit_from_angles};
 use nalgebra::Vector3;
 use serde_json::{Map, Value};
 
 /// The keys of a hand-written source.
-const SOURCE_KEYS: [&str; 7] = [
+const SOURCE_KEYS: [&str; 10] = [
     "name",
     "azimuth_deg",
     "elevation_deg",
@@ -20,6 +24,9 @@ const SOURCE_KEYS: [&str; 7] = [
     "y",
     "z",
     "intervals",
+    "turn_deg_per_s",
+    "turn_from_s",
+    "path",
 ];
 
 /// The problems an error line names one by one; the rest are counted.
@@ -62,7 +69,15 @@ pub const CSV_HEADER: &str = "source,start_s,end_s,azimuth_deg,elevation_deg";
 pub(crate) fn parse(text: &str) -> Result<Truth, String> {
     let start = text.trim_start_matches('\u{feff}').trim_start();
     if !start.starts_with('{') {
-        return from_csv(start);
+        let mut problems = Vec::new();
+        let pieces = if truth_labels::is_textgrid(start) {
+            truth_labels::from_textgrid(start, &mut problems)
+        } else if truth_labels::is_label_file(start) {
+            truth_labels::from_label_file(start, &mut problems)
+        } else {
+            from_csv(start, &mut problems)?
+        };
+        return assemble(pieces, problems);
     }
     let doc: Value = serde_json::from_str(start).map_err(|e| format!("not a truth file: {e}"))?;
     let Value::Object(top) = &doc else {
@@ -144,14 +159,24 @@ fn source(i: usize, s: &Value) -> Result<TruthSource, Vec<String>> {
         number("y", &mut problems),
         number("z", &mut problems),
     );
+    let waypoints = match s.get("path") {
+        None => Vec::new(),
+        Some(v) => waypoints(&at, v, &mut problems),
+    };
+    let azimuth_only = az.is_some() && el.is_none() && x.is_none()
+        || !waypoints.is_empty() && waypoints.iter().any(|w| w.1 .1.is_none());
     let direction = match (az, el, x, y, z) {
-        (Some(a), Some(e), None, None, None) => match bad_angles(a, e) {
-            None => Some(unit_from_angles(a, e)),
+        (Some(a), e, None, None, None) => match bad_angles(a, e.unwrap_or(0.0)) {
+            None => Some(unit_from_angles(a, e.unwrap_or(0.0))),
             Some(why) => {
                 problems.push(format!("{at}: {why}"));
                 None
             }
         },
+        (None, None, None, None, None) if !waypoints.is_empty() => {
+            let (_, (a, e)) = waypoints[0];
+            Some(unit_from_angles(a, e.unwrap_or(0.0)))
+        }
         (None, None, Some(x), Some(y), Some(z)) => {
             let v = Vector3::new(x, y, z);
             if v.norm() > 0.0 {
@@ -163,7 +188,7 @@ fn source(i: usize, s: &Value) -> Result<TruthSource, Vec<String>> {
         }
         (None, None, None, None, None) => {
             problems.push(format!(
-                "{at}: missing its direction (azimuth_deg and elevation_deg, or x, y and z)"
+                "{at}: missing its direction (azimuth_deg and elevation_deg, azimuth_deg alone, x, y and z, or path)"
             ));
             None
         }
@@ -188,9 +213,56 @@ fn source(i: usize, s: &Value) -> Result<TruthSource, Vec<String>> {
         Some(Value::String(n)) => Some(n.clone()),
         Some(v) => Some(v.to_string()),
     };
+    let turn = number("turn_deg_per_s", &mut problems);
+    let turn_from = number("turn_from_s", &mut problems);
+    if turn_from.is_some() && turn.is_none() {
+        problems.push(format!("{at}: turn_from_s needs turn_deg_per_s"));
+    }
+    if turn.is_some() && !waypoints.is_empty() {
+        problems.push(format!("{at}: give turn_deg_per_s or path, not both"));
+    }
     match (direction, intervals, problems.is_empty()) {
-        (Some(u), Some(active), true) => Ok(truth_source(i, name, u, active)),
+        (Some(u), Some(active), true) => {
+            let first = active.iter().map(|iv| iv[0]).fold(f64::INFINITY, f64::min);
+            let mut source = truth_source(i, name, u, active);
+            source.turn_deg_per_s = turn;
+            source.turn_from_s = turn.map(|_| turn_from.unwrap_or(first));
+            source.waypoints = waypoints
+                .into_iter()
+                .map(|(t, (a, e))| [t, a, e.unwrap_or(0.0)])
+                .collect();
+            source.azimuth_only = azimuth_only;
+            Ok(source)
+        }
         _ => Err(problems),
+    }
+}
+
+/// A source's path (its waypoints): `[[time_s, azimuth_deg, elevation_deg], ...]` (or `[time_s,
+/// azimuth_deg]` for an azimuth-only truth), in time order.
+fn waypoints(at: &str, v: &Value, problems: &mut Vec<String>) -> Vec<(f64, (f64, Option<f64>))> {
+    let read = |w: &Value| {
+        let w = w.as_array().filter(|w| (2..=3).contains(&w.len()))?;
+        let n: Vec<f64> = w
+            .iter()
+            .map(|x| x.as_f64().filter(|x| x.is_finite()))
+            .collect::<Option<_>>()?;
+        (n[0] >= 0.0 && bad_angles(n[1], n.get(2).copied().unwrap_or(0.0)).is_none())
+            .then(|| (n[0], (n[1], n.get(2).copied())))
+    };
+    let list: Option<Vec<_>> = v
+        .as_array()
+        .filter(|l| !l.is_empty())
+        .and_then(|l| l.iter().map(read).collect());
+    match list {
+        Some(list) if list.windows(2).all(|w| w[0].0 < w[1].0) => list,
+        _ => {
+            problems.push(format!(
+                "{at}: path must be a non-empty list of [time_s, azimuth_deg, elevation_deg] (or [time_s, azimuth_deg]) in time order, got {}",
+                quoted(v)
+            ));
+            Vec::new()
+        }
     }
 }
 
@@ -243,6 +315,8 @@ fn truth_source(
         active,
         turn_deg_per_s: None,
         turn_from_s: None,
+        waypoints: Vec::new(),
+        azimuth_only: false,
     }
 }
 
@@ -277,10 +351,88 @@ fn finish(
     })
 }
 
-/// The CSV form: one row per interval, sources by their label in order of appearance.
-fn from_csv(text: &str) -> Result<Truth, String> {
+/// What a CSV column holds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Column {
+    Source,
+    Start,
+    End,
+    Azimuth,
+    Elevation,
+    EndAzimuth,
+    EndElevation,
+}
+
+/// The names a CSV header may give each column (lower case, once units in brackets and
+/// a unit suffix such as `_s` or `_deg` are taken off).
+const COLUMNS: [(Column, &[&str]); 7] = [
+    (
+        Column::Source,
+        &["source", "name", "label", "speaker", "talker", "id", "tier"],
+    ),
+    (
+        Column::Start,
+        &[
+            "start", "begin", "onset", "from", "t_start", "tmin", "xmin", "t0",
+        ],
+    ),
+    (
+        Column::End,
+        &["end", "stop", "offset", "to", "t_end", "tmax", "xmax", "t1"],
+    ),
+    (Column::Azimuth, &["azimuth", "az", "doa", "azi"]),
+    (Column::Elevation, &["elevation", "el", "elev", "ele"]),
+    (
+        Column::EndAzimuth,
+        &["end_azimuth", "end_az", "to_azimuth", "azimuth_end"],
+    ),
+    (
+        Column::EndElevation,
+        &["end_elevation", "end_el", "to_elevation", "elevation_end"],
+    ),
+];
+
+/// The column a header field names, if any.
+fn column(field: &str) -> Option<Column> {
+    let mut name = field.trim().trim_matches('"').to_ascii_lowercase();
+    // Units in brackets: `start (s)`, `azimuth [deg]`.
+    if let Some(cut) = name.find(['(', '[']) {
+        name.truncate(cut);
+    }
+    let mut name = name.trim().replace([' ', '-'], "_");
+    for suffix in [
+        "_degrees", "_deg", "_seconds", "_secs", "_sec", "_s", "_time",
+    ] {
+        if let Some(base) = name.strip_suffix(suffix) {
+            name = base.to_string();
+            break;
+        }
+    }
+    COLUMNS
+        .iter()
+        .find(|(_, names)| names.contains(&name.as_str()))
+        .map(|&(c, _)| c)
+}
+
+/// The CSV form: a header naming the columns (in any order; others are ignored), then
+/// one row per interval; `,`, `;` (with decimal commas) or tab between fields.
+fn from_csv(text: &str, problems: &mut Vec<(usize, String)>) -> Result<Vec<Piece>, String> {
+    let first = text
+        .lines()
+        .find(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .unwrap_or("");
+    let (delimiter, decimal_comma) = if first.contains('\t') {
+        (b'\t', false)
+    } else if first.contains(';') {
+        (b';', true)
+    } else {
+        (b',', false)
+    };
     let mut reader = csv::ReaderBuilder::new()
+        .delimiter(delimiter)
+        .flexible(true)
         .trim(csv::Trim::All)
+        .comment(Some(b'#'))
         .from_reader(text.as_bytes());
     let header: Vec<String> = reader
         .headers()
@@ -288,73 +440,217 @@ fn from_csv(text: &str) -> Result<Truth, String> {
         .iter()
         .map(str::to_string)
         .collect();
-    if header.join(",") != CSV_HEADER {
+    let at: Vec<Option<Column>> = header.iter().map(|h| column(h)).collect();
+    let find = |c: Column| at.iter().position(|&x| x == Some(c));
+    let (Some(start), Some(end), Some(azimuth)) = (
+        find(Column::Start),
+        find(Column::End),
+        find(Column::Azimuth),
+    ) else {
         return Err(format!(
-            "not a truth file: a JSON truth, or CSV with the header `{CSV_HEADER}`, is needed; the first line is `{}`",
-            quoted_text(&header.join(","))
+            "not a truth file: a JSON truth, a label file, or CSV whose header names a start, an end and an azimuth column (`{CSV_HEADER}`; start/begin/onset, end/stop/offset, azimuth/az/doa, elevation/el and source/name/label/speaker are understood, with or without units) is needed; the first line is `{}`",
+            quoted_text(first)
         ));
-    }
-    let mut labels: Vec<String> = Vec::new();
-    let mut found: Vec<(Vector3<f64>, Vec<[f64; 2]>)> = Vec::new();
-    let mut problems = Vec::new();
-    for (row, record) in reader.records().enumerate() {
-        let line = row + 2;
+    };
+    let (source, elevation) = (find(Column::Source), find(Column::Elevation));
+    let (end_azimuth, end_elevation) = (find(Column::EndAzimuth), find(Column::EndElevation));
+    let mut pieces = Vec::new();
+    for (i, record) in reader.records().enumerate() {
         let record = match record {
             Ok(r) => r,
             Err(e) => {
-                problems.push(format!("line {line}: {e}"));
+                problems.push((i + 2, e.to_string()));
                 continue;
             }
         };
-        let num = |k: usize| {
-            record
-                .get(k)
-                .and_then(|v| v.parse::<f64>().ok())
-                .filter(|v| v.is_finite())
-        };
-        let (Some(start), Some(end), Some(az), Some(el)) = (num(1), num(2), num(3), num(4)) else {
-            problems.push(format!(
-                "line {line}: start_s, end_s, azimuth_deg and elevation_deg must be numbers"
+        let line = record.position().map_or(i + 2, |p| p.line() as usize);
+        let field = |k: Option<usize>| k.and_then(|k| record.get(k)).filter(|v| !v.is_empty());
+        let times = (
+            field(Some(start)).and_then(|v| seconds(v, decimal_comma)),
+            field(Some(end)).and_then(|v| seconds(v, decimal_comma)),
+        );
+        let (Some(t0), Some(t1)) = times else {
+            problems.push((
+                line,
+                "the start and the end must be times (seconds, or m:ss.s)".into(),
             ));
             continue;
         };
-        if !(start >= 0.0 && start < end) {
-            problems.push(format!(
-                "line {line}: needs 0 <= start_s < end_s, got {start} and {end}"
+        let angles = [Some(azimuth), elevation, end_azimuth, end_elevation]
+            .map(|k| angle(field(k), decimal_comma));
+        let [Ok(Some(az)), Ok(el), Ok(az_end), Ok(el_end)] = angles else {
+            problems.push((
+                line,
+                "the azimuth and the elevation must be numbers (degrees)".into(),
             ));
             continue;
-        }
-        if let Some(why) = bad_angles(az, el) {
-            problems.push(format!("line {line}: {why}"));
-            continue;
-        }
-        let u = unit_from_angles(az, el);
-        let label = record.get(0).unwrap_or("").to_string();
-        match labels.iter().position(|l| *l == label) {
-            Some(k) => {
-                if found[k].0.angle(&u).to_degrees() > 1e-6 {
-                    problems.push(format!(
-                        "line {line}: source `{label}` has another direction than on its first row (a source that moves needs the JSON form of ssl simulate)"
-                    ));
-                }
-                found[k].1.push([start, end]);
-            }
+        };
+        pieces.push(Piece {
+            line,
+            name: field(source).map(str::to_string),
+            start: t0,
+            end: t1,
+            from: (az, el),
+            to: az_end.map(|a| (a, el_end.or(el))),
+        });
+    }
+    Ok(pieces)
+}
+
+/// An angle in a CSV field (degrees): `None` for an empty field, `Err` for one that is
+/// not a number.
+fn angle(field: Option<&str>, decimal_comma: bool) -> Result<Option<f64>, ()> {
+    let Some(v) = field else { return Ok(None) };
+    let v = if decimal_comma {
+        v.replace(',', ".")
+    } else {
+        v.to_string()
+    };
+    v.trim_start_matches('+')
+        .parse::<f64>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .map(Some)
+        .ok_or(())
+}
+
+/// Problems by line, each message once with the lines it is on (`lines 3-14 (12
+/// lines): ...`); line 0 is the file as a whole.
+fn grouped(problems: Vec<(usize, String)>) -> Vec<String> {
+    let mut order: Vec<(String, Vec<usize>)> = Vec::new();
+    let mut index: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    for (line, message) in problems {
+        match index.get(&message) {
+            Some(&k) => order[k].1.push(line),
             None => {
-                labels.push(label);
-                found.push((u, vec![[start, end]]));
+                index.insert(message.clone(), order.len());
+                order.push((message, vec![line]));
             }
         }
     }
-    if found.is_empty() && problems.is_empty() {
-        problems.push("no rows after the header".into());
-    }
-    let sources = found
+    order
         .into_iter()
-        .zip(labels)
-        .enumerate()
-        .map(|(i, ((u, active), label))| truth_source(i, Some(label), u, active))
-        .collect();
-    finish(sources, None, problems)
+        .map(|(message, mut lines)| {
+            lines.retain(|&l| l > 0);
+            lines.sort_unstable();
+            lines.dedup();
+            match lines.len() {
+                0 => message,
+                1 => format!("line {}: {message}", lines[0]),
+                n => {
+                    let mut runs: Vec<String> = Vec::new();
+                    let mut k = 0;
+                    while k < n {
+                        let mut j = k;
+                        while j + 1 < n && lines[j + 1] == lines[j] + 1 {
+                            j += 1;
+                        }
+                        runs.push(if j > k {
+                            format!("{}-{}", lines[k], lines[j])
+                        } else {
+                            lines[k].to_string()
+                        });
+                        k = j + 1;
+                    }
+                    let shown = if runs.len() > 5 {
+                        format!("{}, ...", runs[..5].join(", "))
+                    } else {
+                        runs.join(", ")
+                    };
+                    format!("lines {shown} ({n} lines): {message}")
+                }
+            }
+        })
+        .collect()
+}
+
+/// The sources of labelled intervals: by name in order of appearance, or, for pieces
+/// without one, by direction. A source heard from one direction is still; one whose
+/// pieces give other directions, or a move within one, follows waypoints (each piece's
+/// start and end). A source whose pieces give no elevation is known in azimuth only.
+fn assemble(pieces: Vec<Piece>, mut problems: Vec<(usize, String)>) -> Result<Truth, String> {
+    let mut groups: Vec<(Option<String>, Vec<Piece>)> = Vec::new();
+    for p in pieces {
+        if let Some(why) = bad_angles(p.from.0, p.from.1.unwrap_or(0.0))
+            .or_else(|| p.to.and_then(|(a, e)| bad_angles(a, e.unwrap_or(0.0))))
+        {
+            problems.push((p.line, why));
+            continue;
+        }
+        if !(p.start >= 0.0 && p.start < p.end) {
+            problems.push((p.line, "needs 0 <= start < end".into()));
+            continue;
+        }
+        let same = |g: &(Option<String>, Vec<Piece>)| match (&p.name, &g.0) {
+            (Some(a), Some(b)) => a == b,
+            (None, None) => g.1[0].from == p.from && g.1[0].to == p.to,
+            _ => false,
+        };
+        match groups.iter_mut().find(|g| same(g)) {
+            Some(g) => g.1.push(p),
+            None => groups.push((p.name.clone(), vec![p])),
+        }
+    }
+    if groups.is_empty() && problems.is_empty() {
+        problems.push((0, "no interval with a direction found".into()));
+    }
+    let mut sources = Vec::new();
+    for (i, (name, mut list)) in groups.into_iter().enumerate() {
+        list.sort_by(|a, b| a.start.total_cmp(&b.start));
+        let given = list
+            .iter()
+            .filter(|p| p.from.1.is_some() && p.to.is_none_or(|t| t.1.is_some()))
+            .count();
+        if given > 0 && given < list.len() {
+            let label = name.clone().unwrap_or_else(|| format!("source {}", i + 1));
+            for p in list.iter().filter(|p| p.from.1.is_none()) {
+                problems.push((
+                    p.line,
+                    format!("source `{label}` has no elevation here but has one elsewhere"),
+                ));
+            }
+            continue;
+        }
+        let azimuth_only = given == 0;
+        let dir = |(a, e): (f64, Option<f64>)| unit_from_angles(a, e.unwrap_or(0.0));
+        let first = dir(list[0].from);
+        let moves = list
+            .iter()
+            .any(|p| p.to.is_some() || dir(p.from).angle(&first).to_degrees() > 1e-6);
+        let waypoints = if moves {
+            list.iter()
+                .flat_map(|p| {
+                    let to = p.to.unwrap_or(p.from);
+                    [
+                        [p.start, p.from.0, p.from.1.unwrap_or(0.0)],
+                        [p.end, to.0, to.1.unwrap_or(0.0)],
+                    ]
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let active = merged(list.iter().map(|p| [p.start, p.end]).collect());
+        let mut source = truth_source(i, name, first, active);
+        source.waypoints = waypoints;
+        source.azimuth_only = azimuth_only;
+        sources.push(source);
+    }
+    finish(sources, None, grouped(problems))
+}
+
+/// Intervals in time order with those that touch or overlap joined (a moving source
+/// written as pieces end to end is one interval).
+fn merged(mut intervals: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    intervals.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    let mut out: Vec<[f64; 2]> = Vec::new();
+    for iv in intervals {
+        match out.last_mut() {
+            Some(last) if iv[0] <= last[1] + 1e-9 => last[1] = last[1].max(iv[1]),
+            _ => out.push(iv),
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -380,7 +676,7 @@ mod tests {
     #[test]
     fn every_problem_is_listed_at_once() {
         let err = parse(
-            r#"{"sources": [{"azimuth_deg": 30}, {"elevation_deg": 5, "azimuth_deg": 1, "intervals": [[2, 1]], "duration_s": 3}, {"x": 1, "intervals": [[0, 1]], "colour": 3}], "seed": 1}"#,
+            r#"{"sources": [{"elevation_deg": 30}, {"elevation_deg": 5, "azimuth_deg": 1, "intervals": [[2, 1]], "duration_s": 3}, {"x": 1, "intervals": [[0, 1]], "colour": 3}], "seed": 1}"#,
         )
         .unwrap_err();
         for needle in [
@@ -413,5 +709,93 @@ mod tests {
         assert!(err.contains("line 2") && err.contains("line 3"), "{err}");
         let err = parse("time,az\n1,2\n").unwrap_err();
         assert!(err.contains("the first line is `time,az`"), "{err}");
+    }
+
+    #[test]
+    fn csv_as_labs_write_it_is_read() {
+        // Other names, another order, units in brackets, m:ss times, a comment.
+        let t = parse(
+            "# talkers\nSpeaker;Onset (s);Offset (s);Azimuth [deg];Elevation [deg]\nA;0:00,5;0:02;30;10\nB;2,5;3;-120;0\n",
+        )
+        .unwrap();
+        assert_eq!(t.sources.len(), 2);
+        assert_eq!(t.sources[0].active, vec![[0.5, 2.0]]);
+        assert!((t.sources[1].azimuth_deg + 120.0).abs() < 1e-9);
+        let t = parse("start\tend\taz\n1:00.5\t1:02\t45\n").unwrap();
+        assert_eq!(t.sources[0].active, vec![[60.5, 62.0]]);
+        // Azimuth only: scored in azimuth.
+        assert!(t.sources[0].azimuth_only);
+        assert_eq!(t.sources[0].elevation_deg, 0.0);
+        let err = parse("begin,finish,az\n1,2,3\n").unwrap_err();
+        assert!(err.contains("the first line is `begin,finish,az`"), "{err}");
+    }
+
+    #[test]
+    fn a_moving_source_written_in_pieces_is_one_source_with_waypoints() {
+        // A walker turning 20 deg/s from 0 deg, written as 0.5 s pieces with their start
+        // and end directions, then as pieces each at one direction.
+        let mut csv =
+            String::from("source,start_s,end_s,azimuth_deg,elevation_deg,end_azimuth_deg\n");
+        for k in 0..8 {
+            let t = 1.0 + 0.5 * k as f64;
+            csv += &format!(
+                "walker,{t},{},{},5,{}\n",
+                t + 0.5,
+                10.0 * k as f64,
+                10.0 * (k + 1) as f64
+            );
+        }
+        let t = parse(&csv).unwrap();
+        assert_eq!(t.sources.len(), 1);
+        let s = &t.sources[0];
+        assert_eq!(s.active, vec![[1.0, 5.0]]);
+        assert!(s.moves() && !s.azimuth_only);
+        for time in [1.0, 1.25, 2.6, 4.99] {
+            let want = crate::geometry::unit_from_angles(20.0 * (time - 1.0), 5.0);
+            assert!(
+                s.direction_at(time).angle(&want).to_degrees() < 1e-6,
+                "{time}"
+            );
+        }
+        // The same source at another direction on another row: it moved between them.
+        let t = parse("source,start_s,end_s,azimuth_deg,elevation_deg\nA,0,1,10,0\nA,2,3,50,0\n")
+            .unwrap();
+        assert_eq!(t.sources.len(), 1);
+        assert!(
+            (crate::geometry::angles_deg(&t.sources[0].direction_at(2.5)).0 - 50.0).abs() < 1e-9
+        );
+        assert_eq!(t.sources[0].active, vec![[0.0, 1.0], [2.0, 3.0]]);
+    }
+
+    #[test]
+    fn json_takes_turns_waypoints_and_azimuths_alone() {
+        let t = parse(
+            r#"{"sources": [{"azimuth_deg": 0, "elevation_deg": 0, "intervals": [[1, 3]], "turn_deg_per_s": 30},
+                            {"path": [[0, 90], [2, 120]], "intervals": [[0, 2]]},
+                            {"azimuth_deg": -45, "intervals": [[0, 1]]}]}"#,
+        )
+        .unwrap();
+        let a = crate::geometry::angles_deg(&t.sources[0].direction_at(2.0)).0;
+        assert!((a - 30.0).abs() < 1e-9, "{a}");
+        let b = crate::geometry::angles_deg(&t.sources[1].direction_at(1.0)).0;
+        assert!((b - 105.0).abs() < 1e-9, "{b}");
+        assert!(t.sources[1].azimuth_only && t.sources[2].azimuth_only);
+        assert!(!t.sources[0].azimuth_only);
+        let err = parse(r#"{"sources": [{"path": [[2, 0], [1, 5]], "intervals": [[0, 2]]}]}"#)
+            .unwrap_err();
+        assert!(err.contains("in time order"), "{err}");
+    }
+
+    #[test]
+    fn a_mistake_on_many_lines_is_named_once_with_its_lines() {
+        let mut csv = String::from("source,start_s,end_s,azimuth_deg,elevation_deg\n");
+        for k in 0..12 {
+            csv += &format!("A,{k},{},x,0\n", k + 1);
+        }
+        csv += "B,1,0.5,3,0\n";
+        let err = parse(&csv).unwrap_err();
+        assert_eq!(err.matches("must be numbers").count(), 1, "{err}");
+        assert!(err.contains("lines 2-13 (12 lines)"), "{err}");
+        assert!(err.contains("line 14: needs 0 <= start < end"), "{err}");
     }
 }

@@ -144,6 +144,8 @@ pub(super) fn render_source(
         active,
         turn_deg_per_s: turn.map(|t| t.0),
         turn_from_s: turn.map(|t| t.1),
+        waypoints: Vec::new(),
+        azimuth_only: false,
     })
 }
 

@@ -84,7 +84,7 @@ fn a_hand_written_truth_lists_every_problem_at_once() {
     let truth = write(
         d,
         "truth.json",
-        r#"{"sources": [{"azimuth_deg": 30}, {"azimuth_deg": 10, "elevation_deg": 0, "intervals": [[3, 1]]}]}"#,
+        r#"{"sources": [{"elevation_deg": 30}, {"azimuth_deg": 10, "elevation_deg": 0, "intervals": [[3, 1]]}]}"#,
     );
     let out = run(&["evaluate", "--truth", s(&truth), s(&result)]);
     assert_eq!(out.status.code(), Some(1));
@@ -154,6 +154,18 @@ fn a_planar_array_is_scored_by_its_azimuth_unless_asked_otherwise() {
         report(&truth, &json, &["--metric", "3d"])["metric"],
         "3-D angle"
     );
+    // A truth of azimuths only, all a lab with a planar array may know, is scored in
+    // azimuth whatever the result carries, even asked for 3-D.
+    let azimuths = write(
+        d,
+        "azimuths.csv",
+        "start,end,azimuth\n0.1,0.6,40\n0.7,1.2,-100\n",
+    );
+    for extra in [&[][..], &["--metric", "3d"][..]] {
+        let r = report(&azimuths, &csv, extra);
+        assert_eq!(r["metric"], "azimuth", "{r}");
+        assert!((mean(&r) - mean(&by_default)).abs() < 1e-6, "{r}");
+    }
     // The table says what it measured.
     let out = run(&["evaluate", "--truth", s(&truth), s(&json)]);
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("errors: azimuth"));

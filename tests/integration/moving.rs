@@ -118,6 +118,46 @@ fn a_talker_turning_in_a_room_is_one_track_on_its_trajectory() {
         })
         .count();
     assert_eq!(long, 3, "polylines of the path");
+    // The same walk written by hand as a lab would: 0.5 s pieces with their start and
+    // end directions in CSV, an Audacity label track, or its turn in JSON. Each is one
+    // source of one event, scored as the simulator's exact truth.
+    let [a, b] = source.active[0];
+    let (mut csv, mut labels) = (
+        String::from(
+            "source,start_s,end_s,azimuth_deg,elevation_deg,end_azimuth_deg,end_elevation_deg\n",
+        ),
+        String::new(),
+    );
+    let mut t = a;
+    while t < b - 1e-9 {
+        let end = (t + 0.5).min(b);
+        let (az0, el0) = ssl::geometry::angles_deg(&source.direction_at(t));
+        let (az1, el1) = ssl::geometry::angles_deg(&source.direction_at(end));
+        csv += &format!("walker,{t},{end},{az0},{el0},{az1},{el1}\n");
+        labels += &format!("{t:.6}\t{end:.6}\twalker {az0}/{el0} -> {az1}/{el1}\n");
+        t = end;
+    }
+    let json = serde_json::json!({"sources": [{
+        "name": "walker", "azimuth_deg": source.azimuth_deg, "elevation_deg": source.elevation_deg,
+        "intervals": source.active, "turn_deg_per_s": 30.0, "turn_from_s": from,
+    }], "duration_s": truth.duration_s});
+    for (name, text) in [
+        ("pieces.csv", csv),
+        ("labels.txt", labels),
+        ("turn.json", json.to_string()),
+    ] {
+        let hand = ssl::Truth::from_file(&write(dir.path(), name, &text)).unwrap();
+        assert_eq!(hand.sources.len(), 1, "{name}");
+        assert_eq!(hand.sources[0].active.len(), 1, "{name}");
+        let scored = ssl::evaluate::evaluate(&hand, &records, 0.175).unwrap();
+        let (m, want) = (
+            scored.mean_error_deg.unwrap(),
+            report.mean_error_deg.unwrap(),
+        );
+        assert!((m - want).abs() < 0.02, "{name}: {m} against {want}");
+        assert_eq!(scored.detections, report.detections, "{name}");
+        assert_eq!(scored.tracking.unwrap().tracks, 1, "{name}");
+    }
     let mut still = truth.clone();
     still.sources[0].turn_deg_per_s = None;
     let against_start = ssl::evaluate::evaluate(&still, &records, 0.175).unwrap();

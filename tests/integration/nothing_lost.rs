@@ -759,6 +759,21 @@ fn point_9_a_truth_of_a_hundred_thousand_intervals_is_scored_and_its_errors_are_
         e.contains("elevation_deg must be within -90..90, got 91"),
         "{e}"
     );
+    assert!(
+        e.contains("lines 2-100001 (100000 lines): elevation_deg"),
+        "{e}"
+    );
+    // Another value on every line: each message once, the first few named.
+    let mut varied = String::from("source,start_s,end_s,azimuth_deg,elevation_deg\n");
+    for i in 0..100_000 {
+        varied += &format!("s,{i},{},30,{}\n", i + 1, 91 + i);
+    }
+    let varied = write(root, "varied.csv", &varied);
+    let started = Instant::now();
+    let o = run(&["evaluate", "--truth", s(&varied), s(&result)]);
+    assert!(started.elapsed() < Duration::from_secs(10));
+    let e = stderr(&o);
+    assert!(e.len() < 2000, "{} bytes", e.len());
     assert!(e.contains("and 99990 more problems"), "{e}");
     // Angles out of range in the JSON form too.
     let far = write(

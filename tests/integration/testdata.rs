@@ -75,6 +75,8 @@ fn truth(geometry: &Geometry, scene: &Scene) -> Truth {
                 active: vec![[s.start_s, s.end_s]],
                 turn_deg_per_s: None,
                 turn_from_s: None,
+                waypoints: Vec::new(),
+                azimuth_only: false,
             }
         })
         .collect();
