@@ -363,7 +363,7 @@ pub struct PlotArgs {
     #[arg(long, value_name = "NAME")]
     pub file: Option<String>,
 
-    /// Seconds after each active interval during which detections are not false, for the scores [default: half the room's RT60]
+    /// Seconds after each active interval during which detections are not false, for the scores [default: one analysis frame, plus half the room's RT60 when the truth knows it]
     #[arg(long, value_name = "S", value_parser = non_negative)]
     pub tail: Option<f32>,
 }
@@ -378,7 +378,7 @@ pub struct EvaluateArgs {
     #[arg(required = true, value_name = "RESULT")]
     pub results: Vec<PathBuf>,
 
-    /// Seconds after each active interval during which detections are not false [default: half the room's RT60, 0 in free field]
+    /// Seconds after each active interval during which detections are not false [default: one analysis frame, plus half the room's RT60 when the truth knows it]
     #[arg(long, value_name = "S", value_parser = non_negative)]
     pub tail: Option<f32>,
 

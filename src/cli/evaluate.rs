@@ -44,14 +44,16 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
         None => geometry,
     };
     let metric = metric(args.metric, geometry.as_ref())?;
-    let tail = tail(args, &truth);
+    let (tail, rule) = tail(args.tail, &truth, &detections);
     let shown = results[0].path.display();
-    let report = evaluate_by(&truth, &detections, tail, &metric).map_err(|e| match e {
-        crate::evaluate::EvaluateError::SeveralFiles(_) => anyhow::anyhow!(
-            "{shown}: {e}, or give --truth a folder holding each one's truth (NAME.truth.json)"
-        ),
-        e => anyhow::anyhow!("{shown}: {e}"),
-    })?;
+    let report = evaluate_by(&truth, &detections, tail, &metric)
+        .map(|r| with_rule(r, rule))
+        .map_err(|e| match e {
+            crate::evaluate::EvaluateError::SeveralFiles(_) => anyhow::anyhow!(
+                "{shown}: {e}, or give --truth a folder holding each one's truth (NAME.truth.json)"
+            ),
+            e => anyhow::anyhow!("{shown}: {e}"),
+        })?;
     let text = if args.json {
         serde_json::to_string_pretty(&report)? + "\n"
     } else {
@@ -61,10 +63,27 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
     Ok(true)
 }
 
-/// The tail `--tail` gives, or half the truth's RT60 (0 when it has none).
-fn tail(args: &EvaluateArgs, truth: &Truth) -> f64 {
-    args.tail
-        .map_or(truth.rt60_s().map_or(0.0, |t| t / 2.0), f64::from)
+/// The tail `--tail` gives, or the default for the rows (one frame, and half the
+/// truth's RT60 when it has a room), with where it comes from. `ssl plot` takes the
+/// same.
+pub(super) fn tail(
+    given: Option<f32>,
+    truth: &Truth,
+    rows: &[crate::DetectionRecord],
+) -> (f64, String) {
+    match given {
+        Some(t) => (f64::from(t), "--tail".into()),
+        None => crate::evaluate::default_tail(truth, rows),
+    }
+}
+
+/// `report` saying where its tail comes from.
+pub(super) fn with_rule(
+    mut report: crate::evaluate::Report,
+    rule: String,
+) -> crate::evaluate::Report {
+    report.tail_rule = rule;
+    report
 }
 
 /// The geometry a JSON result carries (with its orientation).
@@ -252,7 +271,9 @@ fn many(args: &EvaluateArgs, results: &[ResultFile]) -> Result<bool> {
             .map_err(anyhow::Error::from)
             .and_then(|truth| {
                 let metric = metric(args.metric, given.as_ref().or(rec.geometry.as_ref()))?;
-                evaluate_by(&truth, &rec.rows, tail(args, &truth), &metric)
+                let (tail, rule) = tail(args.tail, &truth, &rec.rows);
+                evaluate_by(&truth, &rec.rows, tail, &metric)
+                    .map(|r| with_rule(r, rule))
                     .map_err(|e| anyhow::anyhow!("{e}"))
             });
         match outcome {

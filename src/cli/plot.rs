@@ -68,12 +68,14 @@ pub fn run(args: &PlotArgs) -> Result<()> {
                 .filter(|f| args.file.as_ref().is_none_or(|n| &f.name == n))
                 .flat_map(|f| f.detections.iter().cloned())
                 .collect();
-            let tail = args
-                .tail
-                .map_or(t.rt60_s().map_or(0.0, |x| x / 2.0), f64::from);
-            Some(evaluate(t, &rows, tail).map_err(|e| {
-                anyhow::anyhow!("{}: {e} (--file picks one)", shown(&args.results[0]))
-            })?)
+            let (tail, rule) = super::evaluate::tail(args.tail, t, &rows);
+            Some(
+                evaluate(t, &rows, tail)
+                    .map(|r| super::evaluate::with_rule(r, rule))
+                    .map_err(|e| {
+                        anyhow::anyhow!("{}: {e} (--file picks one)", shown(&args.results[0]))
+                    })?,
+            )
         }
         None => None,
     };

@@ -69,7 +69,12 @@ impl Metric {
                 }
             }
             Metric::Axis { axis } => {
-                let to_axis = |u: &Vector3<f64>| u.dot(axis).clamp(-1.0, 1.0).acos().to_degrees();
+                // Directions of any length (an event's is the sum of its rows'): its
+                // cosine to the axis from the unit vector.
+                let to_axis = |u: &Vector3<f64>| {
+                    let cos = u.dot(axis) / u.norm().max(1e-300);
+                    cos.clamp(-1.0, 1.0).acos().to_degrees()
+                };
                 (to_axis(got) - to_axis(truth)).abs()
             }
         }
@@ -94,6 +99,9 @@ mod tests {
         );
         assert!(axis.error_deg(&a, &b) < 1e-6);
         assert!((axis.error_deg(&Vector3::x(), &b) - 60.0).abs() < 1e-6);
+        // An event's direction is the sum of its rows': nine rows at `a` are `a`.
+        assert!(axis.error_deg(&(a * 9.0), &b) < 1e-6);
+        assert!((axis.error_deg(&(Vector3::x() * 9.0), &b) - 60.0).abs() < 1e-6);
         let g = Geometry::from_positions(&[[0.05, 0.0, 0.0], [-0.05, 0.0, 0.0], [0.0, 0.05, 0.0]])
             .unwrap();
         assert_eq!(Metric::of_geometry(&g).name(), "azimuth");

@@ -171,6 +171,9 @@ pub struct Report {
     pub hop_s: f64,
     /// The tail added to each interval (seconds).
     pub tail_s: f64,
+    /// Where the tail comes from (`--tail`, or what [`default_tail`] is made of); empty
+    /// when the caller did not say.
+    pub tail_rule: String,
     /// Tracks and events, when the rows carry a `source`.
     pub tracking: Option<TrackReport>,
     /// What the errors measure ([`Metric::name`]).
@@ -304,10 +307,30 @@ impl Source {
     }
 }
 
-fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &Metric) -> Report {
-    let hop = dets
-        .iter()
-        .find_map(|d| d.frame.map(|f| d.time_s / (f as f64 + 1.0)))
+/// How far past each interval its rows still count as its own unless told (`--tail`):
+/// one analysis frame (a frame that ends after the sound still holds it, and a tracked
+/// row may be smoothed into the next), plus half the room's RT60 when the truth knows
+/// the room; with what it is made of, for the report.
+pub fn default_tail(truth: &Truth, records: &[DetectionRecord]) -> (f64, String) {
+    let frame = 2.0 * hop_of(truth, records.iter().map(|r| (r.time_s, r.frame)));
+    match truth.rt60_s() {
+        Some(rt60) => (
+            frame + rt60 / 2.0,
+            format!("one frame, {frame:.3} s, and half the room's RT60"),
+        ),
+        None => (
+            frame,
+            format!("one frame, {frame:.3} s; --tail adds the room's reverberation"),
+        ),
+    }
+}
+
+/// The analysis hop (seconds) of rows given as (time, frame): from the first with a
+/// frame index, else the default frame at the truth's rate (48 kHz when a hand-written
+/// truth does not give it).
+fn hop_of(truth: &Truth, rows: impl Iterator<Item = (f64, Option<u64>)>) -> f64 {
+    let mut rows = rows;
+    rows.find_map(|(t, f)| f.map(|f| t / (f as f64 + 1.0)))
         .unwrap_or_else(|| {
             // Rows without frame indices: the default frame at the truth's rate (48 kHz
             // when a hand-written truth does not give it).
@@ -317,7 +340,11 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
                 truth.sample_rate
             };
             default_frame_size(rate) as f64 / 2.0 / rate as f64
-        });
+        })
+}
+
+fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &Metric) -> Report {
+    let hop = hop_of(truth, dets.iter().map(|d| (d.time_s, d.frame)));
     let frames = if truth.duration_s >= 2.0 * hop {
         ((truth.duration_s - 2.0 * hop) / hop + 1e-9).floor() as u64 + 1
     } else {
@@ -342,7 +369,10 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
     let (mut active_total, mut detected_total, mut events_total, mut events_hit) = (0, 0, 0, 0);
     for (si, (s, t)) in sources.iter().zip(&truth.sources).enumerate() {
         // Detections counted for this source: in a frame wholly inside one of its
-        // intervals, and nearer to it than to any other source active then.
+        // intervals, and nearer to it than to any other source heard within the frame
+        // (its interval with its tail overlapping the frame: a row in a frame that
+        // straddles another source's start or end may be that source's).
+        let heard = |t: f64, o: &Source| o.spans.any_strictly(t + hop, t - hop - tail_s);
         let mine: Vec<(&Det, f64)> = dets
             .iter()
             .filter(|d| inside(d.time_s, s))
@@ -350,7 +380,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
                 let own = metric.error_deg(&d.direction, &s.at(d.time_s));
                 sources.iter().enumerate().all(|(oi, o)| {
                     oi == si
-                        || !inside(d.time_s, o)
+                        || !heard(d.time_s, o)
                         || metric.error_deg(&d.direction, &o.at(d.time_s)) > own
                 })
             })
@@ -440,6 +470,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
             .then(|| false_detections as f64 / (background_s / 60.0)),
         hop_s: hop,
         tail_s,
+        tail_rule: String::new(),
         metric: metric.name().to_string(),
         errors_deg: all_errors,
         tracking: dets.iter().any(|d| d.source.is_some()).then(|| {

@@ -62,8 +62,13 @@ impl Report {
                 "error split: azimuth {az:.2} deg, elevation {el:.2} deg (on average {bias:+.2} deg: above the sources when positive)\n"
             );
         }
+        let rule = if self.tail_rule.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", self.tail_rule)
+        };
         s += &format!(
-            "false detections: {} in {:.1} s outside active intervals (+{:.2} s tails): {} per minute\n",
+            "false detections: {} in {:.1} s outside active intervals (+{:.2} s tails{rule}): {} per minute\n",
             self.false_detections,
             self.background_s,
             self.tail_s,

@@ -241,3 +241,50 @@ fn pooling_two_recordings_scores_them_as_one_recording_end_to_end() {
     // Two recordings lose one frame each at their ends (a frame spans two hops).
     assert!((pooled.background_s - one.background_s).abs() <= 0.02 + 1e-9);
 }
+
+/// A row in a frame that straddles one source's end, wholly inside another's interval,
+/// toward the first: it is not charged to the second (a talker's error stays his own),
+/// nor to the first (its frame is not wholly inside its interval).
+#[test]
+fn a_row_straddling_its_own_sources_end_is_not_charged_to_another() {
+    let mut t = truth();
+    // A long source 2 at -y over 0.5-9 s, beside source 0 (+x, 1-2 s and 5-6 s).
+    t.sources.push(source(2, -Vector3::y(), vec![[0.5, 9.0]]));
+    // The frame centred at 2.00 s (f = 199) straddles source 0's end and is wholly
+    // inside source 2's interval; a row there toward source 0, and one toward source 2
+    // at 3.5 s.
+    let dets = vec![record(199, Vector3::x()), record(349, -Vector3::y())];
+    let r = evaluate(&t, &dets, 0.0).unwrap();
+    let s2 = &r.sources[2];
+    assert_eq!(s2.detections, 1, "{s2:?}");
+    assert_eq!(s2.mean_error_deg, Some(0.0));
+    // The next frame, from 2.00 to 2.02 s, is source 0's only within a tail.
+    let r = evaluate(&t, &[record(200, Vector3::x())], 0.0).unwrap();
+    assert_eq!(r.sources[2].detections, 1);
+    let r = evaluate(&t, &[record(200, Vector3::x())], 0.05).unwrap();
+    assert_eq!(r.sources[2].detections, 0);
+}
+
+/// Without a room, the default tail is one analysis frame: a row just after a burst
+/// (the frame's end, or a smoothed row) is not a false detection; with no tail it was.
+#[test]
+fn the_default_tail_is_one_frame_and_half_the_rooms_rt60() {
+    let t = truth();
+    // Hop 0.01 s: frames of 0.02 s. Source 0 ends at 2.0 s; rows 10 and 20 ms later.
+    let rows = vec![record(200, Vector3::x()), record(201, Vector3::x())];
+    let (tail, rule) = default_tail(&t, &rows);
+    assert!((tail - 0.02).abs() < 1e-12, "{tail}");
+    assert!(rule.starts_with("one frame"), "{rule}");
+    assert_eq!(evaluate(&t, &rows, tail).unwrap().false_detections, 0);
+    assert_eq!(evaluate(&t, &rows, 0.0).unwrap().false_detections, 2);
+    // With a room, half its RT60 more.
+    let mut roomy = t.clone();
+    roomy.room = Some(crate::record::TruthRoom {
+        dimensions: [5.0, 4.0, 3.0],
+        rt60_requested: Some(0.4),
+        rt60_measured: 0.4,
+        rt60_eyring: 0.4,
+        reflection_coefficient: 0.8,
+    });
+    assert!((default_tail(&roomy, &rows).0 - 0.22).abs() < 1e-12);
+}
