@@ -87,6 +87,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }],
                 array: Some("the paper's prism (8 mics)".into()),
                 threshold: None,
+                geometry: None,
             };
             let svg = plot(&data, None, Some((truth, &report)))?;
             let file = format!("plots/table1-{row}.svg");

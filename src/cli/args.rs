@@ -363,9 +363,24 @@ pub struct PlotArgs {
     #[arg(long, value_name = "NAME")]
     pub file: Option<String>,
 
-    /// Seconds after each active interval during which detections are not false, for the scores [default: one analysis frame, plus half the room's RT60 when the truth knows it]
+    #[command(flatten)]
+    pub score: ScoreArgs,
+}
+
+/// How `ssl evaluate` and `ssl plot --truth` score: the same flags, the same rules.
+#[derive(Debug, Args)]
+pub struct ScoreArgs {
+    /// Seconds after each active interval during which detections are not false [default: one analysis frame, plus half the room's RT60 when the truth knows it]
     #[arg(long, value_name = "S", value_parser = non_negative)]
     pub tail: Option<f32>,
+
+    /// What an error measures: the 3-D angle, the azimuth (about a planar array's normal), or the angle to a linear array's axis [default: what the array observes, from --geometry or a JSON result's metadata; 3d when neither tells]
+    #[arg(long, value_enum)]
+    pub metric: Option<MetricArg>,
+
+    /// The array's geometry file, for what it observes (a JSON result carries it already)
+    #[arg(long, short = 'g', value_name = "TOML")]
+    pub geometry: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -378,17 +393,8 @@ pub struct EvaluateArgs {
     #[arg(required = true, value_name = "RESULT")]
     pub results: Vec<PathBuf>,
 
-    /// Seconds after each active interval during which detections are not false [default: one analysis frame, plus half the room's RT60 when the truth knows it]
-    #[arg(long, value_name = "S", value_parser = non_negative)]
-    pub tail: Option<f32>,
-
-    /// What an error measures: the 3-D angle, the azimuth (about a planar array's normal), or the angle to a linear array's axis [default: what the array observes, from --geometry or a JSON result's metadata; 3d when neither tells]
-    #[arg(long, value_enum)]
-    pub metric: Option<MetricArg>,
-
-    /// The array's geometry file, for what it observes (a JSON result carries it already)
-    #[arg(long, short = 'g', value_name = "TOML")]
-    pub geometry: Option<PathBuf>,
+    #[command(flatten)]
+    pub score: ScoreArgs,
 
     /// Print the report as JSON
     #[arg(long)]

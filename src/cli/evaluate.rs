@@ -6,7 +6,7 @@ use super::args::{EvaluateArgs, MetricArg};
 use super::results::{expand, ResultFile};
 use crate::evaluate::{evaluate_by, pool, Metric, Pooled, Report};
 use crate::geometry::Shape;
-use crate::record::{read_detections_with_info, DetectionRecord, GeometryInfo, ResultInfo};
+use crate::record::{read_detections_with_info, DetectionRecord, ResultInfo};
 use crate::stream::{io_reason, read_text_from};
 use crate::{Geometry, Truth};
 use anyhow::{bail, Context, Result};
@@ -32,19 +32,20 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
     for r in &results {
         let (rows, info) = read_detections_with_info(&r.path)?;
         detections.extend(rows);
-        geometry = geometry.or(geometry_of(&info));
+        geometry = geometry.or(info.array());
     }
     let shown = results
         .iter()
         .map(|r| r.path.display().to_string())
         .collect::<Vec<_>>();
     let detections = drop_repeats(detections, &shown.join(", "));
-    let geometry = match &args.geometry {
+    let geometry = match &args.score.geometry {
         Some(path) => Some(Geometry::from_file(path)?),
         None => geometry,
     };
-    let metric = metric(args.metric, geometry.as_ref())?;
-    let (tail, rule) = tail(args.tail, &truth, &detections);
+    let metric = metric(args.score.metric, geometry.as_ref())?;
+    let names = shown.join(", ");
+    let (tail, rule) = tail(args.score.tail, &truth, &detections);
     let shown = results[0].path.display();
     let report = evaluate_by(&truth, &detections, tail, &metric)
         .map(|r| with_rule(r, rule))
@@ -60,6 +61,10 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
         report.table()
     };
     super::print(text.as_bytes())?;
+    // Said once the report is out (an error is the only line when there is one).
+    if truth.sources.iter().all(|s| !s.azimuth_only) {
+        warn_if_unknown_array(args.score.metric, geometry.as_ref(), &names);
+    }
     Ok(true)
 }
 
@@ -86,19 +91,23 @@ pub(super) fn with_rule(
     report
 }
 
-/// The geometry a JSON result carries (with its orientation).
-fn geometry_of(info: &ResultInfo) -> Option<Geometry> {
-    let g = serde_json::from_value::<GeometryInfo>(info.geometry.clone()?).ok()?;
-    let positions: Vec<[f64; 3]> = g.mics.iter().map(|m| m.position).collect();
-    let geometry = Geometry::from_positions(&positions).ok()?;
-    Some(match g.orientation {
-        Some(rows) => geometry.oriented(nalgebra::Matrix3::from_fn(|i, j| rows[i][j])),
-        None => geometry,
-    })
+/// Says once that `shown` is scored by the 3-D angle only because nothing named its
+/// array: a planar or linear array's errors would then be its elevation's.
+pub(super) fn warn_if_unknown_array(
+    arg: Option<MetricArg>,
+    geometry: Option<&Geometry>,
+    shown: &str,
+) {
+    if arg.is_none() && geometry.is_none() {
+        super::warn(
+            false,
+            &format!("{shown}: scored by the 3-D angle: the result does not name its array (a CSV result does not); for a planar or linear array give -g ARRAY.toml, or --metric azimuth, to score what it observes"),
+        );
+    }
 }
 
 /// The metric `--metric` asks for, or what `geometry` observes.
-fn metric(arg: Option<MetricArg>, geometry: Option<&Geometry>) -> Result<Metric> {
+pub(super) fn metric(arg: Option<MetricArg>, geometry: Option<&Geometry>) -> Result<Metric> {
     let shape = geometry.map(|g| g.shape);
     Ok(match (arg, shape) {
         (None, Some(_)) => Metric::of_geometry(geometry.expect("a shape")),
@@ -128,7 +137,7 @@ fn recordings(r: &ResultFile) -> Result<Vec<Recording>> {
     } else {
         read_detections_with_info(&r.path)?
     };
-    let geometry = geometry_of(&info);
+    let geometry = info.array();
     if rows.is_empty() {
         let name = r.relative.as_deref().unwrap_or(&r.path);
         return Ok(vec![Recording {
@@ -192,7 +201,7 @@ fn drop_repeats(rows: Vec<DetectionRecord>, shown: &str) -> Vec<DetectionRecord>
 /// The truth of the recording `name` under `dir`: `PART.truth.json` or
 /// `PART.truth.csv`, PART the longest trailing part of the name (its extension dropped)
 /// that has one.
-fn truth_path(dir: &Path, name: &str) -> Option<PathBuf> {
+pub(super) fn truth_path(dir: &Path, name: &str) -> Option<PathBuf> {
     let stem = Path::new(name).with_extension("");
     let parts: Vec<&std::ffi::OsStr> = stem
         .components()
@@ -241,7 +250,7 @@ struct Failed {
 }
 
 fn many(args: &EvaluateArgs, results: &[ResultFile]) -> Result<bool> {
-    let given = match &args.geometry {
+    let given = match &args.score.geometry {
         Some(path) => Some(Geometry::from_file(path)?),
         None => None,
     };
@@ -270,8 +279,8 @@ fn many(args: &EvaluateArgs, results: &[ResultFile]) -> Result<bool> {
         let outcome = Truth::from_file(&path)
             .map_err(anyhow::Error::from)
             .and_then(|truth| {
-                let metric = metric(args.metric, given.as_ref().or(rec.geometry.as_ref()))?;
-                let (tail, rule) = tail(args.tail, &truth, &rec.rows);
+                let metric = metric(args.score.metric, given.as_ref().or(rec.geometry.as_ref()))?;
+                let (tail, rule) = tail(args.score.tail, &truth, &rec.rows);
                 evaluate_by(&truth, &rec.rows, tail, &metric)
                     .map(|r| with_rule(r, rule))
                     .map_err(|e| anyhow::anyhow!("{e}"))

@@ -2,7 +2,7 @@
 
 use super::args::PlotArgs;
 use super::sink::Sink;
-use crate::evaluate::evaluate;
+use crate::evaluate::evaluate_by;
 use crate::plot::{plot, read_plot_file, PlotData};
 use crate::stream::{io_reason, read_text, read_text_from};
 use crate::Truth;
@@ -51,9 +51,25 @@ pub fn run(args: &PlotArgs) -> Result<()> {
         let one = read_plot_file(&result.path)?;
         data.array = data.array.or(one.array);
         data.threshold = data.threshold.or(one.threshold);
+        data.geometry = data.geometry.or(one.geometry);
         data.files.extend(one.files);
     }
     let truth = match &args.truth {
+        // A folder of truths, as `ssl evaluate` takes it: the drawn recording's own.
+        Some(dir) if dir != Path::new("-") && dir.is_dir() => {
+            let name = args
+                .file
+                .clone()
+                .or_else(|| data.files.first().map(|f| f.name.clone()))
+                .unwrap_or_default();
+            let path = super::evaluate::truth_path(dir, &name).with_context(|| {
+                format!(
+                    "{}: no truth for `{name}` (NAME.truth.json or NAME.truth.csv at its relative path)",
+                    dir.display()
+                )
+            })?;
+            Some(Truth::from_file(&path)?)
+        }
         Some(path) => Some(
             Truth::from_text(&text(path, crate::record::MAX_TRUTH_BYTES)?)
                 .with_context(|| shown(path))?,
@@ -68,16 +84,30 @@ pub fn run(args: &PlotArgs) -> Result<()> {
                 .filter(|f| args.file.as_ref().is_none_or(|n| &f.name == n))
                 .flat_map(|f| f.detections.iter().cloned())
                 .collect();
-            let (tail, rule) = super::evaluate::tail(args.tail, t, &rows);
-            Some(
-                evaluate(t, &rows, tail)
+            // The same metric and tail as `ssl evaluate`, by the same functions.
+            let geometry = match &args.score.geometry {
+                Some(path) => Some(crate::Geometry::from_file(path)?),
+                None => data.geometry.clone(),
+            };
+            let metric = super::evaluate::metric(args.score.metric, geometry.as_ref())?;
+            let unknown = t.sources.iter().all(|s| !s.azimuth_only)
+                && args.score.metric.is_none()
+                && geometry.is_none();
+            let (tail, rule) = super::evaluate::tail(args.score.tail, t, &rows);
+            Some((
+                evaluate_by(t, &rows, tail, &metric)
                     .map(|r| super::evaluate::with_rule(r, rule))
                     .map_err(|e| {
                         anyhow::anyhow!("{}: {e} (--file picks one)", shown(&args.results[0]))
                     })?,
-            )
+                unknown,
+            ))
         }
         None => None,
+    };
+    let (report, unknown) = match report {
+        Some((r, u)) => (Some(r), u),
+        None => (None, false),
     };
     let svg = plot(
         &data,
@@ -93,5 +123,9 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     })?;
     sink.write_all(svg.as_bytes())
         .map_err(|e| anyhow::anyhow!("cannot write {}: {}", sink.shown(), io_reason(&e)))?;
-    sink.commit()
+    sink.commit()?;
+    if unknown {
+        super::evaluate::warn_if_unknown_array(None, None, &shown(&args.results[0]));
+    }
+    Ok(())
 }

@@ -31,6 +31,8 @@ pub struct PlotData {
     pub array: Option<String>,
     /// The detection threshold, from a JSON document's metadata.
     pub threshold: Option<String>,
+    /// The array's geometry, from a JSON document's metadata: what the scores measure.
+    pub geometry: Option<crate::Geometry>,
 }
 
 impl PlotData {
@@ -64,6 +66,7 @@ impl PlotData {
     /// Adds what a result read by [`read_result`] holds: its records, and from a JSON
     /// document the array and the threshold.
     fn take(&mut self, info: &ResultInfo) {
+        self.geometry = self.geometry.take().or_else(|| info.array());
         if let Some(g) = &info.geometry {
             if let Some(mics) = g["microphones"].as_u64() {
                 self.array = Some(match g["name"].as_str() {

@@ -87,6 +87,20 @@ pub struct ResultInfo {
     pub events: u64,
 }
 
+impl ResultInfo {
+    /// The array a JSON result was made with (with its orientation), from its
+    /// `geometry` object: what `ssl evaluate` and `ssl plot` score by.
+    pub(crate) fn array(&self) -> Option<crate::Geometry> {
+        let g = serde_json::from_value::<super::GeometryInfo>(self.geometry.clone()?).ok()?;
+        let positions: Vec<[f64; 3]> = g.mics.iter().map(|m| m.position).collect();
+        let geometry = crate::Geometry::from_positions(&positions).ok()?;
+        Some(match g.orientation {
+            Some(rows) => geometry.oriented(nalgebra::Matrix3::from_fn(|i, j| rows[i][j])),
+            None => geometry,
+        })
+    }
+}
+
 /// Reads a result of `ssl analyze` in any of its three formats (CSV of detections or of
 /// events, NDJSON, one JSON document), record by record: `each` gets every record in
 /// order as it is read, so a result of any size is read in the memory its caller keeps.

@@ -166,6 +166,48 @@ fn a_planar_array_is_scored_by_its_azimuth_unless_asked_otherwise() {
         assert_eq!(r["metric"], "azimuth", "{r}");
         assert!((mean(&r) - mean(&by_default)).abs() < 1e-6, "{r}");
     }
+    // `ssl plot` scores by the same rules: the same geometry flag, the same figure in
+    // its title, and the same warning when nothing names the array.
+    let title_error = |extra: &[&str]| {
+        let mut args = vec!["plot", s(&csv), "--truth", s(&truth)];
+        args.extend_from_slice(extra);
+        let out = run(&args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let svg = String::from_utf8(out.stdout.clone()).unwrap();
+        let at = svg.find("mean error ").expect("a score in the title") + "mean error ".len();
+        (
+            svg[at..].split(' ').next().unwrap().parse::<f64>().unwrap(),
+            stderr(&out),
+        )
+    };
+    let with_g = report(&truth, &csv, &["-g", s(&geometry)]);
+    let (plotted, said) = title_error(&["-g", s(&geometry)]);
+    assert!(
+        (plotted - mean(&with_g)).abs() < 0.006,
+        "{plotted} against {with_g}"
+    );
+    assert!(said.is_empty(), "{said}");
+    let (plotted, said) = title_error(&[]);
+    assert!(
+        (plotted - mean(&three_d)).abs() < 0.006,
+        "{plotted} against {three_d}"
+    );
+    assert!(
+        said.contains("scored by the 3-D angle") && said.contains("-g ARRAY.toml"),
+        "{said}"
+    );
+    let out = run(&["evaluate", "--truth", s(&truth), s(&csv)]);
+    assert!(stderr(&out).contains("scored by the 3-D angle"));
+    // A folder of truths, as `ssl evaluate` takes it: the recording's own.
+    let truths = d.join("truths");
+    std::fs::create_dir_all(&truths).unwrap();
+    std::fs::copy(&truth, truths.join("rec.truth.json")).unwrap();
+    let (plotted, _) = title_error(&["-g", s(&geometry)]);
+    let out = run(&["plot", s(&csv), "--truth", s(&truths), "-g", s(&geometry)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(String::from_utf8(out.stdout)
+        .unwrap()
+        .contains(&format!("mean error {plotted:.2} deg")));
     // The table says what it measured.
     let out = run(&["evaluate", "--truth", s(&truth), s(&json)]);
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("errors: azimuth"));
