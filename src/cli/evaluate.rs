@@ -6,7 +6,7 @@ use super::args::{EvaluateArgs, MetricArg};
 use super::results::{expand, ResultFile};
 use crate::evaluate::{evaluate_by, pool, Metric, Pooled, Report};
 use crate::geometry::Shape;
-use crate::record::{read_detections_with_info, DetectionRecord, ResultInfo};
+use crate::record::{read_records_with_info, DetectionRecord, EventRecord, ResultInfo};
 use crate::stream::{io_reason, read_text_from};
 use crate::{Geometry, Truth};
 use anyhow::{bail, Context, Result};
@@ -27,11 +27,12 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
     } else {
         Truth::from_file(&args.truth)?
     };
-    let mut detections = Vec::new();
+    let (mut detections, mut events) = (Vec::new(), Vec::new());
     let mut geometry = None;
     for r in &results {
-        let (rows, info) = read_detections_with_info(&r.path)?;
+        let (rows, written, info) = read_records_with_info(&r.path)?;
         detections.extend(rows);
+        events.extend(written);
         geometry = geometry.or(info.array());
     }
     let shown = results
@@ -47,7 +48,8 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
     let names = shown.join(", ");
     let (tail, rule) = tail(args.score.tail, &truth, &detections);
     let shown = results[0].path.display();
-    let report = evaluate_by(&truth, &detections, tail, &metric)
+    let events = (!events.is_empty()).then_some(events.as_slice());
+    let report = evaluate_by(&truth, &detections, events, tail, &metric)
         .map(|r| with_rule(r, rule))
         .map_err(|e| match e {
             crate::evaluate::EvaluateError::SeveralFiles(_) => anyhow::anyhow!(
@@ -121,10 +123,12 @@ pub(super) fn metric(arg: Option<MetricArg>, geometry: Option<&Geometry>) -> Res
     })
 }
 
-/// One recording's rows, as the results name it, with the geometry its result carries.
+/// One recording's rows and events, as the results name it, with the geometry its
+/// result carries.
 struct Recording {
     name: String,
     rows: Vec<DetectionRecord>,
+    events: Vec<EventRecord>,
     geometry: Option<Geometry>,
 }
 
@@ -132,35 +136,43 @@ struct Recording {
 /// rows (an empty NDJSON file, a CSV header) stands for the recording its path names.
 fn recordings(r: &ResultFile) -> Result<Vec<Recording>> {
     let empty = r.relative.is_some() && std::fs::metadata(&r.path).is_ok_and(|m| m.len() == 0);
-    let (rows, info) = if empty {
-        (Vec::new(), ResultInfo::default())
+    let (rows, events, info) = if empty {
+        (Vec::new(), Vec::new(), ResultInfo::default())
     } else {
-        read_detections_with_info(&r.path)?
+        read_records_with_info(&r.path)?
     };
     let geometry = info.array();
-    if rows.is_empty() {
+    if rows.is_empty() && events.is_empty() {
         let name = r.relative.as_deref().unwrap_or(&r.path);
         return Ok(vec![Recording {
             name: name.display().to_string(),
             rows,
+            events,
             geometry,
         }]);
     }
     let mut out: Vec<Recording> = Vec::new();
     let mut index: std::collections::HashMap<String, usize> = Default::default();
-    let rows = drop_repeats(rows, &r.path.display().to_string());
-    for row in rows {
-        match index.get(&row.file) {
-            Some(&i) => out[i].rows.push(row),
-            None => {
-                index.insert(row.file.clone(), out.len());
-                out.push(Recording {
-                    name: row.file.clone(),
-                    rows: vec![row],
-                    geometry: geometry.clone(),
-                });
-            }
+    let mut place = |file: &str, out: &mut Vec<Recording>| match index.get(file) {
+        Some(&i) => i,
+        None => {
+            index.insert(file.to_string(), out.len());
+            out.push(Recording {
+                name: file.to_string(),
+                rows: Vec::new(),
+                events: Vec::new(),
+                geometry: geometry.clone(),
+            });
+            out.len() - 1
         }
+    };
+    for row in drop_repeats(rows, &r.path.display().to_string()) {
+        let i = place(&row.file, &mut out);
+        out[i].rows.push(row);
+    }
+    for event in events {
+        let i = place(&event.file, &mut out);
+        out[i].events.push(event);
     }
     Ok(out)
 }
@@ -281,7 +293,8 @@ fn many(args: &EvaluateArgs, results: &[ResultFile]) -> Result<bool> {
             .and_then(|truth| {
                 let metric = metric(args.score.metric, given.as_ref().or(rec.geometry.as_ref()))?;
                 let (tail, rule) = tail(args.score.tail, &truth, &rec.rows);
-                evaluate_by(&truth, &rec.rows, tail, &metric)
+                let events = (!rec.events.is_empty()).then_some(rec.events.as_slice());
+                evaluate_by(&truth, &rec.rows, events, tail, &metric)
                     .map(|r| with_rule(r, rule))
                     .map_err(|e| anyhow::anyhow!("{e}"))
             });

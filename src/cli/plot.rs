@@ -78,12 +78,14 @@ pub fn run(args: &PlotArgs) -> Result<()> {
     };
     let report = match &truth {
         Some(t) => {
-            let rows: Vec<_> = data
-                .files
-                .iter()
-                .filter(|f| args.file.as_ref().is_none_or(|n| &f.name == n))
-                .flat_map(|f| f.detections.iter().cloned())
-                .collect();
+            let files = || {
+                data.files
+                    .iter()
+                    .filter(|f| args.file.as_ref().is_none_or(|n| &f.name == n))
+            };
+            let rows: Vec<_> = files().flat_map(|f| f.detections.iter().cloned()).collect();
+            let events: Vec<_> = files().flat_map(|f| f.events.iter().cloned()).collect();
+            let events = (!events.is_empty()).then_some(events.as_slice());
             // The same metric and tail as `ssl evaluate`, by the same functions.
             let geometry = match &args.score.geometry {
                 Some(path) => Some(crate::Geometry::from_file(path)?),
@@ -95,7 +97,7 @@ pub fn run(args: &PlotArgs) -> Result<()> {
                 && geometry.is_none();
             let (tail, rule) = super::evaluate::tail(args.score.tail, t, &rows);
             Some((
-                evaluate_by(t, &rows, tail, &metric)
+                evaluate_by(t, &rows, events, tail, &metric)
                     .map(|r| super::evaluate::with_rule(r, rule))
                     .map_err(|e| {
                         anyhow::anyhow!("{}: {e} (--file picks one)", shown(&args.results[0]))

@@ -11,11 +11,15 @@
 //!   `HIT_DEG` of the source;
 //! - event detection rate: the share of active intervals (events) with at least one
 //!   detection within `HIT_DEG` in a frame that overlaps the interval;
+//! - event coverage: each interval counted in proportion to how much of it was heard,
+//!   the share of its time covered by its source's rows within `HIT_DEG` grouped into
+//!   stretches as `--events` groups them (the `coverage` module);
 //! - false detections: detections in frames that overlap no active interval (each
 //!   extended by a reverberation tail), per minute of such time;
-//! - when the rows carry a `source` (tracking on): tracks and events (the `tracks`
-//!   module).
+//! - when the rows carry a `source` (tracking on), or the result holds the run's events:
+//!   tracks and events (the `tracks` module).
 
+mod coverage;
 mod metric;
 mod pool;
 mod report;
@@ -29,7 +33,7 @@ pub use tracks::{SourceTracks, TrackReport};
 use crate::geometry::angles_deg;
 use crate::method::default_frame_size;
 use crate::record::truth::turned;
-use crate::record::{DetectionRecord, Truth};
+use crate::record::{DetectionRecord, EventRecord, Truth};
 use nalgebra::Vector3;
 use spans::Spans;
 
@@ -135,6 +139,9 @@ pub struct SourceReport {
     pub events: usize,
     /// Intervals with a detection within `HIT_DEG`.
     pub events_detected: usize,
+    /// Its intervals as heard: each counts by the share of its time its rows within
+    /// `HIT_DEG` cover (grouped into stretches as `--events` groups them).
+    pub events_heard: f64,
 }
 
 /// The scores of a result against a truth: per source and overall.
@@ -161,6 +168,9 @@ pub struct Report {
     pub frame_detection_rate: Option<f64>,
     /// Share of events detected, over all sources.
     pub event_detection_rate: Option<f64>,
+    /// Events found in proportion to how much of each was heard: the mean share of an
+    /// interval's time its source's rows cover, over all sources' intervals.
+    pub event_coverage: Option<f64>,
     /// Detections in frames that overlap no active interval (with its tail).
     pub false_detections: usize,
     /// Seconds of such frames.
@@ -191,19 +201,23 @@ pub fn evaluate(
     records: &[DetectionRecord],
     tail_s: f64,
 ) -> Result<Report, EvaluateError> {
-    evaluate_by(truth, records, tail_s, &Metric::ThreeD)
+    evaluate_by(truth, records, None, tail_s, &Metric::ThreeD)
 }
 
-/// As [`evaluate`], with errors measured by `metric`.
+/// As [`evaluate`], with errors measured by `metric`, and events scored from `events`
+/// (those the run wrote, `--events` or a JSON result's) when given, else read off the
+/// rows as `--events` makes them.
 pub fn evaluate_by(
     truth: &Truth,
     records: &[DetectionRecord],
+    events: Option<&[EventRecord]>,
     tail_s: f64,
     metric: &Metric,
 ) -> Result<Report, EvaluateError> {
     let files: std::collections::BTreeSet<&str> = records
         .iter()
         .map(|r| r.file.as_str())
+        .chain(events.unwrap_or_default().iter().map(|e| e.file.as_str()))
         .filter(|f| !f.is_empty())
         .collect();
     if files.len() > 1 {
@@ -234,6 +248,29 @@ pub fn evaluate_by(
             ))),
         })
         .collect::<Result<Vec<Det>, _>>()?;
+    let written = events
+        .map(|events| {
+            events
+                .iter()
+                .enumerate()
+                .map(|(i, e)| match unit(e.x, e.y, e.z) {
+                    Some(direction)
+                        if e.start_s.is_finite() && e.end_s.is_finite() && e.start_s >= 0.0 =>
+                    {
+                        Ok(tracks::Stretch {
+                            start: e.start_s,
+                            end: e.end_s.max(e.start_s),
+                            sum: direction,
+                        })
+                    }
+                    _ => Err(EvaluateError::Result(format!(
+                        "event {}: its times or direction are not finite (or the vector is zero)",
+                        i + 1
+                    ))),
+                })
+                .collect::<Result<Vec<_>, _>>()
+        })
+        .transpose()?;
     if let Some(d) = dets.iter().find(|d| {
         d.frame
             .is_some_and(|f| d.time_s / (f as f64 + 1.0) < MIN_HOP_S)
@@ -258,7 +295,11 @@ pub fn evaluate_by(
         .collect();
     // A hand-written truth may not say how long the recording is: at least as long as
     // its last detection.
-    let last = dets.iter().map(|d| d.time_s).fold(0.0, f64::max);
+    let last = dets
+        .iter()
+        .map(|d| d.time_s)
+        .chain(written.iter().flatten().map(|e| e.end))
+        .fold(0.0, f64::max);
     let truth = if truth.sample_rate == 0 && last > truth.duration_s {
         std::borrow::Cow::Owned(Truth {
             duration_s: last,
@@ -267,7 +308,7 @@ pub fn evaluate_by(
     } else {
         std::borrow::Cow::Borrowed(truth)
     };
-    Ok(score(&truth, &sources, &dets, tail_s, metric))
+    Ok(score(&truth, &sources, &dets, written, tail_s, metric))
 }
 
 /// A true source as scored: its direction (a moving one's when it starts turning), its
@@ -343,7 +384,14 @@ fn hop_of(truth: &Truth, rows: impl Iterator<Item = (f64, Option<u64>)>) -> f64 
         })
 }
 
-fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &Metric) -> Report {
+fn score(
+    truth: &Truth,
+    sources: &[Source],
+    dets: &[Det],
+    written: Option<Vec<tracks::Stretch>>,
+    tail_s: f64,
+    metric: &Metric,
+) -> Report {
     let hop = hop_of(truth, dets.iter().map(|d| (d.time_s, d.frame)));
     let frames = if truth.duration_s >= 2.0 * hop {
         ((truth.duration_s - 2.0 * hop) / hop + 1e-9).floor() as u64 + 1
@@ -367,6 +415,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
     // Per counted detection: its azimuth error and its signed elevation error.
     let mut split: Vec<(f64, f64)> = Vec::new();
     let (mut active_total, mut detected_total, mut events_total, mut events_hit) = (0, 0, 0, 0);
+    let mut heard_total = 0.0;
     for (si, (s, t)) in sources.iter().zip(&truth.sources).enumerate() {
         // Detections counted for this source: in a frame wholly inside one of its
         // intervals, and nearer to it than to any other source heard within the frame
@@ -407,22 +456,33 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
             .map(|(d, _)| frame_of(d))
             .collect();
         let frames_detected = hit_frames.iter().filter(|&&f| active.contains(f)).count();
-        let events_detected = s
+        // Per interval, the times of the rows within HIT_DEG in the frames that overlap
+        // it (centres strictly within (a - hop, b + hop)).
+        let near: Vec<Vec<f64>> = s
             .intervals
             .iter()
-            .filter(|&&(a, b)| {
-                // The frames that overlap it: centres strictly within (a - hop, b + hop).
+            .map(|&(a, b)| {
                 let from = times.partition_point(|&t| t + hop <= a);
                 let to = times.partition_point(|&t| t - hop < b);
                 by_time[from..to.max(from)]
                     .iter()
-                    .any(|d| metric.error_deg(&d.direction, &s.at(d.time_s)) < HIT_DEG)
+                    .filter(|d| metric.error_deg(&d.direction, &s.at(d.time_s)) < HIT_DEG)
+                    .map(|d| d.time_s)
+                    .collect()
             })
-            .count();
+            .collect();
+        let events_detected = near.iter().filter(|t| !t.is_empty()).count();
+        let events_heard: f64 = s
+            .intervals
+            .iter()
+            .zip(&near)
+            .map(|(&(a, b), t)| coverage::share(a, b, &coverage::stretches(t.iter().copied()), hop))
+            .sum();
         active_total += active.len() as usize;
         detected_total += frames_detected;
         events_total += s.intervals.len();
         events_hit += events_detected;
+        heard_total += events_heard;
         let (az, el) = angles_deg(&s.direction);
         reports.push(SourceReport {
             index: t.index,
@@ -437,6 +497,7 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
             frames_detected,
             events: s.intervals.len(),
             events_detected,
+            events_heard,
         });
     }
     // A frame centred at t that overlaps an interval with its tail.
@@ -453,6 +514,9 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
     let false_detections = dets.iter().filter(|d| !busy(d.time_s)).count();
     let background_s = background_frames as f64 * hop;
     let (mean_error_deg, median_error_deg) = (mean(&all_errors), median(&mut all_errors));
+    // A result of events alone (`--events` as CSV or NDJSON) has no rows to score
+    // frames or intervals by: those scores are absent, not zero.
+    let rows = !(dets.is_empty() && written.is_some());
     Report {
         sources: reports,
         detections: all_errors.len(),
@@ -461,9 +525,11 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
         mean_azimuth_error_deg: mean(&split.iter().map(|s| s.0).collect::<Vec<_>>()),
         mean_elevation_error_deg: mean(&split.iter().map(|s| s.1.abs()).collect::<Vec<_>>()),
         elevation_bias_deg: mean(&split.iter().map(|s| s.1).collect::<Vec<_>>()),
-        frame_detection_rate: (active_total > 0)
+        frame_detection_rate: (rows && active_total > 0)
             .then(|| detected_total as f64 / active_total as f64),
-        event_detection_rate: (events_total > 0).then(|| events_hit as f64 / events_total as f64),
+        event_detection_rate: (rows && events_total > 0)
+            .then(|| events_hit as f64 / events_total as f64),
+        event_coverage: (rows && events_total > 0).then(|| heard_total / events_total as f64),
         false_detections,
         background_s,
         false_per_minute: (background_s > 0.0)
@@ -473,14 +539,20 @@ fn score(truth: &Truth, sources: &[Source], dets: &[Det], tail_s: f64, metric: &
         tail_rule: String::new(),
         metric: metric.name().to_string(),
         errors_deg: all_errors,
-        tracking: dets.iter().any(|d| d.source.is_some()).then(|| {
+        tracking: (written.is_some() || dets.iter().any(|d| d.source.is_some())).then(|| {
             let tracked: Vec<Det> = dets
                 .iter()
                 .filter(|d| d.source.is_some())
                 .copied()
                 .collect();
             let ids: Vec<u64> = tracked.iter().filter_map(|d| d.source).collect();
-            tracks::score_tracks(sources, &tracked, &ids, truth.duration_s, tail_s, metric)
+            let scoring = tracks::Scoring {
+                duration_s: truth.duration_s,
+                hop_s: hop,
+                tail_s,
+                metric,
+            };
+            tracks::score_tracks(sources, &tracked, &ids, written, &scoring)
         }),
     }
 }

@@ -20,6 +20,8 @@ pub struct Pooled {
     pub frame_detection_rate: Option<f64>,
     /// Share of every source's events detected.
     pub event_detection_rate: Option<f64>,
+    /// Every source's events, each counted by the share of it heard.
+    pub event_coverage: Option<f64>,
     /// Detections outside every active interval (with its tail).
     pub false_detections: usize,
     /// Seconds of such background.
@@ -56,6 +58,17 @@ pub fn pool<'a>(reports: impl IntoIterator<Item = &'a Report>) -> Pooled {
             sources(&|s| s.active_frames),
         ),
         event_detection_rate: ratio(sources(&|s| s.events_detected), sources(&|s| s.events)),
+        event_coverage: {
+            let events = sources(&|s| s.events);
+            (events > 0).then(|| {
+                reports
+                    .iter()
+                    .flat_map(|r| &r.sources)
+                    .map(|s| s.events_heard)
+                    .sum::<f64>()
+                    / events as f64
+            })
+        },
         false_detections,
         background_s,
         false_per_minute: (background_s > 0.0)

@@ -1,7 +1,7 @@
 //! Tests of the scores (`mod.rs`).
 
 use super::*;
-use crate::record::{parse_detections, TruthSource};
+use crate::record::{parse_detections, EventRecord, TruthSource};
 
 fn source(index: usize, direction: Vector3<f64>, active: Vec<[f64; 2]>) -> TruthSource {
     let (azimuth_deg, elevation_deg) = angles_deg(&direction);
@@ -287,4 +287,82 @@ fn the_default_tail_is_one_frame_and_half_the_rooms_rt60() {
         reflection_coefficient: 0.8,
     });
     assert!((default_tail(&roomy, &rows).0 - 0.22).abs() < 1e-12);
+}
+
+/// An interval counts in proportion to how much of it was heard: a 4 s interval whose
+/// rows span 0.5 s of it is 0.5 s (and a frame's half either side) heard, though it is
+/// detected; the share is the same whether events are read off the rows or given.
+#[test]
+fn an_interval_counts_by_the_share_of_it_heard() {
+    let mut t = truth();
+    t.sources = vec![source(0, Vector3::x(), vec![[1.0, 5.0]])];
+    // Rows every 10 ms over 2.00-2.50 s (frames 199-249), source 1.
+    let rows: Vec<DetectionRecord> = (199..=249)
+        .map(|f| DetectionRecord {
+            source: Some(1),
+            ..record(f, Vector3::x())
+        })
+        .collect();
+    let r = evaluate(&t, &rows, 0.0).unwrap();
+    assert_eq!(r.sources[0].events_detected, 1);
+    // 2.00-2.50 s widened by a hop (0.01 s) either side: 0.52 s of 4 s.
+    let heard = 0.52 / 4.0;
+    assert!((r.sources[0].events_heard - heard).abs() < 1e-9, "{r:?}");
+    assert!((r.event_coverage.unwrap() - heard).abs() < 1e-9);
+    assert_eq!(r.event_detection_rate, Some(1.0));
+    let tracking = r.tracking.as_ref().unwrap();
+    assert_eq!(tracking.events_from, "rows");
+    assert!((tracking.event_coverage.unwrap() - heard).abs() < 1e-9);
+    // The run's own event over the same span scores the same, said as written.
+    let event = EventRecord {
+        source: 1,
+        start_s: 2.0,
+        end_s: 2.5,
+        x: 1.0,
+        detections: 51,
+        ..Default::default()
+    };
+    let r = evaluate_by(&t, &rows, Some(&[event]), 0.0, &Metric::ThreeD).unwrap();
+    let tracking = r.tracking.as_ref().unwrap();
+    assert_eq!((tracking.events_from, tracking.events), ("written", 1));
+    assert!((tracking.event_coverage.unwrap() - heard).abs() < 1e-9);
+}
+
+/// Events the run wrote are scored as written, not read again off the rows: two
+/// events of one track 0.2 s apart stay two, though rows 0.2 s apart would be one.
+#[test]
+fn the_runs_own_events_are_scored_as_written() {
+    let mut t = truth();
+    t.sources = vec![source(0, Vector3::x(), vec![[1.0, 1.5], [1.7, 2.2]])];
+    let rows: Vec<DetectionRecord> = (100..=148)
+        .chain(170..=218)
+        .map(|f| DetectionRecord {
+            source: Some(1),
+            ..record(f, Vector3::x())
+        })
+        .collect();
+    let event = |a: f64, b: f64| EventRecord {
+        source: 1,
+        start_s: a,
+        end_s: b,
+        x: 1.0,
+        ..Default::default()
+    };
+    // Read off the rows, the 0.2 s pause is shorter than the 0.3 s least: one event.
+    let read = evaluate(&t, &rows, 0.0).unwrap();
+    let read = read.tracking.unwrap();
+    assert_eq!((read.events, read.events_recalled), (1, 2));
+    let events = [event(1.01, 1.49), event(1.71, 2.19)];
+    let written = evaluate_by(&t, &rows, Some(&events), 0.0, &Metric::ThreeD).unwrap();
+    let written = written.tracking.unwrap();
+    assert_eq!((written.events, written.events_recalled), (2, 2));
+    assert!(written.onset_error_s.unwrap() < 0.02);
+    // Events alone (an --events result): events scored, rows absent, not zero.
+    let alone = evaluate_by(&t, &[], Some(&events), 0.0, &Metric::ThreeD).unwrap();
+    assert_eq!(alone.frame_detection_rate, None);
+    assert_eq!(alone.tracking.unwrap().events_recalled, 2);
+    // An event that is not finite is refused with its place.
+    let bad = [event(f64::NAN, 1.0)];
+    let e = evaluate_by(&t, &rows, Some(&bad), 0.0, &Metric::ThreeD).unwrap_err();
+    assert!(e.to_string().contains("event 1"), "{e}");
 }

@@ -5,19 +5,22 @@
 //!   nearest such source. Per true source: its rows' tracks, the dominant one (most
 //!   rows), that track's purity (the share of its rows that belong to the source), and
 //!   how many tracks the source is split into.
-//! - Events are read off the rows as the tracker makes them: a track's rows, split
-//!   where it is silent for longer than [`TrackParams::end_s`](crate::track::TrackParams)
-//!   (the default, 1 s). A true event (an active interval) is recalled by the event that
+//! - Events are those the run wrote (`--events`, a JSON result's `events`) when the
+//!   result holds them; else they are read off the rows as the tracker makes them: a
+//!   track's rows, split where it is silent for longer than the stretch so far (at least
+//!   0.3 s, at most [`TrackParams::end_s`](crate::track::TrackParams), 1 s), the
+//!   defaults' rule. A true event (an active interval) is recalled by the event that
 //!   overlaps it most in time among those whose mean direction is within `HIT_DEG` of
 //!   its source; its direction error and its onset and offset errors (event start minus
-//!   interval start, event end minus interval end) are those of that event. An event
-//!   that overlaps no true event of a source within `HIT_DEG` is false.
+//!   interval start, event end minus interval end) are those of that event; its coverage
+//!   is the share of its time that all such events cover (each widened by half a frame
+//!   either side). An event that overlaps no true event of a source within `HIT_DEG` is
+//!   false.
 //! - Several sources at once: over the 0.1 s windows in which two or more sources are
 //!   active throughout, the share of (window, source) pairs with a row of that source
 //!   in the window.
 
-use super::{Det, Source, HIT_DEG};
-use crate::track::TrackParams;
+use super::{Det, Metric, Source, HIT_DEG};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
@@ -54,7 +57,10 @@ pub struct TrackReport {
     pub true_events: usize,
     /// True events recalled by an event.
     pub events_recalled: usize,
-    /// Events read off the rows.
+    /// Where the events come from: `written` (those the run wrote, `--events` or a JSON
+    /// result's) or `rows` (read off the rows as `--events` makes them).
+    pub events_from: &'static str,
+    /// Events scored.
     pub events: usize,
     /// Of those, events matching no true event.
     pub false_events: usize,
@@ -66,27 +72,45 @@ pub struct TrackReport {
     pub onset_error_s: Option<f64>,
     /// Mean absolute offset error (seconds).
     pub offset_error_s: Option<f64>,
+    /// True events in proportion to how much of each the events cover: the mean share.
+    pub event_coverage: Option<f64>,
     /// (window, source) pairs with two or more sources active throughout the window.
     pub overlap_pairs: usize,
     /// Of those, pairs with a row of the source in the window.
     pub overlap_detected: usize,
 }
 
-struct Stretch {
-    start: f64,
-    end: f64,
-    sum: Vector3<f64>,
+/// An event: its first and last row's times and the sum of its rows' directions.
+pub(super) struct Stretch {
+    pub(super) start: f64,
+    pub(super) end: f64,
+    pub(super) sum: Vector3<f64>,
 }
 
-/// Tracks and events of `dets` (each with its track in `tracks`) against `sources`.
+/// What scoring tracks needs to know besides rows and sources.
+pub(super) struct Scoring<'a> {
+    pub(super) duration_s: f64,
+    /// The analysis hop (seconds): a row stands for one frame, a hop either side.
+    pub(super) hop_s: f64,
+    pub(super) tail_s: f64,
+    pub(super) metric: &'a Metric,
+}
+
+/// Tracks and events of `dets` (each with its track in `tracks`) against `sources`;
+/// events from `written` when the run wrote them, else read off the rows.
 pub(super) fn score_tracks(
     sources: &[Source],
     dets: &[Det],
     tracks: &[u64],
-    duration_s: f64,
-    tail_s: f64,
-    metric: &super::Metric,
+    written: Option<Vec<Stretch>>,
+    how: &Scoring,
 ) -> TrackReport {
+    let Scoring {
+        duration_s,
+        tail_s,
+        metric,
+        ..
+    } = *how;
     let active = |s: &Source, t: f64| s.spans.any_reaching(t, t - tail_s);
     // The true source of each row, if any.
     let owner: Vec<Option<usize>> = dets
@@ -108,8 +132,8 @@ pub(super) fn score_tracks(
     }
     let per_source = source_tracks(sources.len(), &owner, tracks, &rows_of_track);
     let with_rows: Vec<&SourceTracks> = per_source.iter().filter(|s| s.rows > 0).collect();
-    // Events read off the rows.
-    let stretches = stretches(dets, tracks);
+    let events_from = if written.is_some() { "written" } else { "rows" };
+    let stretches = written.unwrap_or_else(|| stretches(dets, tracks));
     // An event's mean direction against its source's at the event's middle (a moving
     // source's events are long only when it moves little).
     let middle = |e: &Stretch, s: &Source| s.at((e.start + e.end) / 2.0);
@@ -118,6 +142,7 @@ pub(super) fn score_tracks(
     };
     let (mut true_events, mut recalled) = (0, 0);
     let (mut errors, mut onsets, mut offsets) = (Vec::new(), Vec::new(), Vec::new());
+    let mut covered = 0.0;
     let indexed = super::Spans::new(stretches.iter().map(|e| (e.start, e.end)));
     for s in sources {
         for &(a, b) in &s.intervals {
@@ -127,10 +152,15 @@ pub(super) fn score_tracks(
             // found through the index, in the order a scan of them all takes.
             let mut candidates: Vec<usize> = indexed.reaching(b + tail_s, a).collect();
             candidates.sort_unstable();
-            if let Some(e) = candidates
+            let found: Vec<&Stretch> = candidates
                 .into_iter()
                 .map(|i| &stretches[i])
                 .filter(|e| matches(e, s, (a, b)))
+                .collect();
+            let spans: Vec<(f64, f64)> = found.iter().map(|e| (e.start, e.end)).collect();
+            covered += super::coverage::share(a, b, &spans, how.hop_s);
+            if let Some(e) = found
+                .into_iter()
                 .max_by(|x, y| overlap(x).total_cmp(&overlap(y)))
             {
                 recalled += 1;
@@ -163,12 +193,14 @@ pub(super) fn score_tracks(
         sources: per_source,
         true_events,
         events_recalled: recalled,
+        events_from,
         events: stretches.len(),
         false_events,
         false_events_per_minute: false_events as f64 / (duration_s / 60.0),
         event_error_deg: mean(&errors),
         onset_error_s: mean(&onsets),
         offset_error_s: mean(&offsets),
+        event_coverage: (true_events > 0).then(|| covered / true_events as f64),
         overlap_pairs,
         overlap_detected,
     }
@@ -205,15 +237,18 @@ fn source_tracks(
     per_source
 }
 
-/// The events read off the rows: each track's runs of rows no more than the tracker's
-/// end time apart, with the sum of their directions.
+/// The events read off the rows: each track's runs of rows split where it is silent
+/// longer than the tracker ends an event after (the defaults' rule,
+/// [`ends_after`](crate::track::ends_after)), with the sum of their directions.
 fn stretches(dets: &[Det], tracks: &[u64]) -> Vec<Stretch> {
-    let end_s = TrackParams::default().end_s;
+    let end_s = crate::track::TrackParams::default().end_s;
     let mut open: BTreeMap<u64, Stretch> = BTreeMap::new();
     let mut stretches = Vec::new();
     for (d, &t) in dets.iter().zip(tracks) {
         match open.get_mut(&t) {
-            Some(s) if d.time_s - s.end <= end_s => {
+            Some(s)
+                if d.time_s - s.end <= crate::track::ends_after(s.end - s.start, end_s, true) =>
+            {
                 s.end = d.time_s;
                 s.sum += d.direction;
             }
@@ -330,14 +365,13 @@ mod tests {
         rows.push((det(4.6, -160.0), 4));
         rows.sort_by(|a, b| a.0.time_s.total_cmp(&b.0.time_s));
         let (dets, ids): (Vec<Det>, Vec<u64>) = rows.into_iter().unzip();
-        let r = score_tracks(
-            &sources,
-            &dets,
-            &ids,
-            10.0,
-            0.0,
-            &super::super::Metric::ThreeD,
-        );
+        let how = Scoring {
+            duration_s: 10.0,
+            hop_s: 0.0,
+            tail_s: 0.0,
+            metric: &Metric::ThreeD,
+        };
+        let r = score_tracks(&sources, &dets, &ids, None, &how);
         assert_eq!(r.tracks, 4);
         let s0 = &r.sources[0];
         assert_eq!((s0.rows, s0.dominant_track, s0.tracks), (15, Some(1), 1));

@@ -28,7 +28,7 @@ pub use read::{
     ResultRecord,
 };
 #[cfg(feature = "cli")]
-pub(crate) use read::{read_detections_with_info, MAX_TRUTH_BYTES};
+pub(crate) use read::{read_records_with_info, MAX_TRUTH_BYTES};
 pub use source::{SourceRecord, Sources};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 

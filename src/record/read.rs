@@ -166,10 +166,26 @@ pub fn read_detections(path: &Path) -> Result<Vec<DetectionRecord>, ReadError> {
 
 /// As [`read_detections`], with what the result says besides its records (a JSON
 /// document's geometry and parameters).
-pub(crate) fn read_detections_with_info(
-    path: &Path,
-) -> Result<(Vec<DetectionRecord>, ResultInfo), ReadError> {
+fn read_detections_with_info(path: &Path) -> Result<(Vec<DetectionRecord>, ResultInfo), ReadError> {
     detections(|each| read_result_file(path, each)).map_err(|e| in_file(path, e))
+}
+
+/// A result's detections and events, with what it says besides (for `ssl evaluate`,
+/// which scores the events the run wrote when it holds them). A result of events only
+/// is read too.
+pub(crate) fn read_records_with_info(
+    path: &Path,
+) -> Result<(Vec<DetectionRecord>, Vec<EventRecord>, ResultInfo), ReadError> {
+    let (mut rows, mut events) = (Vec::new(), Vec::new());
+    let info = read_result_file(path, |r| {
+        match r {
+            ResultRecord::Detection(d) => rows.push(d),
+            ResultRecord::Event(e) => events.push(e),
+        }
+        Ok(())
+    })
+    .map_err(|e| in_file(path, e))?;
+    Ok((rows, events, info))
 }
 
 /// Parses detections from the text of a CSV, NDJSON or JSON result (see

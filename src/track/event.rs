@@ -3,6 +3,24 @@
 use crate::method::Detection;
 use nalgebra::Vector3;
 
+/// With [`ConfirmBy::Evidence`](super::ConfirmBy::Evidence), a stretch of activity ends
+/// after a silence as long as itself, at least this long (seconds) and at most
+/// [`TrackParams::end_s`](super::TrackParams::end_s): each clap is its own event, a
+/// sentence's pauses are not ends.
+const END_MIN_S: f64 = 0.3;
+
+/// How long a silence ends a stretch of activity that has lasted `length_s` (seconds):
+/// as long as the stretch, within [`END_MIN_S`, `end_s`], when `by_length` (confirmation
+/// by the evidence, the default), else `end_s`. The tracker ends its events by it, and
+/// `ssl evaluate` reads events off rows by it.
+pub(crate) fn ends_after(length_s: f64, end_s: f64, by_length: bool) -> f64 {
+    if by_length {
+        length_s.clamp(END_MIN_S.min(end_s), end_s)
+    } else {
+        end_s
+    }
+}
+
 /// One stretch of activity of one track: from its first detection to its last, with no
 /// silence longer than [`TrackParams::end_s`](super::TrackParams::end_s) in between.
 #[derive(Debug, Clone, PartialEq)]

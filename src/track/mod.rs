@@ -78,6 +78,7 @@ mod output;
 pub mod smoother;
 mod tracker;
 
+pub(crate) use event::ends_after;
 pub use event::Event;
 pub use faint::FaintPlace;
 pub use output::{TrackStats, Tracked};

@@ -39,11 +39,6 @@ const STILL_DRIFT_DEG_S: f64 = 3.0;
 /// gate took each new turn, and a person had several ids and an id several people).
 const STILL_WANDER_DEG: f64 = 3.0;
 
-/// With [`ConfirmBy::Evidence`], a stretch of activity ends after a silence as long as
-/// itself, at least this long (seconds) and at most [`TrackParams::end_s`]: each clap
-/// is its own event, a sentence's pauses are not ends.
-const END_MIN_S: f64 = 0.3;
-
 /// With [`ConfirmBy::Evidence`] on a volumetric array, a candidate's gate for a
 /// detection under the threshold widens as one over its margin, at most this many
 /// times: a detection's delay error grows as its margin falls, and a weak talker beside
@@ -678,8 +673,8 @@ impl Tracker {
         let by_length = self.params.confirm_by == ConfirmBy::Evidence;
         for t in &mut self.tracks {
             let end_s = match &t.event {
-                Some(e) if by_length => (t.last_s - e.start_s()).clamp(END_MIN_S, end_s),
-                _ => end_s,
+                Some(e) => super::event::ends_after(t.last_s - e.start_s(), end_s, by_length),
+                None => end_s,
             };
             if t.event.is_some() && now - t.last_s > end_s {
                 let e = t.event.take().expect("checked");
