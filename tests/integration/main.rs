@@ -32,6 +32,7 @@ mod outputs;
 mod part_of_a_file;
 mod plot;
 mod rooms;
+mod scores;
 mod scoring_folders;
 mod simulate;
 mod sources;
