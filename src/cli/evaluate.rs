@@ -33,7 +33,7 @@ pub fn run(args: &EvaluateArgs) -> Result<bool> {
         let (rows, written, info) = read_records_with_info(&r.path)?;
         detections.extend(rows);
         events.extend(written);
-        geometry = geometry.or(info.array());
+        geometry = geometry.or_else(|| array(&r.path, &info));
     }
     let shown = results
         .iter()
@@ -103,7 +103,7 @@ pub(super) fn warn_if_unknown_array(
     if arg.is_none() && geometry.is_none() {
         super::warn(
             false,
-            &format!("{shown}: scored by the 3-D angle: the result does not name its array (a CSV result does not); for a planar or linear array give -g ARRAY.toml, or --metric azimuth, to score what it observes"),
+            &format!("{shown}: scored by the 3-D angle: the result does not name its array (a CSV or NDJSON result names it only in an --out-dir folder, through its stamp); for a planar or linear array give -g ARRAY.toml, or --metric azimuth, to score what it observes"),
         );
     }
 }
@@ -121,6 +121,13 @@ pub(super) fn metric(arg: Option<MetricArg>, geometry: Option<&Geometry>) -> Res
             bail!("--metric axis needs a linear array's geometry: give it with --geometry (a JSON result carries it)")
         }
     })
+}
+
+/// The array a result names: a JSON result's own, or a CSV or NDJSON result's batch
+/// stamp's (`--out-dir`).
+pub(super) fn array(path: &Path, info: &ResultInfo) -> Option<Geometry> {
+    info.array()
+        .or_else(|| super::batch::stamp::stamped_array(path))
 }
 
 /// One recording's rows and events, as the results name it, with the geometry its
@@ -141,7 +148,7 @@ fn recordings(r: &ResultFile) -> Result<Vec<Recording>> {
     } else {
         read_records_with_info(&r.path)?
     };
-    let geometry = info.array();
+    let geometry = array(&r.path, &info);
     if rows.is_empty() && events.is_empty() {
         let name = r.relative.as_deref().unwrap_or(&r.path);
         return Ok(vec![Recording {
@@ -351,31 +358,33 @@ fn table(r: &ManyReport) -> String {
         s += &format!("errors: {}\n", first.report.metric);
     }
     s += &format!(
-        "{:<width$}  detections  mean_err  median_err  frames_detected  events_detected  false_per_min\n",
+        "{:<width$}  detections  mean_err  median_err  frames_detected  events_detected  heard  false_per_min\n",
         "recording"
     );
     for x in &r.recordings {
         let p = &x.report;
         s += &format!(
-            "{:<width$}  {:>10}  {:>8}  {:>10}  {:>15}  {:>15}  {:>13}\n",
+            "{:<width$}  {:>10}  {:>8}  {:>10}  {:>15}  {:>15}  {:>5}  {:>13}\n",
             x.recording,
             p.detections,
             opt(p.mean_error_deg, 2),
             opt(p.median_error_deg, 2),
             pct(p.frame_detection_rate),
             pct(p.event_detection_rate),
+            opt(p.event_coverage.map(|c| 100.0 * c), 0) + "%",
             opt(p.false_per_minute, 1),
         );
     }
     let p = &r.pooled;
     s += &format!(
-        "pooled: {} recordings, {} detections, mean error {} deg, median {} deg, frames detected {}, events detected {}, {} false detections in {:.1} s ({} per minute)\n",
+        "pooled: {} recordings, {} detections, mean error {} deg, median {} deg, frames detected {}, events detected {} (heard {}), {} false detections in {:.1} s ({} per minute)\n",
         p.recordings,
         p.detections,
         opt(p.mean_error_deg, 2),
         opt(p.median_error_deg, 2),
         pct(p.frame_detection_rate),
         pct(p.event_detection_rate),
+        pct(p.event_coverage),
         p.false_detections,
         p.background_s,
         opt(p.false_per_minute, 1),

@@ -51,7 +51,10 @@ pub fn run(args: &PlotArgs) -> Result<()> {
         let one = read_plot_file(&result.path)?;
         data.array = data.array.or(one.array);
         data.threshold = data.threshold.or(one.threshold);
-        data.geometry = data.geometry.or(one.geometry);
+        data.geometry = data
+            .geometry
+            .or(one.geometry)
+            .or_else(|| super::batch::stamp::stamped_array(&result.path));
         data.files.extend(one.files);
     }
     let truth = match &args.truth {

@@ -244,13 +244,16 @@ fn file_title(file: &PlotFile, kept: usize, truth: Option<(&Truth, &Report)>) ->
     }
     if let Some((_, report)) = truth {
         title += &format!(
-            "; against the truth: mean error {} ({}), events detected {}, {} false per minute",
+            "; against the truth: mean error {} ({}), events detected {} (heard {}), {} false per minute",
             report
                 .mean_error_deg
                 .map_or("-".into(), |e| format!("{e:.2} deg")),
             report.metric,
             report
                 .event_detection_rate
+                .map_or("-".into(), |r| format!("{:.0}%", 100.0 * r)),
+            report
+                .event_coverage
                 .map_or("-".into(), |r| format!("{:.0}%", 100.0 * r)),
             report
                 .false_per_minute

@@ -23,12 +23,12 @@ pub(crate) use self::json::{JsonExporter, NdjsonExporter};
 pub use detection::DetectionRecord;
 pub use event::EventRecord;
 pub use metadata::{FileEntry, GeometryInfo, MicInfo, RunMetadata, Tool};
+#[cfg(feature = "cli")]
+pub(crate) use read::{array_of, read_records_with_info, MAX_TRUTH_BYTES};
 pub use read::{
     parse_detections, read_detections, read_result, read_result_file, ReadError, ResultInfo,
     ResultRecord,
 };
-#[cfg(feature = "cli")]
-pub(crate) use read::{read_records_with_info, MAX_TRUTH_BYTES};
 pub use source::{SourceRecord, Sources};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};
 

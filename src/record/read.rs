@@ -91,7 +91,15 @@ impl ResultInfo {
     /// The array a JSON result was made with (with its orientation), from its
     /// `geometry` object: what `ssl evaluate` and `ssl plot` score by.
     pub(crate) fn array(&self) -> Option<crate::Geometry> {
-        let g = serde_json::from_value::<super::GeometryInfo>(self.geometry.clone()?).ok()?;
+        array_of(self.geometry.as_ref()?)
+    }
+}
+
+/// The array a result's `geometry` object (a JSON result's, or a batch stamp's) names,
+/// with its orientation.
+pub(crate) fn array_of(geometry: &Value) -> Option<crate::Geometry> {
+    {
+        let g = serde_json::from_value::<super::GeometryInfo>(geometry.clone()).ok()?;
         let positions: Vec<[f64; 3]> = g.mics.iter().map(|m| m.position).collect();
         let geometry = crate::Geometry::from_positions(&positions).ok()?;
         Some(match g.orientation {

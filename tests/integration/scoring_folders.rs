@@ -193,3 +193,82 @@ fn concatenated_csv_results_are_read_as_one() {
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.contains("r0.wav") && text.contains("r1.wav"));
 }
+
+/// A folder of CSV results from `--out-dir` names its array through the batch's stamps:
+/// a planar circle's results are scored in azimuth with no `-g`, as its JSON results
+/// are; the same CSV copied out of the folder is scored by the 3-D angle, with the
+/// warning that says how to fix it.
+#[test]
+fn csv_results_of_a_batch_name_their_array() {
+    let dir = tempdir();
+    let root = dir.path();
+    let circle = write(root, "circle.toml", geometry_toml(&circle(6, 0.05), ""));
+    let archive = root.join("archive");
+    std::fs::create_dir_all(&archive).unwrap();
+    let scene = format!(
+        "sample_rate = 16000\nduration = 2.0\nseed = 4\n\
+         [array]\ngeometry = \"{}\"\nposition = [0.0, 0.0, 0.0]\n\
+         [[source]]\nazimuth_deg = 70\nelevation_deg = 25.0\ndistance = 3.0\n\
+         signal = \"white\"\nlevel_db = -26\nactive = [[0.4, 1.6]]\n\
+         [noise]\nsensor_db = -60\n",
+        s(&circle)
+    );
+    let toml = write(root, "a.toml", scene);
+    let wav = archive.join("a.wav");
+    let o = run(&["simulate", s(&toml), "-o", s(&wav)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let results = root.join("results");
+    let o = run(&[
+        "analyze",
+        s(&archive),
+        "-g",
+        s(&circle),
+        "--out-dir",
+        s(&results),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let truth = archive.join("a.truth.json");
+    let csv = results.join("a.csv");
+    let o = run(&["evaluate", "--truth", s(&truth), s(&csv), "--json"]);
+    let stamped = json(&o);
+    assert_eq!(stamped["metric"], "azimuth", "{stamped}");
+    assert!(
+        !stderr(&o).contains("scored by the 3-D angle"),
+        "{}",
+        stderr(&o)
+    );
+    // As -g gives it.
+    let o = run(&[
+        "evaluate",
+        "--truth",
+        s(&truth),
+        s(&csv),
+        "-g",
+        s(&circle),
+        "--json",
+    ]);
+    assert_eq!(json(&o), stamped);
+    // The folder of results against the folder of truths: the same.
+    let o = run(&["evaluate", "--truth", s(&archive), s(&results), "--json"]);
+    assert_eq!(json(&o)["recordings"][0]["report"], stamped);
+    // Out of its folder, the CSV cannot say its array.
+    let copy = root.join("a.csv");
+    std::fs::copy(&csv, &copy).unwrap();
+    let o = run(&["evaluate", "--truth", s(&truth), s(&copy), "--json"]);
+    assert_eq!(json(&o)["metric"], "3-D angle");
+    assert!(
+        stderr(&o).contains("scored by the 3-D angle"),
+        "{}",
+        stderr(&o)
+    );
+    // ssl plot scores as ssl evaluate does.
+    let svg = root.join("a.svg");
+    let o = run(&["plot", s(&csv), "--truth", s(&truth), "-o", s(&svg)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    let said = format!(
+        "mean error {:.2} deg (azimuth)",
+        stamped["mean_error_deg"].as_f64().unwrap()
+    );
+    assert!(text.contains(&said), "{said}: {text}");
+}

@@ -25,7 +25,7 @@
 //! started again ends with the results of an uninterrupted run: a result renamed but
 //! not yet stamped is redone, to the same bytes.
 
-mod stamp;
+pub(super) mod stamp;
 
 use super::analyze::{analyze_one, prepare, Output, SaidOnce, Written};
 use super::args::{AnalyzeArgs, WarningKind};
@@ -259,10 +259,11 @@ pub fn run(args: &AnalyzeArgs, dir_path: &Path) -> Result<bool> {
         .collect();
     let started = Instant::now();
     let said = SaidOnce::default();
-    let recipe = recipe(
-        args,
-        &serde_json::to_string(&localizer.metadata(&geometry_path))?,
-    );
+    let metadata = serde_json::to_value(localizer.metadata(&geometry_path))?;
+    let recipe = stamp::Recipe {
+        hash: recipe(args, &serde_json::to_string(&metadata)?),
+        geometry: metadata.get("geometry").cloned(),
+    };
     let progress = BatchProgress::new(args.quiet, inputs.len());
     let dir = &dir;
     // One input to its result: what the summary lists, and the seconds of audio read.
@@ -342,7 +343,7 @@ fn one(
     args: &AnalyzeArgs,
     localizer: &crate::Localizer,
     dir: &OutDir,
-    recipe: &str,
+    recipe: &stamp::Recipe,
     said: &SaidOnce,
     input: &Input,
     geometry_path: &str,
@@ -396,7 +397,7 @@ fn one(
     let existing = folder.entry(&name).unwrap_or(Entry::Missing);
     if let (Some(id), Some(old)) = (&id, &old) {
         if args.resume
-            && old.recipe == recipe
+            && old.recipe == recipe.hash
             && old.input.relative == id.relative
             && old.input.same_contents(id)
             && existing == Entry::File(old.result_size)

@@ -134,6 +134,43 @@ pub struct Stamp {
     /// The result's path under DIR, and its size.
     pub result: String,
     pub result_size: u64,
+    /// The array the result was made with (the run's metadata's `geometry`, as a JSON
+    /// result carries it): how `ssl evaluate` and `ssl plot` score a CSV or NDJSON
+    /// result, which cannot say it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub geometry: Option<serde_json::Value>,
+}
+
+/// What a batch's stamps say of all its results: the hash of their recipe ([`recipe`])
+/// and the array they were made with.
+pub struct Recipe {
+    pub hash: String,
+    pub geometry: Option<serde_json::Value>,
+}
+
+/// The array named by the stamp of the result at `result`, when it lies in a batch's
+/// results folder (`DIR/.ssl/<its path under DIR>.json` for some folder DIR above it,
+/// naming this result): how a CSV or NDJSON result of `--out-dir` says its array.
+pub fn stamped_array(result: &Path) -> Option<crate::Geometry> {
+    let result = std::fs::canonicalize(result).ok()?;
+    for dir in result.ancestors().skip(1) {
+        let Ok(relative) = result.strip_prefix(dir) else {
+            continue;
+        };
+        let (folder, name) = place(relative);
+        let path = dir.join(folder).join(name);
+        let Ok(meta) = std::fs::metadata(&path) else {
+            continue;
+        };
+        if !meta.is_file() || meta.len() > 1 << 16 {
+            continue;
+        }
+        let stamp: Stamp = serde_json::from_slice(&std::fs::read(&path).ok()?).ok()?;
+        if Path::new(&stamp.result) == relative {
+            return crate::record::array_of(stamp.geometry.as_ref()?);
+        }
+    }
+    None
 }
 
 /// A hash of everything that decides a result's bytes but the input: `what` (the
@@ -213,15 +250,16 @@ pub fn write(
     name: &OsStr,
     relative: &Path,
     input: &InputId,
-    recipe: &str,
+    recipe: &Recipe,
     size: u64,
 ) -> Result<()> {
     let stamp = Stamp {
         stamp: VERSION,
         input: input.clone(),
-        recipe: recipe.to_string(),
+        recipe: recipe.hash.clone(),
         result: relative.display().to_string(),
         result_size: size,
+        geometry: recipe.geometry.clone(),
     };
     let mut staged = folder.stage(name)?;
     serde_json::to_writer(&mut staged, &stamp)?;
