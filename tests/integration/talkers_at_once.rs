@@ -24,7 +24,7 @@ fn two_talkers_rows(
     fan: &str,
     params: &ssl::Params,
     track: ssl::track::TrackParams,
-) -> (Vec<ssl::DetectionRecord>, ssl::Truth) {
+) -> Run {
     let mut scene = head.to_string();
     for (az, clip) in talkers {
         scene += &format!(
@@ -38,16 +38,27 @@ fn two_talkers_rows(
     );
     let path = write(dir, "two.toml", &scene);
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
-    harness::analyse_scene(dir, &scene, geometry, params, Some(track)).unwrap()
+    harness::analyse_scene_with_events(dir, &scene, geometry, params, Some(track)).unwrap()
 }
 
-/// The report of `rows` against `truth` with `tail_s`, and its tracking part.
+/// A run's rows, the events it writes (scored as written: the tracker here is not
+/// always at the defaults by which `ssl evaluate` reads events off rows), and the truth.
+type Run = (
+    Vec<ssl::DetectionRecord>,
+    Vec<ssl::record::EventRecord>,
+    ssl::Truth,
+);
+
+/// The report of `rows` and `events` against `truth` with `tail_s`, and its tracking
+/// part.
 fn score(
     rows: &[ssl::DetectionRecord],
+    events: &[ssl::record::EventRecord],
     truth: &ssl::Truth,
     tail_s: f64,
 ) -> (ssl::evaluate::Report, ssl::evaluate::TrackReport) {
-    let report = ssl::evaluate::evaluate(truth, rows, tail_s).unwrap();
+    let metric = ssl::evaluate::Metric::ThreeD;
+    let report = ssl::evaluate::evaluate_by(truth, rows, Some(events), tail_s, &metric).unwrap();
     let tracking = report.tracking.clone().unwrap();
     eprintln!(
         "{} of {} windows, {} tracks, {} false events, mean error {:?}",
@@ -86,7 +97,7 @@ impl PapersRoom<'_> {
         azimuths: [f64; 2],
         params: &ssl::Params,
         track: ssl::track::TrackParams,
-    ) -> (Vec<ssl::DetectionRecord>, ssl::Truth) {
+    ) -> Run {
         let format = if self.float {
             "format = \"float32\"\n"
         } else {
@@ -121,8 +132,8 @@ impl PapersRoom<'_> {
         params: &ssl::Params,
         track: ssl::track::TrackParams,
     ) -> (ssl::evaluate::Report, ssl::evaluate::TrackReport) {
-        let (rows, truth) = self.rows(dir, geometry, seed, azimuths, params, track);
-        score(&rows, &truth, 0.175)
+        let (rows, events, truth) = self.rows(dir, geometry, seed, azimuths, params, track);
+        score(&rows, &events, &truth, 0.175)
     }
 }
 
@@ -285,7 +296,7 @@ fn a_steady_run_of_candidates_is_a_talker() {
                 p
             };
             eprint!("{tolerance_us} us, seed {seed}, confirm_tight {tight}: ");
-            let (rows, truth) = two_talkers_rows(
+            let (rows, events, truth) = two_talkers_rows(
                 dir.path(),
                 &geometry,
                 &head,
@@ -296,7 +307,7 @@ fn a_steady_run_of_candidates_is_a_talker() {
                 &params,
                 track,
             );
-            let (report, t) = score(&rows, &truth, 0.225);
+            let (report, t) = score(&rows, &events, &truth, 0.225);
             assert_eq!(t.false_events, 0);
             assert!(report.mean_error_deg.unwrap() < 1.0);
             if tight == 8 || tight == 0 && tolerance_us == 50.0 {
@@ -490,8 +501,8 @@ fn riders_add_a_talkers_weakest_frames() {
             };
             every.push(rows(&params, all).0);
             eprint!("seed {seed}, riders {riders}: ");
-            let (tracked, truth) = rows(&params, ssl::track::TrackParams::default());
-            let (report, t) = score(&tracked, &truth, 0.225);
+            let (tracked, events, truth) = rows(&params, ssl::track::TrackParams::default());
+            let (report, t) = score(&tracked, &events, &truth, 0.225);
             assert_both_tracked(&report, &t, 1.0);
             windows.push(t.overlap_detected);
         }
@@ -540,8 +551,9 @@ fn single_bins_find_the_talker_another_hides_on_a_small_circle() {
                 p.smooth_s = 0.0;
                 p
             };
-            let (rows, truth) = room.rows(dir.path(), &geometry, seed, azimuths, &params, track);
-            let (report, t) = score(&rows, &truth, 0.175);
+            let (rows, events, truth) =
+                room.rows(dir.path(), &geometry, seed, azimuths, &params, track);
+            let (report, t) = score(&rows, &events, &truth, 0.175);
             // The circle reads the talkers' elevation several degrees high (docs/guide.md,
             // "Geometry file"): its 3-D error is mostly that.
             assert_both_tracked(&report, &t, 8.0);
@@ -589,9 +601,9 @@ fn a_tracks_neighbouring_rows_bring_each_row_nearer_its_talker() {
                 p
             };
             eprint!("seed {seed}, smoothing {smooth_s} s: ");
-            let (rows, truth) =
+            let (rows, events, truth) =
                 room.rows(dir.path(), &geometry, seed, [20.0, -40.0], &params, track);
-            let (report, t) = score(&rows, &truth, 0.175);
+            let (report, t) = score(&rows, &events, &truth, 0.175);
             assert_both_tracked(&report, &t, 5.0);
             draw.push((rows, report.mean_error_deg.unwrap()));
         }

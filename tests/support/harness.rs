@@ -227,9 +227,32 @@ pub fn analyse_scene(
     params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
 ) -> Result<(Vec<ssl::DetectionRecord>, ssl::Truth), Box<dyn std::error::Error>> {
+    let (rows, _, truth) = analyse_scene_with_events(dir, scene, geometry, params, track)?;
+    Ok((rows, truth))
+}
+
+/// As [`analyse_scene`], with the events the run writes (`ssl analyze --events`): what
+/// a run whose tracker is not at the defaults is scored by.
+#[cfg(feature = "simulate")]
+pub fn analyse_scene_with_events(
+    dir: &Path,
+    scene: &ssl::sim::scene::SceneFile,
+    geometry: &ssl::Geometry,
+    params: &ssl::Params,
+    track: Option<ssl::track::TrackParams>,
+) -> Result<
+    (
+        Vec<ssl::DetectionRecord>,
+        Vec<ssl::record::EventRecord>,
+        ssl::Truth,
+    ),
+    Box<dyn std::error::Error>,
+> {
     let sim = ssl::sim::simulate(scene, dir)?;
-    let records = analyse_channels(&sim.channels, sim.sample_rate, geometry, params, track)?;
-    Ok((records, sim.truth))
+    let channels = sim.channels.iter().map(|c| &c[..]).collect();
+    let localizer = localizer(geometry, params, track)?;
+    let (rows, events) = records(localizer.from_channels("scene", channels, sim.sample_rate)?)?;
+    Ok((rows, events, sim.truth))
 }
 
 /// Analyses `channels` in memory as `ssl analyze` does, through a tracker with `track`
@@ -267,13 +290,24 @@ pub fn localizer(
 pub fn rows<S: ssl::stream::SampleSource>(
     recording: ssl::localize::Recording<'_, S>,
 ) -> Result<Vec<ssl::DetectionRecord>, Box<dyn std::error::Error>> {
-    let mut rows = Vec::new();
+    Ok(records(recording)?.0)
+}
+
+/// The rows and events of `recording`, as `ssl analyze` and `ssl analyze --events`
+/// write them.
+pub fn records<S: ssl::stream::SampleSource>(
+    recording: ssl::localize::Recording<'_, S>,
+) -> Result<(Vec<ssl::DetectionRecord>, Vec<ssl::record::EventRecord>), Box<dyn std::error::Error>>
+{
+    let (mut rows, mut events) = (Vec::new(), Vec::new());
     let (_, result) = recording.run(|out| {
-        if let ssl::localize::Output::Row(row) = out {
-            rows.push(row);
+        match out {
+            ssl::localize::Output::Row(row) => rows.push(row),
+            ssl::localize::Output::Event(e) => events.push(e),
+            _ => {}
         }
         Ok(())
     });
     result?;
-    Ok(rows)
+    Ok((rows, events))
 }
