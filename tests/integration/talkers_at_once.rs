@@ -43,11 +43,7 @@ fn two_talkers_rows(
 
 /// A run's rows, the events it writes (scored as written: the tracker here is not
 /// always at the defaults by which `ssl evaluate` reads events off rows), and the truth.
-type Run = (
-    Vec<ssl::DetectionRecord>,
-    Vec<ssl::record::EventRecord>,
-    ssl::Truth,
-);
+type Run = harness::SceneRun;
 
 /// The report of `rows` and `events` against `truth` with `tail_s`, and its tracking
 /// part.

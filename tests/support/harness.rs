@@ -231,6 +231,14 @@ pub fn analyse_scene(
     Ok((rows, truth))
 }
 
+/// A simulated scene's rows, its events and its truth.
+#[cfg(feature = "simulate")]
+pub type SceneRun = (
+    Vec<ssl::DetectionRecord>,
+    Vec<ssl::record::EventRecord>,
+    ssl::Truth,
+);
+
 /// As [`analyse_scene`], with the events the run writes (`ssl analyze --events`): what
 /// a run whose tracker is not at the defaults is scored by.
 #[cfg(feature = "simulate")]
@@ -240,14 +248,7 @@ pub fn analyse_scene_with_events(
     geometry: &ssl::Geometry,
     params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
-) -> Result<
-    (
-        Vec<ssl::DetectionRecord>,
-        Vec<ssl::record::EventRecord>,
-        ssl::Truth,
-    ),
-    Box<dyn std::error::Error>,
-> {
+) -> Result<SceneRun, Box<dyn std::error::Error>> {
     let sim = ssl::sim::simulate(scene, dir)?;
     let channels = sim.channels.iter().map(|c| &c[..]).collect();
     let localizer = localizer(geometry, params, track)?;
