@@ -147,6 +147,9 @@ pub struct Tracking {
     /// Also write the detections no track confirmed (isolated ones, a track's outliers), with an empty `source` (null in JSON), in frame order among the others
     #[cfg_attr(feature = "cli", arg(long, conflicts_with = "no_track"))]
     pub keep_unconfirmed: bool,
+    /// A source silent for this many seconds is forgotten: one heard again where it was within this time gets its id back, later a new one. On a static array keep it long; on an array that moves or turns (a robot), about as long as it stays still, since a source's direction then changes without the source moving
+    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = 120.0, value_parser = forget_seconds, conflicts_with = "no_track", hide_short_help = true))]
+    pub forget_s: f64,
 }
 
 impl Default for Tracking {
@@ -159,6 +162,7 @@ impl Default for Tracking {
             delay_s: 1.0,
             smooth_s: 0.2,
             keep_unconfirmed: false,
+            forget_s: 120.0,
         }
     }
 }
@@ -177,6 +181,7 @@ impl Tracking {
             delay_s: self.delay_s,
             keep_unconfirmed: self.keep_unconfirmed,
             smooth_s: self.smooth_s,
+            forget_s: self.forget_s,
             ..defaults
         })
     }
@@ -187,6 +192,13 @@ impl Tracking {
 #[cfg(feature = "cli")]
 fn tracker_seconds(s: &str) -> Result<f64, String> {
     crate::flags::positive_at_most(s, MAX_DELAY_S, " s (rows wait that long in memory)")
+}
+
+/// How long a silent source is remembered (`--forget-s`): positive, at most a day (the
+/// tracks remembered are bounded in number whatever it is).
+#[cfg(feature = "cli")]
+fn forget_seconds(s: &str) -> Result<f64, String> {
+    crate::flags::positive_at_most(s, 86_400.0, " s (a day)")
 }
 
 /// The false sources an hour (`--false-per-hour`): over 0, at most the candidates an

@@ -269,3 +269,37 @@ fn a_moving_talker_is_one_track_on_its_trajectory() {
     assert!(m.mean_error_deg.unwrap() < 3.0, "{:?}", m.mean_error_deg);
     assert!(m.windows > 0.6, "{}", m.windows);
 }
+
+/// `--forget-s` bounds how long a silent source is remembered: a source that sounds
+/// again from its place 3 s later keeps its id by default (120 s), and gets a new one
+/// with `--forget-s 1` (what an array that moves between sounds wants).
+#[test]
+fn a_source_is_remembered_as_long_as_forget_s_says() {
+    let dir = tempdir();
+    write(dir.path(), "prism.toml", geometry_toml(&prism(), ""));
+    let scene =
+        "sample_rate = 16000\nduration = 5.5\nseed = 5\n[room]\ndimensions = [7.0, 5.5, 3.2]\n\
+                 rt60 = 0.3\n[array]\ngeometry = \"prism.toml\"\nposition = [3.5, 2.75, 1.1]\n\
+                 [[source]]\nazimuth_deg = 30\ndistance = 2.0\nsignal = \"white\"\nlevel_db = -26\n\
+                 active = [[0.5, 1.2], [4.2, 4.9]]\n[noise]\nsnr_db = 15\nsensor_db = -70\n";
+    let path = write(dir.path(), "again.toml", scene);
+    let wav = dir.path().join("again.wav");
+    assert!(run(&["simulate", s(&path), "-o", s(&wav)]).status.success());
+    let sources = |extra: &[&str]| -> Vec<u64> {
+        let mut args = vec!["analyze", s(&wav), "-g", "prism.toml", "--events"];
+        args.extend_from_slice(extra);
+        let o = ssl().current_dir(dir.path()).args(&args).output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = String::from_utf8(o.stdout).unwrap();
+        text.lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect()
+    };
+    let remembered = sources(&[]);
+    assert_eq!(remembered.len(), 2, "{remembered:?}");
+    assert_eq!(remembered[0], remembered[1], "{remembered:?}");
+    let forgotten = sources(&["--forget-s", "1"]);
+    assert_eq!(forgotten.len(), 2, "{forgotten:?}");
+    assert_ne!(forgotten[0], forgotten[1], "{forgotten:?}");
+}
