@@ -22,6 +22,10 @@ pub(crate) struct FrameState {
     pub reach: f64,
     /// The frame's detection threshold per pair.
     pub threshold: f64,
+    /// What a pair's correlation must reach to count as a clear sound in the diagnostic
+    /// of delays beyond the geometry ([`super::beyond::edges`]): the threshold, and at
+    /// least the calibrated one whatever threshold detects.
+    pub clear: f64,
     /// The lowest score per pair of a candidate: the threshold times
     /// [`Params::candidates`](super::Params::candidates). Everything that rules frames
     /// out compares with this.
@@ -83,6 +87,7 @@ impl FrameState {
             ceiling: 0.0,
             reach: 0.0,
             threshold: 0.0,
+            clear: 0.0,
             floor: 0.0,
             rider_floor: 0.0,
             steady: false,

@@ -143,7 +143,7 @@ impl Dereverberator {
                 edges.add(
                     window_max(window, f32::NEG_INFINITY),
                     correlator.beyond_max(which == 1, half, 2 * half + 2),
-                    state.threshold,
+                    state.clear,
                 );
             }
         }

@@ -3,7 +3,9 @@
 //! When the recording's delays are longer (positions too small, a wrong unit, a wrong
 //! speed of sound or sample rate, the wrong channels), a clear pair's correlation peaks
 //! past that window. Each correlated frame counts its pairs whose correlation reaches
-//! the threshold per pair, and how many of them peak past the window (looked for out to
+//! the calibrated threshold per pair (or the detection threshold when higher: under a
+//! low fixed one a room's reflections peak past the window too), and how many of them
+//! peak past the window (looked for out to
 //! twice its width); `ssl analyze` warns when that is common, and `ssl check` names the
 //! cause.
 

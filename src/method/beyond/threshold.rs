@@ -148,6 +148,18 @@ impl ThresholdPlan {
         self.per_pair_spread(weights, 1.0)
     }
 
+    /// What a pair must reach to count as clear in the diagnostic of delays beyond the
+    /// geometry: this frame's threshold, and at least the calibrated one at its default
+    /// allowance. Under a fixed threshold lower than that (the paper's 0.5, `--min-score
+    /// 0`), a reverberant room's reflections peak past the direct path's window in
+    /// 4-16% of the pairs that pass it, and the true prism in the shipped scene was
+    /// warned of as too small; at the calibrated level none were (docs/experiments.md).
+    pub fn clear_per_pair(&self, weights: &[f32]) -> f64 {
+        let calibrated =
+            self.diffuse_floor + DEFAULT_THRESHOLD_SIGMAS * chance_sigma(weights, self.n);
+        self.per_pair(weights).max(calibrated)
+    }
+
     /// [`ThresholdPlan::per_pair`] of an average whose chance fluctuation is `spread` times a
     /// frame's (the calibrated threshold's chance part scales with it; a fixed threshold
     /// does not).

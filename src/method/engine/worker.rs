@@ -157,6 +157,7 @@ impl Worker {
         state.ceiling = peak_ceiling(&state.weights, setup.n, setup.params.peaks.refinement());
         state.reach = state.ceiling;
         state.threshold = setup.threshold.per_pair(&state.weights);
+        state.clear = setup.threshold.clear_per_pair(&state.weights);
         state.floor = state.threshold * setup.params.talkers.candidate_share();
         // Riders only beside candidates (with a tracker): without one, nothing to ride.
         let riders = if setup.params.talkers.candidate_share() < 1.0 {
@@ -240,7 +241,7 @@ impl Worker {
                 self.correlator.lags_into(which == 1, window);
                 let top = window_max(window, f32::NEG_INFINITY);
                 let beyond = self.correlator.beyond_max(which == 1, half, 2 * half + 2);
-                edges.add(top, beyond, state.threshold);
+                edges.add(top, beyond, state.clear);
                 best_possible += (top.max(0.0) * overshoot) as f64;
                 done += 1;
             }
