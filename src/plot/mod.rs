@@ -269,7 +269,7 @@ fn file_title(file: &PlotFile, kept: usize, truth: Option<(&Truth, &Report)>) ->
 }
 
 /// Azimuth (`which` 0) or elevation (1) against time: the truth's lines, the events'
-/// bars and the detections' marks.
+/// bars (a moving source's along its path) and the detections' marks.
 fn draw_against_time<DB: DrawingBackend>(
     panel: &DrawingArea<DB, plotters::coord::Shift>,
     which: usize,
@@ -317,17 +317,35 @@ fn draw_against_time<DB: DrawingBackend>(
         }
     }
     for e in &file.events {
-        let v = value(e.azimuth_deg, e.elevation_deg);
-        let c = track_colour(e.source);
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
-                [
-                    (e.start_s, v - 2.5),
-                    (e.end_s.max(e.start_s + duration / 400.0), v + 2.5),
-                ],
-                c.mix(0.35).filled(),
-            )))
-            .map_err(draw_err)?;
+        let c = track_colour(e.source).mix(0.35).filled();
+        let end = e.end_s.max(e.start_s + duration / 400.0);
+        match moved(e) {
+            // A source that moved: a band along its path, from its first detection's
+            // direction to its last's.
+            Some(((a0, e0), (a1, e1))) => {
+                let (v0, v1) = (value(a0, e0), value(a1, e1));
+                chart
+                    .draw_series(std::iter::once(Polygon::new(
+                        vec![
+                            (e.start_s, v0 - 2.5),
+                            (end, v1 - 2.5),
+                            (end, v1 + 2.5),
+                            (e.start_s, v0 + 2.5),
+                        ],
+                        c,
+                    )))
+                    .map_err(draw_err)?;
+            }
+            None => {
+                let v = value(e.azimuth_deg, e.elevation_deg);
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(e.start_s, v - 2.5), (end, v + 2.5)],
+                        c,
+                    )))
+                    .map_err(draw_err)?;
+            }
+        }
     }
     chart
         .draw_series(
@@ -337,6 +355,26 @@ fn draw_against_time<DB: DrawingBackend>(
         )
         .map_err(draw_err)?;
     Ok(())
+}
+
+/// An event drawn along its path lies this many degrees or more between its first and
+/// last detection's directions: a still source's two single frames differ by their
+/// errors (a few degrees), a walker's by his turn.
+const PATH_DEG: f64 = 10.0;
+
+/// The first and last directions (azimuth, elevation) of an event whose source moved
+/// ([`PATH_DEG`]), unless its azimuth crosses +-180 deg (drawn as its mean, a bar);
+/// `None` for a still one (and for results written before the fields, read as 0).
+fn moved(e: &crate::record::EventRecord) -> Option<((f64, f64), (f64, f64))> {
+    let (a, b) = (
+        crate::geometry::unit_from_angles(e.start_azimuth_deg, e.start_elevation_deg),
+        crate::geometry::unit_from_angles(e.end_azimuth_deg, e.end_elevation_deg),
+    );
+    let apart = crate::geometry::angle_between_deg(&a, &b);
+    (apart >= PATH_DEG && (e.end_azimuth_deg - e.start_azimuth_deg).abs() < 180.0).then_some((
+        (e.start_azimuth_deg, e.start_elevation_deg),
+        (e.end_azimuth_deg, e.end_elevation_deg),
+    ))
 }
 
 /// The sky map: events at their mean direction, detections by source, the truth.

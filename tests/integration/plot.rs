@@ -302,3 +302,49 @@ fn an_events_only_result_fills_the_sky_map_and_the_picture_fits_a_window() {
         }
     }
 }
+
+/// A moving source's event is drawn along its path in the azimuth panel, from its first
+/// detection's azimuth to its last's, not as a flat bar at its mean; a still source's
+/// event stays a bar.
+#[test]
+fn a_moving_events_band_follows_its_path() {
+    let dir = tempdir();
+    // A walker from -60 to 57 deg over 1.0-4.9 s (mean 0 deg), and a still source at
+    // 120 deg over 5-6 s.
+    let events = write(
+        dir.path(),
+        "events.csv",
+        "file,source,start_s,end_s,azimuth_deg,elevation_deg,x,y,z,spread_deg,detections,score,\
+         start_azimuth_deg,start_elevation_deg,end_azimuth_deg,end_elevation_deg,uncertainty_deg\n\
+         w.wav,1,1.000000,4.900000,0.000,-7.000,0.992546,0.000000,-0.121869,30.000,100,5.0000,-60.000,-7.000,57.000,-7.000,3.00\n\
+         w.wav,2,5.000000,6.000000,120.000,0.000,-0.500000,0.866025,0.000000,1.000,30,5.0000,119.000,0.000,121.000,0.000,3.00\n",
+    );
+    let o = plot(&[s(&events)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg = String::from_utf8(o.stdout).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let bands: Vec<Vec<(f64, f64)>> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("polygon") && n.attribute("opacity") == Some("0.35"))
+        .map(|n| {
+            n.attribute("points")
+                .unwrap()
+                .split_whitespace()
+                .map(|p| {
+                    let (x, y) = p.split_once(',').unwrap();
+                    (x.parse().unwrap(), y.parse().unwrap())
+                })
+                .collect()
+        })
+        .collect();
+    // The walker only, in the azimuth and the elevation panel.
+    assert_eq!(bands.len(), 2, "{svg}");
+    // In the azimuth panel (the first), its band rises (y falls on screen) by 117 deg
+    // of the panel's 360 from its start to its end.
+    let az = &bands[0];
+    let (start, end) = (az[0], az[1]);
+    assert!(end.0 > start.0 && start.1 - end.1 > 50.0, "{az:?}");
+    // In the elevation panel it is flat: -7 deg throughout.
+    let el = &bands[1];
+    assert!((el[0].1 - el[1].1).abs() < 1.0, "{el:?}");
+}
