@@ -366,3 +366,63 @@ fn the_runs_own_events_are_scored_as_written() {
     let e = evaluate_by(&t, &rows, Some(&bad), 0.0, &Metric::ThreeD).unwrap_err();
     assert!(e.to_string().contains("event 1"), "{e}");
 }
+
+/// A moving source's event is scored along its path: a walker who turns 90 deg over 3 s
+/// and then stands for 2 s has a mean direction (64 deg) 11 deg from where he is at
+/// the event's middle (75 deg); scored from its first and last directions against where
+/// he is then, the event is on him.
+#[test]
+fn a_moving_event_is_scored_along_its_path() {
+    let mut t = truth();
+    // From 0 deg at 1 s to 90 deg at 4 s, waypoints every half second (a turn written
+    // as a path); then still at 90 deg to 6 s.
+    let mut s = source(0, Vector3::x(), vec![[1.0, 6.0]]);
+    s.waypoints = vec![[1.0, 0.0, 0.0], [4.0, 90.0, 0.0], [6.0, 90.0, 0.0]];
+    t.sources = vec![s];
+    let at = |az: f64| crate::geometry::unit_from_angles(az, 0.0);
+    // Rows every 10 ms of 1-6 s, on the walker.
+    let rows: Vec<DetectionRecord> = (99..=599)
+        .map(|f| {
+            let time = (f + 1) as f64 * 0.01;
+            let az = ((time - 1.0) * 30.0).min(90.0);
+            DetectionRecord {
+                source: Some(1),
+                ..record(f, at(az))
+            }
+        })
+        .collect();
+    let event = |first: f64, last: f64| EventRecord {
+        source: 1,
+        start_s: 1.0,
+        end_s: 6.0,
+        // The mean of the rows' unit vectors.
+        x: rows.iter().map(|r| r.x).sum::<f64>() / rows.len() as f64,
+        y: rows.iter().map(|r| r.y).sum::<f64>() / rows.len() as f64,
+        start_azimuth_deg: first,
+        end_azimuth_deg: last,
+        ..Default::default()
+    };
+    let scored = |e: EventRecord| {
+        let r = evaluate_by(&t, &rows, Some(&[e]), 0.0, &Metric::ThreeD).unwrap();
+        r.tracking.unwrap()
+    };
+    // Along its path: recalled, its error that of its ends (0).
+    let path = scored(event(0.0, 90.0));
+    assert_eq!(path.events_recalled, 1);
+    assert!(path.event_error_deg.unwrap() < 1e-6, "{path:?}");
+    // Its mean alone (first and last as one): 64 deg against 75 deg at 3.5 s, more
+    // than 10 deg off: not recalled, and false.
+    let mean = rows
+        .iter()
+        .fold(Vector3::zeros(), |a, r| a + Vector3::new(r.x, r.y, r.z));
+    let (mean_az, _) = angles_deg(&mean);
+    let flat = scored(event(mean_az, mean_az));
+    assert_eq!(
+        (flat.events_recalled, flat.false_events),
+        (0, 1),
+        "{flat:?}"
+    );
+    // Read off the rows, the same event is scored along its path.
+    let read = evaluate(&t, &rows, 0.0).unwrap().tracking.unwrap();
+    assert_eq!((read.events, read.events_recalled), (1, 1), "{read:?}");
+}

@@ -10,8 +10,11 @@
 //!   track's rows, split where it is silent for longer than the stretch so far (at least
 //!   0.3 s, at most [`TrackParams::end_s`](crate::track::TrackParams), 1 s), the
 //!   defaults' rule. A true event (an active interval) is recalled by the event that
-//!   overlaps it most in time among those whose mean direction is within `HIT_DEG` of
-//!   its source; its direction error and its onset and offset errors (event start minus
+//!   overlaps it most in time among those whose direction is within `HIT_DEG` of
+//!   its source (a still event's mean direction against the source at its middle; an
+//!   event whose first and last directions are 10 deg or more apart, a moving source's,
+//!   the mean of its first direction's error at its start and its last's at its end);
+//!   its direction error and its onset and offset errors (event start minus
 //!   interval start, event end minus interval end) are those of that event; its coverage
 //!   is the share of its time that all such events cover (each widened by half a frame
 //!   either side). An event that overlaps no true event of a source within `HIT_DEG` is
@@ -80,11 +83,34 @@ pub struct TrackReport {
     pub overlap_detected: usize,
 }
 
-/// An event: its first and last row's times and the sum of its rows' directions.
+/// An event: its first and last row's times, the sum of its rows' directions, and its
+/// first and last row's directions (where a moving source started and ended).
 pub(super) struct Stretch {
     pub(super) start: f64,
     pub(super) end: f64,
     pub(super) sum: Vector3<f64>,
+    pub(super) first: Vector3<f64>,
+    pub(super) last: Vector3<f64>,
+}
+
+/// An event whose first and last directions are this many degrees apart or more is
+/// scored along its path (`ssl plot` draws it so): a still source's two single frames
+/// differ by their errors, a walker's by his turn.
+const PATH_DEG: f64 = 10.0;
+
+impl Stretch {
+    /// Its error (degrees) against `s`: a moving event's ([`PATH_DEG`]) is the mean of
+    /// its first direction's against the source at its start and its last's at its end;
+    /// a still one's, its mean direction's against the source at its middle.
+    fn error_deg(&self, s: &Source, metric: &Metric) -> f64 {
+        if crate::geometry::angle_between_deg(&self.first, &self.last) >= PATH_DEG {
+            (metric.error_deg(&self.first, &s.at(self.start))
+                + metric.error_deg(&self.last, &s.at(self.end)))
+                / 2.0
+        } else {
+            metric.error_deg(&self.sum, &s.at((self.start + self.end) / 2.0))
+        }
+    }
 }
 
 /// What scoring tracks needs to know besides rows and sources.
@@ -134,11 +160,9 @@ pub(super) fn score_tracks(
     let with_rows: Vec<&SourceTracks> = per_source.iter().filter(|s| s.rows > 0).collect();
     let events_from = if written.is_some() { "written" } else { "rows" };
     let stretches = written.unwrap_or_else(|| stretches(dets, tracks));
-    // An event's mean direction against its source's at the event's middle (a moving
-    // source's events are long only when it moves little).
-    let middle = |e: &Stretch, s: &Source| s.at((e.start + e.end) / 2.0);
+    // An event's direction against its source's ([`Stretch::error_deg`]).
     let matches = |e: &Stretch, s: &Source, (a, b): (f64, f64)| {
-        e.start <= b + tail_s && e.end >= a && metric.error_deg(&e.sum, &middle(e, s)) < HIT_DEG
+        e.start <= b + tail_s && e.end >= a && e.error_deg(s, metric) < HIT_DEG
     };
     let (mut true_events, mut recalled) = (0, 0);
     let (mut errors, mut onsets, mut offsets) = (Vec::new(), Vec::new(), Vec::new());
@@ -164,7 +188,7 @@ pub(super) fn score_tracks(
                 .max_by(|x, y| overlap(x).total_cmp(&overlap(y)))
             {
                 recalled += 1;
-                errors.push(metric.error_deg(&e.sum, &middle(e, s)));
+                errors.push(e.error_deg(s, metric));
                 onsets.push((e.start - a).abs());
                 offsets.push((e.end - b).abs());
             }
@@ -174,8 +198,7 @@ pub(super) fn score_tracks(
         .iter()
         .filter(|e| {
             !sources.iter().any(|s| {
-                s.spans.any_reaching(e.end, e.start - tail_s)
-                    && metric.error_deg(&e.sum, &middle(e, s)) < HIT_DEG
+                s.spans.any_reaching(e.end, e.start - tail_s) && e.error_deg(s, metric) < HIT_DEG
             })
         })
         .count();
@@ -251,12 +274,15 @@ fn stretches(dets: &[Det], tracks: &[u64]) -> Vec<Stretch> {
             {
                 s.end = d.time_s;
                 s.sum += d.direction;
+                s.last = d.direction;
             }
             _ => {
                 let new = Stretch {
                     start: d.time_s,
                     end: d.time_s,
                     sum: d.direction,
+                    first: d.direction,
+                    last: d.direction,
                 };
                 if let Some(done) = open.insert(t, new) {
                     stretches.push(done);
