@@ -79,6 +79,17 @@ pub fn run(args: &PlotArgs) -> Result<()> {
         ),
         None => None,
     };
+    // The same metric and tail as `ssl evaluate`, by the same functions.
+    let geometry = match &args.score.geometry {
+        Some(path) => Some(crate::Geometry::from_file(path)?),
+        None => data.geometry.clone(),
+    };
+    // Scored by the 3-D angle for want of an array: said after the picture is out.
+    let unknown = truth
+        .as_ref()
+        .is_some_and(|t| t.sources.iter().all(|s| !s.azimuth_only))
+        && args.score.metric.is_none()
+        && geometry.is_none();
     let report = match &truth {
         Some(t) => {
             let files = || {
@@ -89,30 +100,17 @@ pub fn run(args: &PlotArgs) -> Result<()> {
             let rows: Vec<_> = files().flat_map(|f| f.detections.iter().cloned()).collect();
             let events: Vec<_> = files().flat_map(|f| f.events.iter().cloned()).collect();
             let events = (!events.is_empty()).then_some(events.as_slice());
-            // The same metric and tail as `ssl evaluate`, by the same functions.
-            let geometry = match &args.score.geometry {
-                Some(path) => Some(crate::Geometry::from_file(path)?),
-                None => data.geometry.clone(),
-            };
             let metric = super::evaluate::metric(args.score.metric, geometry.as_ref())?;
-            let unknown = t.sources.iter().all(|s| !s.azimuth_only)
-                && args.score.metric.is_none()
-                && geometry.is_none();
             let (tail, rule) = super::evaluate::tail(args.score.tail, t, &rows);
-            Some((
+            Some(
                 evaluate_by(t, &rows, events, tail, &metric)
                     .map(|r| super::evaluate::with_rule(r, rule))
                     .map_err(|e| {
                         anyhow::anyhow!("{}: {e} (--file picks one)", shown(&args.results[0]))
                     })?,
-                unknown,
-            ))
+            )
         }
         None => None,
-    };
-    let (report, unknown) = match report {
-        Some((r, u)) => (Some(r), u),
-        None => (None, false),
     };
     let svg = plot(
         &data,

@@ -6,14 +6,18 @@
 
 use crate::track::{ends_after, TrackParams};
 
-/// Sorted times grouped into stretches `(first, last)`: a new stretch begins after a
-/// silence longer than the tracker's end of activity for a stretch of that length.
+/// Whether a row at `t` continues a stretch from `first` to `last` (seconds): unless
+/// the silence since is longer than the tracker at its defaults ends an event after.
+pub(super) fn continues(first: f64, last: f64, t: f64) -> bool {
+    t - last <= ends_after(last - first, TrackParams::default().end_s, true)
+}
+
+/// Sorted times grouped into stretches `(first, last)` ([`continues`]).
 pub(super) fn stretches(times: impl IntoIterator<Item = f64>) -> Vec<(f64, f64)> {
-    let end_s = TrackParams::default().end_s;
     let mut out: Vec<(f64, f64)> = Vec::new();
     for t in times {
         match out.last_mut() {
-            Some((a, b)) if t - *b <= ends_after(*b - *a, end_s, true) => *b = t.max(*b),
+            Some((a, b)) if continues(*a, *b, t) => *b = t.max(*b),
             _ => out.push((t, t)),
         }
     }

@@ -257,28 +257,7 @@ pub fn evaluate_by(
                     Some(direction)
                         if e.start_s.is_finite() && e.end_s.is_finite() && e.start_s >= 0.0 =>
                     {
-                        // Results written before the first and last directions
-                        // read them all as 0: then the event is its mean.
-                        let old = [
-                            e.start_azimuth_deg,
-                            e.start_elevation_deg,
-                            e.end_azimuth_deg,
-                            e.end_elevation_deg,
-                        ] == [0.0; 4];
-                        let at = |az: f64, el: f64| {
-                            if old {
-                                direction
-                            } else {
-                                crate::geometry::unit_from_angles(az, el)
-                            }
-                        };
-                        Ok(tracks::Stretch {
-                            start: e.start_s,
-                            end: e.end_s.max(e.start_s),
-                            sum: direction,
-                            first: at(e.start_azimuth_deg, e.start_elevation_deg),
-                            last: at(e.end_azimuth_deg, e.end_elevation_deg),
-                        })
+                        Ok(tracks::Stretch::written(e, direction))
                     }
                     _ => Err(EvaluateError::Result(format!(
                         "event {}: its times or direction are not finite (or the vector is zero)",

@@ -24,6 +24,8 @@
 //!   in the window.
 
 use super::{Det, Metric, Source, HIT_DEG};
+use crate::record::event::is_path;
+use crate::record::EventRecord;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
@@ -93,17 +95,27 @@ pub(super) struct Stretch {
     pub(super) last: Vector3<f64>,
 }
 
-/// An event whose first and last directions are this many degrees apart or more is
-/// scored along its path (`ssl plot` draws it so): a still source's two single frames
-/// differ by their errors, a walker's by his turn.
-const PATH_DEG: f64 = 10.0;
-
 impl Stretch {
-    /// Its error (degrees) against `s`: a moving event's ([`PATH_DEG`]) is the mean of
-    /// its first direction's against the source at its start and its last's at its end;
-    /// a still one's, its mean direction's against the source at its middle.
+    /// An event the run wrote, with its mean direction `direction` (a unit vector); a
+    /// result written before events had first and last directions gives its mean for
+    /// both.
+    pub(super) fn written(e: &EventRecord, direction: Vector3<f64>) -> Stretch {
+        let (first, last) = e.ends().unwrap_or((direction, direction));
+        Stretch {
+            start: e.start_s,
+            end: e.end_s.max(e.start_s),
+            sum: direction,
+            first,
+            last,
+        }
+    }
+
+    /// Its error (degrees) against `s`: a moving event's
+    /// ([`is_path`](crate::record::event::is_path)) is the mean of its first
+    /// direction's against the source at its start and its last's at its end; a still
+    /// one's, its mean direction's against the source at its middle.
     fn error_deg(&self, s: &Source, metric: &Metric) -> f64 {
-        if crate::geometry::angle_between_deg(&self.first, &self.last) >= PATH_DEG {
+        if is_path(&self.first, &self.last) {
             (metric.error_deg(&self.first, &s.at(self.start))
                 + metric.error_deg(&self.last, &s.at(self.end)))
                 / 2.0
@@ -262,16 +274,13 @@ fn source_tracks(
 
 /// The events read off the rows: each track's runs of rows split where it is silent
 /// longer than the tracker ends an event after (the defaults' rule,
-/// [`ends_after`](crate::track::ends_after)), with the sum of their directions.
+/// [`continues`](super::coverage::continues)), with the sum of their directions.
 fn stretches(dets: &[Det], tracks: &[u64]) -> Vec<Stretch> {
-    let end_s = crate::track::TrackParams::default().end_s;
     let mut open: BTreeMap<u64, Stretch> = BTreeMap::new();
     let mut stretches = Vec::new();
     for (d, &t) in dets.iter().zip(tracks) {
         match open.get_mut(&t) {
-            Some(s)
-                if d.time_s - s.end <= crate::track::ends_after(s.end - s.start, end_s, true) =>
-            {
+            Some(s) if super::coverage::continues(s.start, s.end, d.time_s) => {
                 s.end = d.time_s;
                 s.sum += d.direction;
                 s.last = d.direction;

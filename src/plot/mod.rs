@@ -357,24 +357,17 @@ fn draw_against_time<DB: DrawingBackend>(
     Ok(())
 }
 
-/// An event drawn along its path lies this many degrees or more between its first and
-/// last detection's directions: a still source's two single frames differ by their
-/// errors (a few degrees), a walker's by his turn.
-const PATH_DEG: f64 = 10.0;
-
-/// The first and last directions (azimuth, elevation) of an event whose source moved
-/// ([`PATH_DEG`]), unless its azimuth crosses +-180 deg (drawn as its mean, a bar);
-/// `None` for a still one (and for results written before the fields, read as 0).
+/// The first and last directions (azimuth, elevation) of a moving source's event
+/// ([`is_path`](crate::record::event::is_path)), unless its azimuth crosses +-180 deg
+/// (drawn as its mean, a bar); `None` for a still one.
 fn moved(e: &crate::record::EventRecord) -> Option<((f64, f64), (f64, f64))> {
-    let (a, b) = (
-        crate::geometry::unit_from_angles(e.start_azimuth_deg, e.start_elevation_deg),
-        crate::geometry::unit_from_angles(e.end_azimuth_deg, e.end_elevation_deg),
-    );
-    let apart = crate::geometry::angle_between_deg(&a, &b);
-    (apart >= PATH_DEG && (e.end_azimuth_deg - e.start_azimuth_deg).abs() < 180.0).then_some((
-        (e.start_azimuth_deg, e.start_elevation_deg),
-        (e.end_azimuth_deg, e.end_elevation_deg),
-    ))
+    let (first, last) = e.ends()?;
+    (crate::record::event::is_path(&first, &last)
+        && (e.end_azimuth_deg - e.start_azimuth_deg).abs() < 180.0)
+        .then_some((
+            (e.start_azimuth_deg, e.start_elevation_deg),
+            (e.end_azimuth_deg, e.end_elevation_deg),
+        ))
 }
 
 /// The sky map: events at their mean direction, detections by source, the truth.

@@ -59,7 +59,36 @@ pub struct EventRecord {
     pub end_clock: Option<String>,
 }
 
+/// An event whose first and last detections' directions lie this many degrees apart
+/// or more is a moving source's, scored (`ssl evaluate`) and drawn (`ssl plot`) along
+/// its path: a still source's two single frames differ by their errors (a few
+/// degrees), a walker's by his turn.
+pub(crate) const PATH_DEG: f64 = 10.0;
+
+/// Whether an event from `first` to `last` (directions of any length) is a path
+/// ([`PATH_DEG`]).
+pub(crate) fn is_path(first: &nalgebra::Vector3<f64>, last: &nalgebra::Vector3<f64>) -> bool {
+    crate::geometry::angle_between_deg(first, last) >= PATH_DEG
+}
+
 impl EventRecord {
+    /// The directions of its first and last detections (unit vectors), unless the
+    /// result was written before those fields (read then as 0, all four).
+    pub(crate) fn ends(&self) -> Option<(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)> {
+        let angles = [
+            self.start_azimuth_deg,
+            self.start_elevation_deg,
+            self.end_azimuth_deg,
+            self.end_elevation_deg,
+        ];
+        (angles != [0.0; 4]).then(|| {
+            (
+                crate::geometry::unit_from_angles(angles[0], angles[1]),
+                crate::geometry::unit_from_angles(angles[2], angles[3]),
+            )
+        })
+    }
+
     /// The record of `event` in the recording named `file`. Fails on a non-finite value.
     pub fn new(file: &str, e: &Event) -> Result<Self, OutputError> {
         let (azimuth, elevation) = angles_deg(&e.direction);

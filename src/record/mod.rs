@@ -9,7 +9,7 @@
 
 mod csv;
 mod detection;
-mod event;
+pub(crate) mod event;
 mod json;
 pub(crate) mod metadata;
 mod read;

@@ -250,9 +250,8 @@ pub fn analyse_scene_with_events(
     track: Option<ssl::track::TrackParams>,
 ) -> Result<SceneRun, Box<dyn std::error::Error>> {
     let sim = ssl::sim::simulate(scene, dir)?;
-    let channels = sim.channels.iter().map(|c| &c[..]).collect();
-    let localizer = localizer(geometry, params, track)?;
-    let (rows, events) = records(localizer.from_channels("scene", channels, sim.sample_rate)?)?;
+    let (rows, events) =
+        analyse_channels_with_events(&sim.channels, sim.sample_rate, geometry, params, track)?;
     Ok((rows, events, sim.truth))
 }
 
@@ -266,9 +265,22 @@ pub fn analyse_channels(
     params: &ssl::Params,
     track: Option<ssl::track::TrackParams>,
 ) -> Result<Vec<ssl::DetectionRecord>, Box<dyn std::error::Error>> {
+    Ok(analyse_channels_with_events(channels, rate, geometry, params, track)?.0)
+}
+
+/// As [`analyse_channels`], with the events the run writes.
+#[cfg(feature = "simulate")]
+pub fn analyse_channels_with_events(
+    channels: &[Vec<f32>],
+    rate: u32,
+    geometry: &ssl::Geometry,
+    params: &ssl::Params,
+    track: Option<ssl::track::TrackParams>,
+) -> Result<(Vec<ssl::DetectionRecord>, Vec<ssl::record::EventRecord>), Box<dyn std::error::Error>>
+{
     let channels = channels.iter().map(|c| &c[..]).collect();
     let localizer = localizer(geometry, params, track)?;
-    rows(localizer.from_channels("scene", channels, rate)?)
+    records(localizer.from_channels("scene", channels, rate)?)
 }
 
 /// A localizer of `geometry` with `params` and `track`; without a tracker, `params` as

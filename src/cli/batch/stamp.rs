@@ -165,8 +165,12 @@ pub fn stamped_array(result: &Path) -> Option<crate::Geometry> {
         if !meta.is_file() || meta.len() > 1 << 16 {
             continue;
         }
-        let stamp: Stamp = serde_json::from_slice(&std::fs::read(&path).ok()?).ok()?;
-        if Path::new(&stamp.result) == relative {
+        // A stamp that cannot be read, or of another result, says nothing of this one:
+        // a folder further up may hold its own.
+        let stamp = std::fs::read(&path)
+            .ok()
+            .and_then(|bytes| serde_json::from_slice::<Stamp>(&bytes).ok());
+        if let Some(stamp) = stamp.filter(|s| Path::new(&s.result) == relative) {
             return crate::record::array_of(stamp.geometry.as_ref()?);
         }
     }
