@@ -22,58 +22,58 @@ use crate::track::{TrackParams, TrackParamsError, Tracking};
 /// [`Config::fixed_threshold`]) and change fields; a choice left to its preset (`None`)
 /// is made by [`Config::resolved`].
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::Args))]
-#[cfg_attr(feature = "cli", command(next_help_heading = "Method"))]
+#[cfg_attr(feature = "flags", derive(clap::Args))]
+#[cfg_attr(feature = "flags", command(next_help_heading = "Method"))]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Config {
     /// The paper's method as published: a tolerance of 2 samples, a fixed threshold of 0.5 per pair, parabolic peaks, no residual gate, no averaging over frames, no background subtraction, no dereverberation, one source per frame
-    #[cfg_attr(feature = "cli", arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "min_score", "threshold_sigmas", "reverb_level", "background_s", "dereverb", "wpe"]))]
+    #[cfg_attr(feature = "flags", arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "min_score", "threshold_sigmas", "reverb_level", "background_s", "dereverb", "wpe"]))]
     pub paper: bool,
     /// Speed of sound in m/s [default: the geometry's, else 343]
-    #[cfg_attr(feature = "cli", arg(short = 'c', long, value_name = "M/S", value_parser = crate::geometry::speed_of_sound_flag, hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(short = 'c', long, value_name = "M/S", value_parser = crate::geometry::speed_of_sound_flag, hide_short_help = true))]
     pub speed_of_sound: Option<f64>,
     /// Frames: their size, window, and the part of each recording analysed.
-    #[cfg_attr(feature = "cli", command(flatten, next_help_heading = "Frames"))]
+    #[cfg_attr(feature = "flags", command(flatten, next_help_heading = "Frames"))]
     pub framing: Framing,
     /// The spectral weighting of eq. (4)-(5) and the band analysed.
     #[cfg_attr(
-        feature = "cli",
+        feature = "flags",
         command(flatten, next_help_heading = "Spectral weighting")
     )]
     pub weighting: Weighting,
     /// The peaks kept per pair (eq. 7).
     #[cfg_attr(
-        feature = "cli",
+        feature = "flags",
         command(flatten, next_help_heading = "Peaks and consistency")
     )]
     pub peaks: Peaks,
     /// The consistency tolerance of eq. (8).
-    #[cfg_attr(feature = "cli", command(flatten))]
+    #[cfg_attr(feature = "flags", command(flatten))]
     pub tolerance: Tolerance,
     /// When a frame's best set is a detection.
     #[cfg_attr(
-        feature = "cli",
+        feature = "flags",
         command(flatten, next_help_heading = "Detection threshold")
     )]
     pub threshold: Threshold,
     /// The room's reverberation and background, taken out.
     #[cfg_attr(
-        feature = "cli",
+        feature = "flags",
         command(flatten, next_help_heading = "Reverberation and background")
     )]
     pub room: Room,
     /// Several talkers at once.
     #[cfg_attr(
-        feature = "cli",
+        feature = "flags",
         command(flatten, next_help_heading = "Several talkers")
     )]
     pub talkers: Talkers,
     /// Detections grouped into sources.
-    #[cfg_attr(feature = "cli", command(flatten, next_help_heading = "Tracking"))]
+    #[cfg_attr(feature = "flags", command(flatten, next_help_heading = "Tracking"))]
     pub tracking: Tracking,
     /// Add wall-clock times from each recording's Broadcast WAV time reference (bext: date and samples since midnight): `clock` on rows, `start_clock` and `end_clock` on events, ISO 8601 to the microsecond on the recorder's clock; a file without one is an error
-    #[cfg_attr(feature = "cli", arg(long, help_heading = "Output"))]
+    #[cfg_attr(feature = "flags", arg(long, help_heading = "Output"))]
     pub clock: bool,
 }
 

@@ -24,6 +24,7 @@ pub(crate) fn unit_interval(s: &str) -> Result<f64, String> {
 }
 
 /// A number of 0 or more, in single precision.
+#[cfg(feature = "cli")]
 pub(crate) fn non_negative(s: &str) -> Result<f32, String> {
     non_negative_f64(s).map(|v| v as f32)
 }

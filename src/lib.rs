@@ -117,7 +117,7 @@ pub mod check;
 pub mod cli;
 mod config;
 pub mod evaluate;
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 mod flags;
 pub mod geometry;
 pub mod localize;

@@ -200,7 +200,7 @@ pub fn check(
 }
 
 /// Checks any source of samples against `geometry`.
-pub(crate) fn check_source<S: SampleSource>(
+pub fn check_source<S: SampleSource>(
     source: &mut S,
     geometry: &Geometry,
     options: &CheckOptions,

@@ -13,7 +13,6 @@ use crate::localize::{Output as Found, RunError};
 use crate::method::StageTimes;
 use crate::record::FileEntry;
 use crate::stream::{SampleSource, Warning};
-use crate::text::BriefNumber;
 use crate::{Analysis, Exporter, Format, Geometry, Localizer, OutputError, RunMetadata};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -280,7 +279,7 @@ pub(super) fn analyze_one(
     let unconfirmed = report
         .tracking
         .zip(localizer.tracking())
-        .and_then(|(stats, p)| nothing_confirmed(&stats, p))
+        .and_then(|(stats, p)| stats.nothing_confirmed(p))
         .map(|note| format!("{}: {note}", summary.name));
     if let Some(note) = &unconfirmed {
         warn(!args.warns(WarningKind::Unconfirmed), note);
@@ -299,66 +298,6 @@ fn shown_name(path: &str) -> &str {
     } else {
         path
     }
-}
-
-/// Why a tracked file gave no row although the method detected something: the
-/// tracker with parameters `p` dropped every detection (candidates included), or with
-/// `--keep-unconfirmed` wrote it without a source. When five or more came from one
-/// place, says where, when and how close they came to a source (a faint talker in a
-/// reverberant room, docs/guide.md); otherwise they were isolated. `None` when a track
-/// was confirmed or nothing was detected (the method's own warnings say why).
-fn nothing_confirmed(
-    stats: &crate::track::TrackStats,
-    p: &crate::track::TrackParams,
-) -> Option<String> {
-    (stats.rows == 0 && stats.unconfirmed > 0).then(|| {
-        let all = stats.unconfirmed;
-        let (fate, tail) = if p.keep_unconfirmed {
-            (
-                format!("all {all} detections (candidates included) are written with an empty source"),
-                "",
-            )
-        } else {
-            (
-                format!("the tracker dropped all {all} detections (candidates included)"),
-                "; --keep-unconfirmed writes them with an empty source, --no-track writes every frame's detection",
-            )
-        };
-        let Some(place) = stats.faint else {
-            let rule = match p.confirm_by {
-                crate::track::ConfirmBy::Rules => format!(
-                    "a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates",
-                    p.confirm_hits, p.confirm_candidates, p.confirm_weak
-                ),
-                crate::track::ConfirmBy::Evidence => format!(
-                    "none gathered the evidence a source needs for at most {} false sources an hour (--false-per-hour)",
-                    p.false_per_hour
-                ),
-            };
-            return format!("no source confirmed: {fate} as isolated ({rule}){tail}");
-        };
-        let (azimuth, elevation) = crate::geometry::angles_deg(&place.direction);
-        let short = match (place.best_nats, place.needed_nats) {
-            (Some(best), Some(needed)) => format!(
-                "gathered at best {} of the {} nats of evidence a source needs for at most {} false sources an hour (--false-per-hour)",
-                BriefNumber((best * 10.0).round() / 10.0),
-                BriefNumber((needed * 10.0).round() / 10.0),
-                p.false_per_hour
-            ),
-            _ => format!(
-                "never made a track (a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates)",
-                p.confirm_hits, p.confirm_candidates, p.confirm_weak
-            ),
-        };
-        format!(
-            "no source confirmed: {fate}; {} of them came from one place, azimuth {} deg, elevation {} deg, from {} to {} s, and {short}: a source too faint to confirm (a talker across a reverberant room: --wpe --dereverb on hear more of one, docs/guide.md; or a steady noise such as a fan){tail}",
-            place.detections,
-            BriefNumber((azimuth * 10.0).round() / 10.0),
-            BriefNumber((elevation * 10.0).round() / 10.0),
-            BriefNumber((place.first_s * 100.0).round() / 100.0),
-            BriefNumber((place.last_s * 100.0).round() / 100.0),
-        )
-    })
 }
 
 /// Warns when the same file is given twice (its detections would be written twice).

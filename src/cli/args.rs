@@ -413,6 +413,17 @@ pub enum MetricArg {
     Axis,
 }
 
+impl MetricArg {
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            MetricArg::ThreeD => "3d",
+            MetricArg::Azimuth => "azimuth",
+            MetricArg::Axis => "axis",
+        }
+    }
+}
+
 impl AnalyzeArgs {
     /// Whether a warning of this kind is said (not `--quiet`, not `--no-warn` it).
     pub fn warns(&self, kind: WarningKind) -> bool {

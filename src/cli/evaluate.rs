@@ -5,7 +5,6 @@
 use super::args::{EvaluateArgs, MetricArg};
 use super::results::{expand, ResultFile};
 use crate::evaluate::{evaluate_by, pool, Metric, Pooled, Report};
-use crate::geometry::Shape;
 use crate::record::{read_records_with_info, DetectionRecord, EventRecord, ResultInfo};
 use crate::stream::{io_reason, read_text_from};
 use crate::{Geometry, Truth};
@@ -110,16 +109,8 @@ pub(super) fn warn_if_unknown_array(
 
 /// The metric `--metric` asks for, or what `geometry` observes.
 pub(super) fn metric(arg: Option<MetricArg>, geometry: Option<&Geometry>) -> Result<Metric> {
-    let shape = geometry.map(|g| g.shape);
-    Ok(match (arg, shape) {
-        (None, Some(_)) => Metric::of_geometry(geometry.expect("a shape")),
-        (None, None) | (Some(MetricArg::ThreeD), _) => Metric::ThreeD,
-        (Some(MetricArg::Azimuth), Some(Shape::Planar { normal })) => Metric::Azimuth { normal },
-        (Some(MetricArg::Azimuth), _) => Metric::azimuth(),
-        (Some(MetricArg::Axis), Some(Shape::Linear { axis })) => Metric::Axis { axis },
-        (Some(MetricArg::Axis), _) => {
-            bail!("--metric axis needs a linear array's geometry: give it with --geometry (a JSON result carries it)")
-        }
+    Metric::asked(arg.map(MetricArg::name), geometry).map_err(|e| {
+        anyhow::anyhow!("--metric {e}: give it with --geometry (a JSON result carries it)")
     })
 }
 

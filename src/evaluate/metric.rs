@@ -38,6 +38,25 @@ impl Metric {
         }
     }
 
+    /// The metric named `asked` (`3d`, `azimuth` or `axis`, as `--metric` names them),
+    /// or, when none is, what `geometry` observes (the 3-D angle when no geometry is
+    /// known). The azimuth is about a planar `geometry`'s normal, else about z; `axis`
+    /// needs a linear `geometry`.
+    pub fn asked(asked: Option<&str>, geometry: Option<&Geometry>) -> Result<Self, String> {
+        let shape = geometry.map(|g| g.shape);
+        Ok(match (asked, shape) {
+            (None, Some(_)) => Metric::of_geometry(geometry.expect("a shape")),
+            (None, None) | (Some("3d"), _) => Metric::ThreeD,
+            (Some("azimuth"), Some(Shape::Planar { normal })) => Metric::Azimuth { normal },
+            (Some("azimuth"), _) => Metric::azimuth(),
+            (Some("axis"), Some(Shape::Linear { axis })) => Metric::Axis { axis },
+            (Some("axis"), _) => return Err("axis needs a linear array's geometry".into()),
+            (Some(other), _) => {
+                return Err(format!("`{other}` is not a metric: 3d, azimuth or axis"))
+            }
+        })
+    }
+
     /// The azimuth about the z axis (the `azimuth_deg` of the results).
     pub fn azimuth() -> Self {
         Metric::Azimuth {

@@ -95,7 +95,7 @@ pub(crate) fn speed_of_sound_ok(c: f64) -> bool {
 }
 
 /// A speed of sound in m/s (`-c`), within the range every input accepts.
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 pub(crate) fn speed_of_sound_flag(s: &str) -> std::result::Result<f64, String> {
     let v = crate::flags::parse_f64(s)?;
     if !speed_of_sound_ok(v) {

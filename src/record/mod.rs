@@ -24,10 +24,10 @@ pub use detection::DetectionRecord;
 pub use event::EventRecord;
 pub use metadata::{FileEntry, GeometryInfo, MicInfo, RunMetadata, Tool};
 #[cfg(feature = "cli")]
-pub(crate) use read::{array_of, read_records_with_info, MAX_TRUTH_BYTES};
+pub(crate) use read::{array_of, MAX_TRUTH_BYTES};
 pub use read::{
-    parse_detections, read_detections, read_result, read_result_file, ReadError, ResultInfo,
-    ResultRecord,
+    parse_detections, read_detections, read_records_with_info, read_result, read_result_file,
+    ReadError, ResultInfo, ResultRecord,
 };
 pub use source::{SourceRecord, Sources};
 pub use truth::{Truth, TruthArray, TruthFan, TruthNoise, TruthRoom, TruthSource};

@@ -90,7 +90,7 @@ pub struct ResultInfo {
 impl ResultInfo {
     /// The array a JSON result was made with (with its orientation), from its
     /// `geometry` object: what `ssl evaluate` and `ssl plot` score by.
-    pub(crate) fn array(&self) -> Option<crate::Geometry> {
+    pub fn array(&self) -> Option<crate::Geometry> {
         array_of(self.geometry.as_ref()?)
     }
 }
@@ -181,7 +181,7 @@ fn read_detections_with_info(path: &Path) -> Result<(Vec<DetectionRecord>, Resul
 /// A result's detections and events, with what it says besides (for `ssl evaluate`,
 /// which scores the events the run wrote when it holds them). A result of events only
 /// is read too.
-pub(crate) fn read_records_with_info(
+pub fn read_records_with_info(
     path: &Path,
 ) -> Result<(Vec<DetectionRecord>, Vec<EventRecord>, ResultInfo), ReadError> {
     let (mut rows, mut events) = (Vec::new(), Vec::new());

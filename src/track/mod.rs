@@ -122,33 +122,33 @@ impl ConfirmBy {
 /// Tracking: detections grouped into sources, confirmed, smoothed, and written as rows,
 /// events or sources.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "flags", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Tracking {
     /// No tracking: every frame's detection is written, without a `source` (tracking groups detections into sources, drops those no track confirms, smooths each row's direction over its track's (--smooth-s), and delays rows by up to --delay-s and --smooth-s)
-    #[cfg_attr(feature = "cli", arg(long = "no-track", id = "no_track", action = clap::ArgAction::SetFalse))]
+    #[cfg_attr(feature = "flags", arg(long = "no-track", id = "no_track", action = clap::ArgAction::SetFalse))]
     pub on: bool,
     /// How a candidate becomes a source
-    #[cfg_attr(feature = "cli", arg(long, value_name = "HOW", default_value = "evidence", value_parser = crate::flags::choice::<ConfirmBy>(), conflicts_with = "no_track", hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "HOW", default_value = "evidence", value_parser = crate::flags::choice::<ConfirmBy>(), conflicts_with = "no_track", hide_short_help = true))]
     pub confirm_by: ConfirmBy,
     /// With --confirm-by evidence: at most this many false sources an hour of background (fewer: more evidence needed before a source is reported)
-    #[cfg_attr(feature = "cli", arg(long, value_name = "F", default_value_t = 1.0, value_parser = false_per_hour, conflicts_with = "no_track", hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "F", default_value_t = 1.0, value_parser = false_per_hour, conflicts_with = "no_track", hide_short_help = true))]
     pub false_per_hour: f64,
     /// With --confirm-by rules: a track is confirmed by 2 detections within this many seconds (of its latest)
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = tracker_seconds, conflicts_with = "no_track", hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SECONDS", default_value_t = 0.5, value_parser = tracker_seconds, conflicts_with = "no_track", hide_short_help = true))]
     pub confirm_s: f64,
     /// Rows wait up to this many seconds for their track to be confirmed (the tracker's delay; never less than --confirm-s): a detection not confirmed by then is dropped, so a talker confirmed late loses its first detections
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = tracker_seconds, conflicts_with = "no_track", hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = tracker_seconds, conflicts_with = "no_track", hide_short_help = true))]
     pub delay_s: f64,
     /// Each tracked row's direction is its track's mean over this many seconds before and after it, corrected for the track's turn (rows come out that much later); 0: each frame's own direction
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = 0.2, value_parser = smoothing_seconds, conflicts_with = "no_track", hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SECONDS", default_value_t = 0.2, value_parser = smoothing_seconds, conflicts_with = "no_track", hide_short_help = true))]
     pub smooth_s: f64,
     /// Also write the detections no track confirmed (isolated ones, a track's outliers), with an empty `source` (null in JSON), in frame order among the others
-    #[cfg_attr(feature = "cli", arg(long, conflicts_with = "no_track"))]
+    #[cfg_attr(feature = "flags", arg(long, conflicts_with = "no_track"))]
     pub keep_unconfirmed: bool,
     /// A source silent for this many seconds is forgotten: one heard again where it was within this time gets its id back, later a new one. On a static array keep it long; on an array that moves or turns (a robot), about as long as it stays still, since a source's direction then changes without the source moving
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = 120.0, value_parser = forget_seconds, conflicts_with = "no_track", hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SECONDS", default_value_t = 120.0, value_parser = forget_seconds, conflicts_with = "no_track", hide_short_help = true))]
     pub forget_s: f64,
 }
 
@@ -189,21 +189,21 @@ impl Tracking {
 
 /// A tracker's window or delay: positive, at most [`MAX_DELAY_S`] (rows wait that long
 /// in memory).
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 fn tracker_seconds(s: &str) -> Result<f64, String> {
     crate::flags::positive_at_most(s, MAX_DELAY_S, " s (rows wait that long in memory)")
 }
 
 /// How long a silent source is remembered (`--forget-s`): positive, at most a day (the
 /// tracks remembered are bounded in number whatever it is).
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 fn forget_seconds(s: &str) -> Result<f64, String> {
     crate::flags::positive_at_most(s, 86_400.0, " s (a day)")
 }
 
 /// The false sources an hour (`--false-per-hour`): over 0, at most the candidates an
 /// hour it is a share of.
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 fn false_per_hour(s: &str) -> Result<f64, String> {
     crate::flags::positive_at_most(
         s,
@@ -213,7 +213,7 @@ fn false_per_hour(s: &str) -> Result<f64, String> {
 }
 
 /// The smoothing window (`--smooth-s`): 0 to [`MAX_SMOOTH_S`].
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 fn smoothing_seconds(s: &str) -> Result<f64, String> {
     let v = crate::flags::non_negative_f64(s)?;
     if v > MAX_SMOOTH_S {

@@ -3,6 +3,7 @@
 
 use super::faint::FaintPlace;
 use crate::method::Detection;
+use crate::text::BriefNumber;
 
 /// A detection as the tracker gives it out: with its track's id.
 #[derive(Debug, Clone, PartialEq)]
@@ -34,4 +35,63 @@ pub struct TrackStats {
     /// document.
     #[serde(skip)]
     pub faint: Option<FaintPlace>,
+}
+
+impl TrackStats {
+    /// Why a tracked recording gave no row although the method detected something: the
+    /// tracker with parameters `p` dropped every detection (candidates included), or with
+    /// `--keep-unconfirmed` wrote it without a source. When five or more came from one
+    /// place, says where, when and how close they came to a source (a faint talker in a
+    /// reverberant room, docs/guide.md); otherwise they were isolated. `None` when a track
+    /// was confirmed or nothing was detected (the method's own warnings say why).
+    pub fn nothing_confirmed(&self, p: &super::TrackParams) -> Option<String> {
+        (self.rows == 0 && self.unconfirmed > 0).then(|| {
+            let all = self.unconfirmed;
+            let (fate, tail) = if p.keep_unconfirmed {
+                (
+                    format!("all {all} detections (candidates included) are written with an empty source"),
+                    "",
+                )
+            } else {
+                (
+                    format!("the tracker dropped all {all} detections (candidates included)"),
+                    "; --keep-unconfirmed writes them with an empty source, --no-track writes every frame's detection",
+                )
+            };
+            let Some(place) = self.faint else {
+                let rule = match p.confirm_by {
+                    super::ConfirmBy::Rules => format!(
+                        "a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates",
+                        p.confirm_hits, p.confirm_candidates, p.confirm_weak
+                    ),
+                    super::ConfirmBy::Evidence => format!(
+                        "none gathered the evidence a source needs for at most {} false sources an hour (--false-per-hour)",
+                        p.false_per_hour
+                    ),
+                };
+                return format!("no source confirmed: {fate} as isolated ({rule}){tail}");
+            };
+            let (azimuth, elevation) = crate::geometry::angles_deg(&place.direction);
+            let short = match (place.best_nats, place.needed_nats) {
+                (Some(best), Some(needed)) => format!(
+                    "gathered at best {} of the {} nats of evidence a source needs for at most {} false sources an hour (--false-per-hour)",
+                    BriefNumber((best * 10.0).round() / 10.0),
+                    BriefNumber((needed * 10.0).round() / 10.0),
+                    p.false_per_hour
+                ),
+                _ => format!(
+                    "never made a track (a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates)",
+                    p.confirm_hits, p.confirm_candidates, p.confirm_weak
+                ),
+            };
+            format!(
+                "no source confirmed: {fate}; {} of them came from one place, azimuth {} deg, elevation {} deg, from {} to {} s, and {short}: a source too faint to confirm (a talker across a reverberant room: --wpe --dereverb on hear more of one, docs/guide.md; or a steady noise such as a fan){tail}",
+                place.detections,
+                BriefNumber((azimuth * 10.0).round() / 10.0),
+                BriefNumber((elevation * 10.0).round() / 10.0),
+                BriefNumber((place.first_s * 100.0).round() / 100.0),
+                BriefNumber((place.last_s * 100.0).round() / 100.0),
+            )
+        })
+    }
 }

@@ -48,24 +48,24 @@ pub(crate) const DEFAULT_RESIDUAL_GATE_US: f64 = 100.0;
 /// What the room adds to the correlations and how it is taken out (beyond the paper;
 /// `--paper` turns each off).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "flags", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Room {
     /// Drop detections whose delays no single source fits (plane wave, or spherical wave from 0.25-3 m) with an RMS residual under this many microseconds; 0 turns the gate off
-    #[cfg_attr(feature = "cli", arg(long, value_name = "US", default_value_t = DEFAULT_RESIDUAL_GATE_US, value_parser = crate::flags::non_negative_f64, hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "US", default_value_t = DEFAULT_RESIDUAL_GATE_US, value_parser = crate::flags::non_negative_f64, hide_short_help = true))]
     pub residual_gate_us: f64,
     /// Average each pair's correlation over this many frames: the frame's own and the ones before it (1: none, as in the paper)
-    #[cfg_attr(feature = "cli", arg(long, value_name = "FRAMES", default_value_t = DEFAULT_AVERAGE_FRAMES, value_parser = crate::flags::count(1..=MAX_AVERAGE_FRAMES), hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "FRAMES", default_value_t = DEFAULT_AVERAGE_FRAMES, value_parser = crate::flags::count(1..=MAX_AVERAGE_FRAMES), hide_short_help = true))]
     pub average_frames: usize,
     /// Subtract from each pair's correlation its steady background (a fan next to the array), learned over about this many seconds; 0: none, as in the paper
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = DEFAULT_BACKGROUND_S, value_parser = crate::flags::non_negative_f64, hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SECONDS", default_value_t = DEFAULT_BACKGROUND_S, value_parser = crate::flags::non_negative_f64, hide_short_help = true))]
     pub background_s: f64,
     /// Remove the reverberation's diffuse part from each pair's cross-spectrum (its coherence over the frames averaged) before correlating: a room shortens the delays by a few percent, which raises a planar array's elevations by 5-13 deg
-    #[cfg_attr(feature = "cli", arg(long, default_value = "auto", value_parser = crate::flags::choice::<Dereverb>(), hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, default_value = "auto", value_parser = crate::flags::choice::<Dereverb>(), hide_short_help = true))]
     pub dereverb: Dereverb,
     /// Dereverberate the input before analysis (multichannel linear prediction, WPE, below 4 kHz): more of a reverberant room's speech is found (two talkers 2 m from the prism at RT60 0.45 s: 74% of the 0.1 s windows instead of 68%), at about 15 times the time; at most 32 microphones
-    #[cfg_attr(feature = "cli", arg(long))]
+    #[cfg_attr(feature = "flags", arg(long))]
     pub wpe: bool,
 }
 
@@ -97,24 +97,24 @@ impl Room {
 /// a tracker to confirm (beyond the paper; only with the calibrated threshold and a
 /// tracker).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "flags", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Talkers {
     /// The most sources reported in one frame (1 to 4), for the tracker to confirm; a further source must pass the threshold on its own (1 with --min-score or --no-track)
-    #[cfg_attr(feature = "cli", arg(long, value_name = "K", default_value_t = DEFAULT_MAX_SOURCES, value_parser = crate::flags::count(1..=MAX_SOURCES), conflicts_with_all = ["paper", "min_score", "no_track"], hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "K", default_value_t = DEFAULT_MAX_SOURCES, value_parser = crate::flags::count(1..=MAX_SOURCES), conflicts_with_all = ["paper", "min_score", "no_track"], hide_short_help = true))]
     pub max_sources: usize,
     /// Also report candidates down to this share of the detection threshold, for the tracker to confirm (a track starts from 2 detections above the threshold, 4 of which 1 is above it, or 12 candidates within --confirm-s) or drop [default: 0.4 with the calibrated threshold, 1 (none) with --min-score]
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SHARE", value_parser = crate::flags::share, conflicts_with_all = ["no_track", "paper"], hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SHARE", value_parser = crate::flags::share, conflicts_with_all = ["no_track", "paper"], hide_short_help = true))]
     pub candidates: Option<f64>,
     /// Search a frame that gives nothing down to --candidates again down to this share of the threshold: what it gives only adds a row to a talking track within a candidate's gate, without moving it, and starts nothing; at or above --candidates, none [default: 0.3 with the calibrated threshold, 1 (none) with --min-score]
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SHARE", value_parser = crate::flags::share, conflicts_with_all = ["no_track", "paper"], hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SHARE", value_parser = crate::flags::share, conflicts_with_all = ["no_track", "paper"], hide_short_help = true))]
     pub riders: Option<f64>,
     /// Learn each talker's correlation pattern (its reflections too) while it dominates, and look for other talkers once it is removed from each pair's correlation averaged over about this many seconds (arrays whose longest delay is 8 samples or more); 0: none
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SECONDS", default_value_t = DEFAULT_PATTERNS_S, value_parser = crate::flags::non_negative_f64, conflicts_with_all = ["no_track", "paper", "min_score"], hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SECONDS", default_value_t = DEFAULT_PATTERNS_S, value_parser = crate::flags::non_negative_f64, conflicts_with_all = ["no_track", "paper", "min_score"], hide_short_help = true))]
     pub patterns_s: f64,
     /// No riders from single frequency bins: on arrays a few centimetres across, each bin's own direction finds a talker that a louder one hides in the correlations, and adds its rows to that talker's track (two talkers on a 6-mic circle at 16 kHz: 60-70% of the 0.1 s windows instead of 56-66%)
-    #[cfg_attr(feature = "cli", arg(long = "no-bin-votes", id = "no_bin_votes", action = clap::ArgAction::SetFalse, conflicts_with_all = ["no_track", "paper"], hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long = "no-bin-votes", id = "no_bin_votes", action = clap::ArgAction::SetFalse, conflicts_with_all = ["no_track", "paper"], hide_short_help = true))]
     pub bin_votes: bool,
 }
 

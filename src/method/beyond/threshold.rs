@@ -79,7 +79,7 @@ impl Threshold {
     }
 }
 
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 impl clap::FromArgMatches for Threshold {
     fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
         Ok(match m.get_one::<f64>("min_score") {
@@ -99,7 +99,7 @@ impl clap::FromArgMatches for Threshold {
     }
 }
 
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 impl clap::Args for Threshold {
     fn augment_args(cmd: clap::Command) -> clap::Command {
         use clap::Arg;

@@ -46,21 +46,21 @@ impl FrameBlock {
 
 /// How a recording is cut into frames: their length and window, and the part analysed.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "flags", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Framing {
     /// The frame size N.
-    #[cfg_attr(feature = "cli", command(flatten))]
+    #[cfg_attr(feature = "flags", command(flatten))]
     pub size: FrameSize,
     /// Analysis window
-    #[cfg_attr(feature = "cli", arg(long, default_value = "hann", value_parser = crate::flags::choice::<Window>(), hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, default_value = "hann", value_parser = crate::flags::choice::<Window>(), hide_short_help = true))]
     pub window: Window,
     /// Analyse from this time on (seconds from the start of each file; rounded down to a hop, so times and frames stay the file's)
-    #[cfg_attr(feature = "cli", arg(long = "start", value_name = "S", default_value_t = 0.0, value_parser = crate::flags::non_negative_f64))]
+    #[cfg_attr(feature = "flags", arg(long = "start", value_name = "S", default_value_t = 0.0, value_parser = crate::flags::non_negative_f64))]
     pub start_s: f64,
     /// Analyse up to this time (seconds from the start of each file; none: to its end)
-    #[cfg_attr(feature = "cli", arg(long = "end", value_name = "S", value_parser = crate::flags::non_negative_f64))]
+    #[cfg_attr(feature = "flags", arg(long = "end", value_name = "S", value_parser = crate::flags::non_negative_f64))]
     pub end_s: Option<f64>,
 }
 
@@ -90,7 +90,7 @@ pub enum FrameSize {
     Ms(f64),
 }
 
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 impl clap::FromArgMatches for FrameSize {
     fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
         Ok(
@@ -111,7 +111,7 @@ impl clap::FromArgMatches for FrameSize {
     }
 }
 
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 impl clap::Args for FrameSize {
     fn augment_args(cmd: clap::Command) -> clap::Command {
         use clap::Arg;

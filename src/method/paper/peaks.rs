@@ -70,15 +70,15 @@ pub(crate) const DEFAULT_PEAKS: usize = 8;
 
 /// The peaks kept of each pair's correlation, and how their lags are refined.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "flags", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Peaks {
     /// Peaks M kept in each pair's cross-correlation
-    #[cfg_attr(feature = "cli", arg(short = 'm', long = "peaks", id = "peaks", value_name = "PEAKS", default_value_t = DEFAULT_PEAKS, value_parser = crate::flags::count(1..=MAX_PEAKS), hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(short = 'm', long = "peaks", id = "peaks", value_name = "PEAKS", default_value_t = DEFAULT_PEAKS, value_parser = crate::flags::count(1..=MAX_PEAKS), hide_short_help = true))]
     pub count: usize,
     /// Sub-sample refinement of correlation peaks [default: cosine; parabolic with --paper]
-    #[cfg_attr(feature = "cli", arg(long, value_parser = crate::flags::choice::<Interpolation>(), hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_parser = crate::flags::choice::<Interpolation>(), hide_short_help = true))]
     pub interpolation: Option<Interpolation>,
 }
 

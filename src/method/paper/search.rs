@@ -59,7 +59,7 @@ impl Default for Tolerance {
     }
 }
 
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 impl clap::FromArgMatches for Tolerance {
     fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
         Ok(match m.get_one::<f64>("tolerance") {
@@ -78,7 +78,7 @@ impl clap::FromArgMatches for Tolerance {
     }
 }
 
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 impl clap::Args for Tolerance {
     fn augment_args(cmd: clap::Command) -> clap::Command {
         use clap::Arg;

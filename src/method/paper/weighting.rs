@@ -26,24 +26,24 @@ pub(crate) const DEFAULT_REVERB_LEVEL: f64 = 0.5;
 /// The spectral weighting `w_e(k)` of eq. (4) and (5), the noise estimate under it, and
 /// the frequencies it lets through.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "flags", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Weighting {
     /// Plain PHAT: skip the spectral weighting (w_e = 1), for comparison
-    #[cfg_attr(feature = "cli", arg(long = "no-weighting", id = "no_weighting", action = clap::ArgAction::SetFalse, hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long = "no-weighting", id = "no_weighting", action = clap::ArgAction::SetFalse, hide_short_help = true))]
     pub on: bool,
     /// Noise over-subtraction alpha of the spectral weighting (paper eq. 4)
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = ALPHA, value_parser = crate::flags::unit_interval, hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, default_value_t = ALPHA, value_parser = crate::flags::unit_interval, hide_short_help = true))]
     pub alpha: f64,
     /// Exponent gamma that favours high-SNR bins (paper eq. 5)
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = GAMMA, value_parser = crate::flags::unit_interval, hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, default_value_t = GAMMA, value_parser = crate::flags::unit_interval, hide_short_help = true))]
     pub gamma: f64,
     /// Share of the recent frames' power taken as late reverberation in the noise estimate [default: 0.5; 0 with --min-score or --paper]
-    #[cfg_attr(feature = "cli", arg(long, value_name = "SHARE", value_parser = crate::flags::unit_interval, hide_short_help = true))]
+    #[cfg_attr(feature = "flags", arg(long, value_name = "SHARE", value_parser = crate::flags::unit_interval, hide_short_help = true))]
     pub reverb_level: Option<f64>,
     /// Analyse only these frequencies, LOW-HIGH in Hz (300-3400 for a talker, 2k-8k for birds, 200-20k above mains hum); HIGH beyond half the sample rate is taken as it
-    #[cfg_attr(feature = "cli", arg(long = "band", value_name = "LOW-HIGH", value_parser = band, allow_hyphen_values = true))]
+    #[cfg_attr(feature = "flags", arg(long = "band", value_name = "LOW-HIGH", value_parser = band, allow_hyphen_values = true))]
     pub band_hz: Option<(f64, f64)>,
 }
 
@@ -69,7 +69,7 @@ impl Weighting {
 
 /// A band of frequencies `LOW-HIGH` in Hz (`--band 300-3400`; a `k` suffix is kHz:
 /// `2k-8k`).
-#[cfg(feature = "cli")]
+#[cfg(feature = "flags")]
 pub(crate) fn band(s: &str) -> Result<(f64, f64), String> {
     use crate::flags::parse_f64;
     let Some((low, high)) = s.split_once('-') else {
