@@ -31,9 +31,12 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Iterable, Iterator, Mapping
-from typing import Any, Optional, Union
+from typing import TYPE_CHECKING, Any, Optional, Union
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 from . import _native
 from ._options import Options
@@ -217,7 +220,9 @@ class Localizer:
     ``OSError`` for a geometry file that cannot be read.
     """
 
-    def __init__(self, geometry: Geometry, *, preset: Optional[str] = None, **options: Any):
+    def __init__(
+        self, geometry: Geometry, *, preset: Optional[str] = None, **options: Unpack[Options]
+    ):
         self._native = _native.Localizer(_positions(geometry), preset, options)
         _warn(self._native.geometry_warnings())
 
@@ -278,7 +283,7 @@ def analyze(
     *,
     name: Optional[str] = None,
     preset: Optional[str] = None,
-    **options: Any,
+    **options: Unpack[Options],
 ) -> Result:
     """``ssl analyze``: one recording's directions, events and sources.
 
