@@ -2,7 +2,7 @@
 //! a chunk at a time) or an iterator of such blocks (live audio). Both are
 //! [`SampleSource`]s, so the localizer frames them exactly as it frames a WAV file.
 
-use numpy::ndarray::ArrayView2;
+use numpy::ndarray::{s, ArrayView2};
 use numpy::{PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -87,25 +87,31 @@ impl<T: Sample> SampleSource for ArraySource<'_, T> {
     fn read(&mut self, out: &mut [f32]) -> Result<usize, InputError> {
         let ch = self.channels();
         let frames = (out.len() / ch).min(self.samples.nrows() - self.position);
-        for (i, row) in self
+        let part = self
             .samples
-            .rows()
-            .into_iter()
-            .skip(self.position)
-            .take(frames)
-            .enumerate()
-        {
-            let to = &mut out[i * ch..(i + 1) * ch];
-            for ((o, &v), c) in to.iter_mut().zip(row.iter()).zip(0..) {
-                *o = v.to_f32();
-                if T::FLOAT && !o.is_finite() {
-                    return Err(non_finite(
-                        (self.position + i) as u64,
-                        c,
-                        *o,
-                        self.sample_rate,
-                    ));
+            .slice(s![self.position..self.position + frames, ..]);
+        let out = &mut out[..frames * ch];
+        match part.as_slice() {
+            // C order: one run of samples, already interleaved.
+            Some(run) => {
+                for (o, &v) in out.iter_mut().zip(run) {
+                    *o = v.to_f32();
                 }
+            }
+            None => {
+                for (to, row) in out.chunks_exact_mut(ch).zip(part.rows()) {
+                    for (o, &v) in to.iter_mut().zip(row.iter()) {
+                        *o = v.to_f32();
+                    }
+                }
+            }
+        }
+        // A branch-free pass (it vectorizes) first; the sample's place only on a failure.
+        let exponent = |v: &f32| v.to_bits() & 0x7f80_0000 == 0x7f80_0000;
+        if T::FLOAT && out.iter().fold(false, |any, v| any | exponent(v)) {
+            if let Some(i) = out.iter().position(exponent) {
+                let frame = (self.position + i / ch) as u64;
+                return Err(non_finite(frame, i % ch, out[i], self.sample_rate));
             }
         }
         self.position += frames;
