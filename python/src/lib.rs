@@ -165,9 +165,11 @@ struct Gathered {
 
 impl Localizer {
     /// Opens a recording with `open` and runs it with the GIL released, looking for
-    /// Ctrl-C every [`SIGNAL_EVERY`].
+    /// Ctrl-C every [`SIGNAL_EVERY`]; `on_record` is called with each record as it
+    /// comes (`"row"`, `"event"` or `"source"`, and the record as a dict).
     fn run<'a, S: SampleSource>(
         &'a self,
+        on_record: Option<&Py<PyAny>>,
         open: impl FnOnce(&'a ssl::Localizer) -> Result<Recording<'a, S>, AnalysisError>,
     ) -> Gathered {
         let mut g = Gathered {
@@ -185,6 +187,7 @@ impl Localizer {
             }
         };
         let mut signal: Option<PyErr> = None;
+        let mut refused: Option<PyErr> = None;
         let mut last = Instant::now();
         let (report, result) = recording.run_observed(
             |_| {
@@ -201,6 +204,21 @@ impl Localizer {
                 }
             },
             |out| {
+                if let Some(callback) = on_record {
+                    let called = Python::attach(|py| {
+                        let (kind, record) = match &out {
+                            Output::Row(r) => ("row", to_python(py, r)?),
+                            Output::Event(e) => ("event", to_python(py, e)?),
+                            Output::Source(s) => ("source", to_python(py, s)?),
+                            _ => return Ok(()),
+                        };
+                        callback.call1(py, (kind, record)).map(|_| ())
+                    });
+                    if let Err(e) = called {
+                        refused = Some(e);
+                        return Err(std::io::Error::from(std::io::ErrorKind::Interrupted).into());
+                    }
+                }
                 match out {
                     Output::Row(r) => g.rows.push(r),
                     Output::Event(e) => g.events.push(e),
@@ -222,7 +240,7 @@ impl Localizer {
                 .with_tracking(report.tracking)
                 .with_warning(unconfirmed),
         );
-        g.error = match (signal, result) {
+        g.error = match (signal.or(refused), result) {
             (Some(e), _) => Some(e),
             (None, Err(RunError::Input(e))) => Some(analysis_error(&e)),
             (None, Err(e)) => Some(value_error(e)),
@@ -273,10 +291,7 @@ impl Localizer {
 
     /// The metadata a JSON result of this localizer carries.
     fn metadata<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        Ok(pythonize::pythonize(
-            py,
-            &self.inner.metadata(&self.geometry_file),
-        )?)
+        to_python(py, &self.inner.metadata(&self.geometry_file))
     }
 
     /// Remarks about the geometry.
@@ -289,40 +304,50 @@ impl Localizer {
     }
 
     /// A WAV, RF64 or FLAC file.
-    fn analyze_path(&self, py: Python<'_>, path: PathBuf) -> PyResult<Run> {
+    #[pyo3(signature = (path, on_record=None))]
+    fn analyze_path(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        on_record: Option<Py<PyAny>>,
+    ) -> PyResult<Run> {
         let name = path.display().to_string();
-        let g = py.detach(|| self.run(|l| l.open(&name)));
+        let g = py.detach(|| self.run(on_record.as_ref(), |l| l.open(&name)));
         self.finish(g, None)
     }
 
     /// A numpy array, samples x channels.
+    #[pyo3(signature = (array, sample_rate, name, on_record=None))]
     fn analyze_array(
         &self,
         py: Python<'_>,
         array: &Bound<'_, PyAny>,
         sample_rate: u32,
         name: &str,
+        on_record: Option<Py<PyAny>>,
     ) -> PyResult<Run> {
         let borrowed = Borrowed::new(array)?;
         let view = borrowed_view(&borrowed);
         let g = py.detach(|| {
             with_array_source!(view, name, sample_rate, |source| self
-                .run(|l| l.from_source(source)))
+                .run(on_record.as_ref(), |l| l.from_source(source)))
         });
         self.finish(g, None)
     }
 
     /// Blocks of samples from an iterator.
+    #[pyo3(signature = (iterator, sample_rate, name, on_record=None))]
     fn analyze_blocks(
         &self,
         py: Python<'_>,
         iterator: Bound<'_, PyAny>,
         sample_rate: u32,
         name: &str,
+        on_record: Option<Py<PyAny>>,
     ) -> PyResult<Run> {
         let source = BlockSource::new(name, iterator, sample_rate)?;
         let raised = source.raised.clone();
-        let g = py.detach(|| self.run(|l| l.from_source(source)));
+        let g = py.detach(|| self.run(on_record.as_ref(), |l| l.from_source(source)));
         let raised = raised.lock().expect("not poisoned").take();
         self.finish(g, raised)
     }

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import TYPE_CHECKING, Any, Optional, Union
 
 import numpy as np
@@ -242,6 +242,7 @@ class Localizer:
         sample_rate: Optional[int] = None,
         *,
         name: Optional[str] = None,
+        on_record: Optional[Callable[[str, dict[str, Any]], Any]] = None,
     ) -> Result:
         """Analyses one recording.
 
@@ -249,12 +250,16 @@ class Localizer:
         channels, or an iterable of such blocks (both with ``sample_rate`` in Hz). Integer
         samples are scaled as a WAV file's are (int16 by 2^15, int32 by 2^31); floats are
         taken as they are (full scale 1). ``name`` names an array in messages and in the
-        rows' ``file`` column (default ``<array>``).
+        rows' ``file`` column (default ``<array>``). ``on_record(kind, record)`` is called
+        with each record as the run gives it, ``kind`` being ``"row"``, ``"event"`` or
+        ``"source"`` and ``record`` a dict of the record's fields (live audio: blocks
+        are analysed as they come, so rows arrive while the iterable still runs); an
+        exception it raises stops the run and is raised again.
         """
         if _is_path(audio):
             if sample_rate is not None:
                 raise ValueError("sample_rate is for arrays and blocks: a file has its own")
-            run = self._native.analyze_path(os.fspath(audio))
+            run = self._native.analyze_path(os.fspath(audio), on_record)
         else:
             if sample_rate is None:
                 raise ValueError("an array's or blocks' sample_rate (Hz) must be given")
@@ -262,10 +267,10 @@ class Localizer:
                 raise ValueError(f"sample_rate must be a positive whole number of Hz, not {sample_rate!r}")
             shown = name if name is not None else "<array>"
             if isinstance(audio, np.ndarray) or hasattr(audio, "__array__"):
-                run = self._native.analyze_array(_samples(audio), int(sample_rate), shown)
+                run = self._native.analyze_array(_samples(audio), int(sample_rate), shown, on_record)
             elif isinstance(audio, Iterable):
                 blocks = (_samples(b) for b in audio)
-                run = self._native.analyze_blocks(blocks, int(sample_rate), shown)
+                run = self._native.analyze_blocks(blocks, int(sample_rate), shown, on_record)
             else:
                 raise TypeError(
                     "audio must be a file's path, a numpy array (samples x channels) "
@@ -282,15 +287,18 @@ def analyze(
     sample_rate: Optional[int] = None,
     *,
     name: Optional[str] = None,
+    on_record: Optional[Callable[[str, dict[str, Any]], Any]] = None,
     preset: Optional[str] = None,
     **options: Unpack[Options],
 ) -> Result:
     """``ssl analyze``: one recording's directions, events and sources.
 
     The same as ``Localizer(geometry, preset=preset, **options).analyze(audio,
-    sample_rate, name=name)``; see :class:`Localizer`.
+    sample_rate, name=name, on_record=on_record)``; see :class:`Localizer`.
     """
-    return Localizer(geometry, preset=preset, **options).analyze(audio, sample_rate, name=name)
+    return Localizer(geometry, preset=preset, **options).analyze(
+        audio, sample_rate, name=name, on_record=on_record
+    )
 
 
 def check(

@@ -166,3 +166,28 @@ def test_the_result_of_a_json_file_scores_as_the_run(ssl_bin, tmp_path):
     assert from_run["sources"][0]["mean_error_deg"] < 0.1
     from_dict = ssloc.evaluate(path, json.loads(truth.read_text()))
     assert from_dict["sources"] == from_file["sources"]
+
+
+def test_live_blocks_give_their_records_while_they_come():
+    rate, x = read_wav(EXAMPLE)
+    seen = []
+    heard_before_block = []
+
+    def blocks():
+        for i in range(0, len(x), 2400):  # 50 ms at a time, as a sound card gives them
+            heard_before_block.append(sum(1 for kind, _ in seen if kind == "row"))
+            yield x[i : i + 2400]
+
+    result = ssloc.analyze(blocks(), PRISM, rate, on_record=lambda kind, r: seen.append((kind, r)))
+    rows = [r for kind, r in seen if kind == "row"]
+    assert len(rows) == result.rows.rows
+    assert [r["time_s"] for r in rows] == list(result.rows["time_s"])
+    assert sum(1 for kind, _ in seen if kind == "event") == result.events.rows == 3
+    # Rows arrived while the blocks still came: the first source's, before the last block.
+    assert 0 < heard_before_block[len(heard_before_block) // 2] < len(rows)
+
+    def refuse(kind, record):
+        raise KeyError("enough")
+
+    with pytest.raises(KeyError, match="enough"):
+        ssloc.analyze(x, PRISM, rate, on_record=refuse)
