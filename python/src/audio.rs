@@ -315,3 +315,45 @@ impl SampleSource for BlockSource {
         )
     }
 }
+
+/// `$body` with `$source` an [`ArraySource`] of the view, whatever its dtype.
+macro_rules! with_array_source {
+    ($view:expr, $name:expr, $rate:expr, |$source:ident| $body:expr) => {
+        match $view {
+            View::I16(v) => {
+                let $source = ArraySource::new($name, v, $rate);
+                $body
+            }
+            View::I32(v) => {
+                let $source = ArraySource::new($name, v, $rate);
+                $body
+            }
+            View::F32(v) => {
+                let $source = ArraySource::new($name, v, $rate);
+                $body
+            }
+            View::F64(v) => {
+                let $source = ArraySource::new($name, v, $rate);
+                $body
+            }
+        }
+    };
+}
+
+/// The views of a borrowed array, which may cross into a thread without the GIL.
+pub enum View<'a> {
+    I16(numpy::ndarray::ArrayView2<'a, i16>),
+    I32(numpy::ndarray::ArrayView2<'a, i32>),
+    F32(numpy::ndarray::ArrayView2<'a, f32>),
+    F64(numpy::ndarray::ArrayView2<'a, f64>),
+}
+
+pub fn borrowed_view<'a>(b: &'a Borrowed<'_>) -> View<'a> {
+    match b {
+        Borrowed::I16(a) => View::I16(a.as_array()),
+        Borrowed::I32(a) => View::I32(a.as_array()),
+        Borrowed::F32(a) => View::F32(a.as_array()),
+        Borrowed::F64(a) => View::F64(a.as_array()),
+    }
+}
+pub(crate) use with_array_source;
