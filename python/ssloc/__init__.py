@@ -124,7 +124,10 @@ class Table(Mapping):
 
     def to_records(self) -> np.ndarray:
         """The rows as one numpy structured array."""
-        return np.rec.fromarrays(list(self._columns.values()), names=list(self._columns))
+        arrays = list(self._columns.values())
+        return np.rec.fromarrays(
+            arrays, formats=[a.dtype for a in arrays], names=list(self._columns)
+        )
 
     def to_pandas(self):
         """The rows as a pandas DataFrame (pandas must be installed)."""
@@ -169,14 +172,12 @@ class Result:
         )
 
 
-def _is_path(x: Any) -> bool:
-    return isinstance(x, (str, os.PathLike))
-
-
 def _positions(geometry: Geometry) -> Any:
     """A geometry as the native module takes it: a path, a dict, or a list of rows."""
-    if _is_path(geometry) or isinstance(geometry, Mapping):
-        return os.fspath(geometry) if _is_path(geometry) else dict(geometry)
+    if isinstance(geometry, (str, os.PathLike)):
+        return os.fspath(geometry)
+    if isinstance(geometry, Mapping):
+        return dict(geometry)
     try:
         array = np.asarray(geometry, dtype=float)
     except (TypeError, ValueError):
@@ -223,7 +224,7 @@ class Localizer:
     def __init__(
         self, geometry: Geometry, *, preset: Optional[str] = None, **options: Unpack[Options]
     ):
-        self._native = _native.Localizer(_positions(geometry), preset, options)
+        self._native = _native.Localizer(_positions(geometry), preset, dict(options))
         _warn(self._native.geometry_warnings())
 
     @property
@@ -256,7 +257,7 @@ class Localizer:
         are analysed as they come, so rows arrive while the iterable still runs); an
         exception it raises stops the run and is raised again.
         """
-        if _is_path(audio):
+        if isinstance(audio, (str, os.PathLike)):
             if sample_rate is not None:
                 raise ValueError("sample_rate is for arrays and blocks: a file has its own")
             run = self._native.analyze_path(os.fspath(audio), on_record)
@@ -323,7 +324,7 @@ def check(
         if len(e) not in (2, 3):
             raise ValueError(f"expect: (azimuth_deg, elevation_deg[, at_s]), not {e!r}")
         wanted.append((float(e[0]), float(e[1]), float(e[2]) if len(e) == 3 else None))
-    if _is_path(audio):
+    if isinstance(audio, (str, os.PathLike)):
         if sample_rate is not None:
             raise ValueError("sample_rate is for arrays: a file has its own")
         return _native.check(os.fspath(audio), _positions(geometry), None, "<array>", wanted)
