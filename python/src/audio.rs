@@ -233,6 +233,8 @@ impl BlockSource {
         // The samples read are dropped before the buffer grows.
         self.pending.drain(..self.taken);
         self.taken = 0;
+        // pending[0] is now sample frame `position`; the block starts at `base`.
+        let base = self.pending.len();
         match &borrowed {
             Borrowed::I16(a) => self.append(a.as_array()),
             Borrowed::I32(a) => self.append(a.as_array()),
@@ -240,7 +242,7 @@ impl BlockSource {
             Borrowed::F64(a) => self.append(a.as_array()),
         }
         .map_err(|e| PyValueError::new_err(format!("{}: {e}", self.name)))?;
-        if let Some(i) = self.pending.iter().position(|v| !v.is_finite()) {
+        if let Some(i) = (base..self.pending.len()).find(|&i| !self.pending[i].is_finite()) {
             let ch = self.channels;
             let frame = self.position + (i / ch) as u64;
             let e = non_finite(frame, i % ch, self.pending[i], self.sample_rate);
@@ -348,12 +350,16 @@ pub enum View<'a> {
     F64(numpy::ndarray::ArrayView2<'a, f64>),
 }
 
-pub fn borrowed_view<'a>(b: &'a Borrowed<'_>) -> View<'a> {
-    match b {
-        Borrowed::I16(a) => View::I16(a.as_array()),
-        Borrowed::I32(a) => View::I32(a.as_array()),
-        Borrowed::F32(a) => View::F32(a.as_array()),
-        Borrowed::F64(a) => View::F64(a.as_array()),
+impl Borrowed<'_> {
+    /// The array's view, which may cross into a thread without the GIL.
+    pub fn view(&self) -> View<'_> {
+        match self {
+            Borrowed::I16(a) => View::I16(a.as_array()),
+            Borrowed::I32(a) => View::I32(a.as_array()),
+            Borrowed::F32(a) => View::F32(a.as_array()),
+            Borrowed::F64(a) => View::F64(a.as_array()),
+        }
     }
 }
+
 pub(crate) use with_array_source;

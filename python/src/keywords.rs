@@ -69,11 +69,8 @@ fn arguments(command: &Command, key: &str, value: &Bound<'_, PyAny>) -> PyResult
         .get_arguments()
         .find(|a| a.get_long() == Some(long.as_str()))
     else {
-        let near = nearest(command, key);
-        return Err(PyValueError::new_err(format!(
-            "`{key}` is not an option{}",
-            near.map_or(String::new(), |n| format!("; did you mean `{n}`?"))
-        )));
+        // Not a flag: clap says so, with the nearest flag as its tip.
+        return Ok(vec![format!("--{long}")]);
     };
     if value.is_none() {
         return Ok(Vec::new());
@@ -110,35 +107,6 @@ fn text(value: &Bound<'_, PyAny>) -> PyResult<String> {
         return Ok(if b.is_true() { "on" } else { "off" }.into());
     }
     Ok(value.str()?.to_string())
-}
-
-/// The option whose keyword is nearest `key` (at most a third of its letters apart).
-fn nearest(command: &Command, key: &str) -> Option<String> {
-    command
-        .get_arguments()
-        .filter_map(|a| a.get_long().map(keyword_of))
-        .map(|k| (edits(&k, key), k))
-        .filter(|(d, _)| *d * 3 <= key.len().max(3))
-        .min()
-        .map(|(_, k)| k)
-}
-
-/// Levenshtein distance.
-fn edits(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diagonal = row[0];
-        row[0] = i + 1;
-        for (j, &cb) in b.iter().enumerate() {
-            let above = row[j + 1];
-            row[j + 1] = (diagonal + usize::from(ca != cb))
-                .min(row[j] + 1)
-                .min(above + 1);
-            diagonal = above;
-        }
-    }
-    row[b.len()]
 }
 
 /// clap's message in one line (with its possible values or its tip), the flags
@@ -240,14 +208,6 @@ pub fn infos() -> Vec<OptionInfo> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn edits_count_insertions_deletions_and_changes() {
-        assert_eq!(edits("false_per_hour", "false_per_hour"), 0);
-        assert_eq!(edits("false_per_hour", "false_per_houre"), 1);
-        assert_eq!(edits("band", "bnad"), 2);
-        assert_eq!(edits("", "abc"), 3);
-    }
 
     #[test]
     fn flags_in_messages_are_written_as_keywords() {

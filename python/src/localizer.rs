@@ -1,7 +1,7 @@
 //! The localizer and one recording's run: the library's `Localizer` opened on a file, an
 //! array or blocks, run with the GIL released, its records kept for Python.
 
-use crate::audio::{borrowed_view, with_array_source, ArraySource, BlockSource, Borrowed, View};
+use crate::audio::{with_array_source, ArraySource, BlockSource, Borrowed, View};
 use crate::columns;
 use crate::convert::{analysis_error, geometry_of, to_python, value_error};
 use crate::keywords;
@@ -209,7 +209,7 @@ impl Localizer {
         on_record: Option<Py<PyAny>>,
     ) -> PyResult<Run> {
         let borrowed = Borrowed::new(array)?;
-        let view = borrowed_view(&borrowed);
+        let view = borrowed.view();
         let g = py.detach(|| {
             with_array_source!(view, name, sample_rate, |source| self
                 .run(on_record.as_ref(), |l| l.from_source(source)))

@@ -1,12 +1,13 @@
 //! `ssl check` and `ssl evaluate` for Python: their reports as dicts.
 
-use crate::audio::{borrowed_view, with_array_source, ArraySource, Borrowed, View};
+use crate::audio::{with_array_source, ArraySource, Borrowed, View};
 use crate::convert::{geometry_of, os_error, to_python, value_error};
 use crate::localizer::Run;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use ssl::check::{CheckOptions, Expected};
 use ssl::evaluate::Metric;
+use ssl::record::{DetectionRecord, EventRecord};
 use ssl::stream::{InputError, SampleSource};
 use ssl::{Geometry, Truth};
 use std::path::PathBuf;
@@ -48,7 +49,7 @@ pub fn check<'py>(
         let rate =
             sample_rate.ok_or_else(|| value_error("an array's sample_rate must be given"))?;
         let borrowed = Borrowed::new(audio)?;
-        let view = borrowed_view(&borrowed);
+        let view = borrowed.view();
         py.detach(|| {
             with_array_source!(view, name, rate, |source| checked(
                 source, &geometry, &options
@@ -87,22 +88,25 @@ pub fn evaluate<'py>(
         let path: PathBuf = truth.extract()?;
         Truth::from_file(&path).map_err(value_error)?
     };
-    let (rows, events, array, shown) = if let Ok(run) = result.cast::<Run>() {
-        let run = run.get();
-        let events = run.tracked.then(|| run.events.clone());
-        (
-            run.rows.clone(),
-            events,
-            Some(run.geometry.clone()),
-            run.file.file.clone(),
-        )
-    } else {
-        let path: PathBuf = result.extract()?;
-        let (rows, events, info) =
-            ssl::record::read_records_with_info(&path).map_err(value_error)?;
-        let events = (!events.is_empty()).then_some(events);
-        (rows, events, info.array(), path.display().to_string())
-    };
+    // A run's records are read where they are; a file's are read here.
+    let given = result.cast::<Run>().ok();
+    let read;
+    let (rows, events, array, shown): (&[DetectionRecord], Option<&[EventRecord]>, _, _) =
+        match &given {
+            Some(run) => {
+                let run = run.get();
+                let events = run.tracked.then_some(run.events.as_slice());
+                let shown = run.file.file.clone();
+                (&run.rows, events, Some(run.geometry.clone()), shown)
+            }
+            None => {
+                let path: PathBuf = result.extract()?;
+                read = ssl::record::read_records_with_info(&path).map_err(value_error)?;
+                let (rows, events, info) = &read;
+                let events = (!events.is_empty()).then_some(events.as_slice());
+                (rows, events, info.array(), path.display().to_string())
+            }
+        };
     let array = match geometry {
         Some(g) => Some(geometry_of(g)?.0),
         None => array,
@@ -111,9 +115,9 @@ pub fn evaluate<'py>(
         Metric::asked(metric, array.as_ref()).map_err(|e| value_error(format!("metric: {e}")))?;
     let (tail, rule) = match tail {
         Some(t) => (t, "tail".to_string()),
-        None => ssl::evaluate::default_tail(&truth, &rows),
+        None => ssl::evaluate::default_tail(&truth, rows),
     };
-    let mut report = ssl::evaluate::evaluate_by(&truth, &rows, events.as_deref(), tail, &metric)
+    let mut report = ssl::evaluate::evaluate_by(&truth, rows, events, tail, &metric)
         .map_err(|e| value_error(format!("{shown}: {e}")))?;
     report.tail_rule = rule;
     to_python(py, &report)

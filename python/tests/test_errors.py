@@ -60,7 +60,7 @@ def test_a_geometry_dict_is_the_file_read_the_same():
 
 
 def test_bad_options_are_value_errors_with_the_flags_message():
-    with pytest.raises(ValueError, match="did you mean `false_per_hour`"):
+    with pytest.raises(ValueError, match="unexpected argument 'false_per_houre' found tip: a similar argument exists: 'false_per_hour'"):
         ssloc.Localizer(PRISM, false_per_houre=3)
     with pytest.raises(ValueError, match="is not a number"):
         ssloc.Localizer(PRISM, false_per_hour="many")
