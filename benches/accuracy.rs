@@ -265,7 +265,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "tracked, without the steered response (consistent sets only)",
         {
             let mut p = support::for_tracker(params.clone());
-            p.steered = false;
+            p.steered = ssl::method::Steering::Off;
             p.talkers.max_sources = 1;
             p
         },

@@ -11,15 +11,15 @@ use crate::method::search::PAPER_TOLERANCE;
 use crate::method::threshold::PAPER_MIN_SCORE_PER_PAIR;
 use crate::method::weighting::DEFAULT_REVERB_LEVEL;
 use crate::method::{
-    Dereverb, Framing, Interpolation, Params, ParamsError, Peaks, Room, Talkers, Threshold,
-    Tolerance, Weighting,
+    Dereverb, Framing, Interpolation, Params, ParamsError, Peaks, Room, Steering, Talkers,
+    Threshold, Tolerance, Weighting,
 };
 use crate::track::{TrackParams, TrackParamsError, Tracking};
 
 /// What a user asks of a [`Localizer`](crate::Localizer), section by section, in units:
 /// every option of `ssl analyze` that changes what is found. Start from a preset
 /// ([`Config::default`], [`Config::paper`], [`Config::untracked`],
-/// [`Config::fixed_threshold`]) and change fields; a choice left to its preset (`None`)
+/// [`Config::fixed_threshold`], [`Config::every_frame`]) and change fields; a choice left to its preset (`None`)
 /// is made by [`Config::resolved`].
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "flags", derive(clap::Args))]
@@ -30,6 +30,9 @@ pub struct Config {
     /// The paper's method as published: a tolerance of 2 samples, a fixed threshold of 0.5 per pair, parabolic peaks, no residual gate, no averaging over frames, no background subtraction, no dereverberation, one source per frame
     #[cfg_attr(feature = "flags", arg(long, conflicts_with_all = ["tolerance", "tolerance_us", "residual_gate_us", "average_frames", "min_score", "threshold_sigmas", "reverb_level", "background_s", "dereverb", "wpe"]))]
     pub paper: bool,
+    /// A direction for every frame with sound and no detection decision (what SRP-PHAT tools give): the consistent set when there is one, else the steered response's peak over the same weighted correlations; no tracker. The threshold only sets the cones: a row far under it may be a reflection or the noise, and its uncertainty_deg widens toward 180 (choose rows by it or by score yourself)
+    #[cfg_attr(feature = "flags", arg(long, conflicts_with_all = ["paper", "max_sources", "confirm_by", "false_per_hour", "confirm_s", "delay_s", "smooth_s", "keep_unconfirmed", "forget_s"]))]
+    pub every_frame: bool,
     /// Speed of sound in m/s [default: the geometry's, else 343]
     #[cfg_attr(feature = "flags", arg(short = 'c', long, value_name = "M/S", value_parser = crate::geometry::speed_of_sound_flag, hide_short_help = true))]
     pub speed_of_sound: Option<f64>,
@@ -86,6 +89,15 @@ impl Config {
         }
     }
 
+    /// The best direction of every frame with sound, no threshold, no tracker (`ssl
+    /// analyze --every-frame`).
+    pub fn every_frame() -> Self {
+        Config {
+            every_frame: true,
+            ..Config::default()
+        }
+    }
+
     /// Every frame's detection, no tracker (`ssl analyze --no-track`).
     pub fn untracked() -> Self {
         let mut c = Config::default();
@@ -107,14 +119,14 @@ impl Config {
     /// of chance peaks pass the steered response, and candidates were mostly reflections
     /// (docs/method.md).
     fn for_tracker(&self) -> bool {
-        !self.paper && self.tracking.on && self.threshold.is_calibrated()
+        !self.paper && !self.every_frame && self.tracking.on && self.threshold.is_calibrated()
     }
 
     /// A share of the threshold for the tracker (candidates, riders): the one `given`,
     /// else `default` under the calibrated threshold; 1 (none) without a tracker, with
     /// the paper's method, and by default with a fixed threshold.
     fn tracker_share(&self, given: Option<f64>, default: f64) -> f64 {
-        if self.paper || !self.tracking.on {
+        if self.paper || self.every_frame || !self.tracking.on {
             1.0
         } else {
             given.unwrap_or(if self.threshold.is_calibrated() {
@@ -144,6 +156,9 @@ impl Config {
             r.room.average_frames = 1;
             r.room.background_s = 0.0;
             r.room.dereverb = Dereverb::Off;
+        }
+        if self.every_frame {
+            r.tracking.on = false;
         }
         let calibrated = r.threshold.is_calibrated();
         r.weighting.reverb_level = Some(self.weighting.reverb_level.unwrap_or(if calibrated {
@@ -180,7 +195,15 @@ impl Config {
             room: r.room,
             talkers: r.talkers,
             speed_of_sound: r.speed_of_sound,
-            steered: self.for_tracker(),
+            // Every frame's best direction: the steered response where no set is
+            // consistent.
+            steered: if self.every_frame {
+                Steering::EveryFrame
+            } else if self.for_tracker() {
+                Steering::Partial
+            } else {
+                Steering::Off
+            },
             frame_sources: self.for_tracker(),
             ..Params::default()
         };
@@ -239,7 +262,7 @@ mod tests {
         let s = settings(&Config::default());
         let m = &s.method;
         assert!(s.track.is_some());
-        assert!(m.steered && m.frame_sources && m.bin_votes_on());
+        assert!(m.steered == Steering::Partial && m.frame_sources && m.bin_votes_on());
         assert_eq!(
             (
                 m.talkers.max_sources,
@@ -264,7 +287,7 @@ mod tests {
         assert!(s.track.is_none());
         assert_eq!(s.method, Params::default());
         let m = &s.method;
-        assert!(!m.steered && !m.frame_sources && !m.bin_votes_on());
+        assert!(m.steered == Steering::Off && !m.frame_sources && !m.bin_votes_on());
         assert_eq!(
             (
                 m.talkers.max_sources,
@@ -290,7 +313,7 @@ mod tests {
             (0.0, Dereverb::Off)
         );
         assert_eq!(m.peaks.refinement(), Interpolation::Parabolic);
-        assert!(!m.steered && m.talkers.max_sources == 1);
+        assert!(m.steered == Steering::Off && m.talkers.max_sources == 1);
         assert_eq!(m.talkers.candidate_share(), 1.0);
         // A given interpolation is kept.
         let mut c = Config::paper();
@@ -302,11 +325,27 @@ mod tests {
     }
 
     #[test]
+    fn every_frame_is_the_steered_response_without_a_tracker_its_threshold_for_the_cones() {
+        let s = settings(&Config::every_frame());
+        assert!(s.track.is_none());
+        let m = &s.method;
+        // The defaults' threshold and weighting, which set the cones and hold back nothing.
+        let d = settings(&Config::default()).method;
+        assert_eq!(
+            (m.threshold, m.weighting.reverb_level),
+            (d.threshold, d.weighting.reverb_level)
+        );
+        assert!(
+            m.steered == Steering::EveryFrame && !m.frame_sources && m.talkers.max_sources == 1
+        );
+    }
+
+    #[test]
     fn a_fixed_threshold_turns_off_what_only_the_calibrated_one_allows() {
         let m = settings(&Config::fixed_threshold(0.3)).method;
         assert_eq!(m.threshold, Threshold::Fixed { per_pair: 0.3 });
         assert_eq!(m.weighting.reverb_share(), 0.0);
-        assert!(!m.steered && !m.talkers.bin_votes && m.talkers.max_sources == 1);
+        assert!(m.steered == Steering::Off && !m.talkers.bin_votes && m.talkers.max_sources == 1);
         assert_eq!(
             (m.talkers.candidate_share(), m.talkers.rider_share()),
             (1.0, 1.0)
@@ -329,6 +368,7 @@ mod tests {
         for c in [
             Config::default(),
             Config::paper(),
+            Config::every_frame(),
             Config::untracked(),
             Config::fixed_threshold(0.3),
             given,

@@ -30,10 +30,11 @@ fn keyword_of(flag: &str) -> String {
 }
 
 /// The presets by name, as the flags that make them.
-pub const PRESETS: [(&str, &[&str]); 3] = [
+pub const PRESETS: [(&str, &[&str]); 4] = [
     ("default", &[]),
     ("paper", &["--paper"]),
     ("untracked", &["--no-track"]),
+    ("every_frame", &["--every-frame"]),
 ];
 
 /// The configuration `preset` and `options` (keyword -> value) ask for.

@@ -58,8 +58,9 @@ __all__ = [
 __version__: str = _native.version()
 
 #: The presets by name, as the options that make them: ``default`` (the defaults),
-#: ``paper`` (the paper's method as published, ``paper=True``) and ``untracked``
-#: (every frame's detection, no tracker, ``no_track=True``).
+#: ``paper`` (the paper's method as published, ``paper=True``), ``untracked``
+#: (every frame's detection, no tracker, ``no_track=True``) and ``every_frame`` (a
+#: direction for every frame, no detection decision, ``every_frame=True``).
 PRESETS: dict[str, dict[str, bool]] = {
     name: {keyword: True for keyword in keywords} for name, keywords in _native.presets()
 }
@@ -214,7 +215,7 @@ class Localizer:
 
     ``geometry``: a TOML file's path, a dict of the file's form, or an (M, 3) array of
     microphone positions in metres (channel m is microphone m). ``preset``: ``default``,
-    ``paper`` or ``untracked`` (:data:`PRESETS`). ``options``: the command line's flags
+    ``paper``, ``untracked`` or ``every_frame`` (:data:`PRESETS`). ``options``: the command line's flags
     as keyword arguments, ``--false-per-hour 1000`` as ``false_per_hour=1000``, a switch
     as ``True`` (``paper=True``, ``no_track=True``); :func:`options` lists them and
     :class:`Options` types them. Raises ``ValueError`` for a bad option or geometry,

@@ -14,6 +14,8 @@ class Options(TypedDict, total=False):
     # Method
     paper: bool
     """--paper: The paper's method as published: a tolerance of 2 samples, a fixed threshold of 0.5 per pair, parabolic peaks, no residual gate, no averaging over frames, no background subtraction, no dereverberation, one source per frame"""
+    every_frame: bool
+    """--every-frame: A direction for every frame with sound and no detection decision (what SRP-PHAT tools give): the consistent set when there is one, else the steered response's peak over the same weighted correlations; no tracker. The threshold only sets the cones: a row far under it may be a reflection or the noise, and its uncertainty_deg widens toward 180 (choose rows by it or by score yourself)"""
     speed_of_sound: Union[float, str]
     """--speed-of-sound: Speed of sound in m/s [default: the geometry's, else 343]"""
 

@@ -35,7 +35,8 @@ def ssl_bin() -> Path:
 def cli_json(ssl_bin: Path, wav: Path, geometry: Path, *flags: str) -> dict:
     """`ssl analyze --format json --sources` of `wav` (its events and sources when
     tracked)."""
-    sources = [] if "--no-track" in flags else ["--sources"]
+    untracked = "--no-track" in flags or "--every-frame" in flags
+    sources = [] if untracked else ["--sources"]
     out = subprocess.run(
         [str(ssl_bin), "analyze", str(wav), "-g", str(geometry), "--format", "json",
          "--quiet", *sources, *flags],

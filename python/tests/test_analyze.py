@@ -52,6 +52,7 @@ def test_options_change_the_run_as_their_flags_do(ssl_bin, scenes):
     for flags, options in [
         (["--paper"], {"paper": True}),
         (["--no-track"], {"preset": "untracked"}),
+        (["--every-frame"], {"preset": "every_frame"}),
         (["--false-per-hour", "1000", "--band", "300-3400"], {"false_per_hour": 1000, "band": "300-3400"}),
         (["--frame-ms", "32", "--window", "hamming", "--dereverb", "on"],
          {"frame_ms": 32, "window": "hamming", "dereverb": True}),

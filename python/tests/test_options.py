@@ -78,13 +78,19 @@ def test_every_option_is_a_flag_of_ssl_analyze_and_back(ssl_bin):
 
 
 def test_presets_are_their_options():
-    assert ssloc.PRESETS == {"default": {}, "paper": {"paper": True}, "untracked": {"no_track": True}}
+    assert ssloc.PRESETS == {
+        "default": {},
+        "paper": {"paper": True},
+        "untracked": {"no_track": True},
+        "every_frame": {"every_frame": True},
+    }
     for name, options in ssloc.PRESETS.items():
         a = ssloc.Localizer(PRISM, preset=name).config
         b = ssloc.Localizer(PRISM, **options).config
         assert a == b, name
     assert ssloc.Localizer(PRISM, preset="paper").config["paper"] is True
     assert ssloc.Localizer(PRISM, preset="untracked").config["tracking"]["on"] is False
+    assert ssloc.Localizer(PRISM, preset="every_frame").config["every_frame"] is True
 
 
 def test_options_reach_the_configuration_in_their_units():

@@ -206,11 +206,11 @@ pub struct AnalyzeArgs {
     pub config: Config,
 
     /// Write events instead of detections: one row per stretch of activity of one tracked source (JSON: both, in `detections` and `events`)
-    #[arg(long, conflicts_with = "no_track", help_heading = "Output")]
+    #[arg(long, conflicts_with_all = ["no_track", "every_frame"], help_heading = "Output")]
     pub events: bool,
 
     /// Write sources instead of detections: one record per tracked source of each file, with the time its events cover and its mean direction (JSON: detections, events and sources)
-    #[arg(long, conflicts_with_all = ["no_track", "events"], help_heading = "Output")]
+    #[arg(long, conflicts_with_all = ["no_track", "every_frame", "events"], help_heading = "Output")]
     pub sources: bool,
 
     /// Threads to analyse with (0: all cores); the output is the same for any number

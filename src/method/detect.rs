@@ -3,13 +3,14 @@
 //! time, angles and margin over the threshold. The consistency search and the steered
 //! response both end here.
 
+use super::beyond::steered::Steering;
 use super::layout::Layout;
 use super::outcome::Detection;
 use super::paper::direction::DirectionSolver;
 use super::paper::pairs::pair_count;
 use super::paper::search::Solution;
 use super::state::FrameState;
-use super::uncertainty::uncertainty_deg;
+use super::uncertainty::{uncertainty_deg, unvouched_cone_deg};
 use crate::geometry::angles_deg;
 use std::collections::HashMap;
 
@@ -80,6 +81,13 @@ pub(crate) fn detection(
         score / threshold
     } else {
         f64::INFINITY
+    };
+    // Every frame's direction, kept whatever it scores: far under the threshold a frame
+    // peaks at a reflection or the noise as often as at a source.
+    let uncertainty_deg = if setup.params.steered == Steering::EveryFrame {
+        unvouched_cone_deg(uncertainty_deg, margin)
+    } else {
+        uncertainty_deg
     };
     Detection {
         frame: index,

@@ -41,6 +41,12 @@ pub(crate) struct Layout {
 }
 
 impl Layout {
+    /// The residual gate (microseconds, `None`: off) and the speed of sound (m/s) it is
+    /// read at.
+    pub fn gate(&self) -> (Option<f64>, f64) {
+        (self.params.room.gate_us(), self.speed)
+    }
+
     /// `params` checked against `geometry` at `sample_rate`, and the layout they give.
     pub fn new(
         geometry: &Geometry,

@@ -43,6 +43,7 @@ mod uncertainty;
 
 pub use paper::{correlation, direction, frames, pairs, peaks, search, spectrum, weighting};
 
+pub use beyond::steered::Steering;
 pub(crate) use beyond::threshold;
 pub use beyond::threshold::Threshold;
 pub use beyond::{Dereverb, Room, Talkers};

@@ -1,6 +1,7 @@
 //! The method's parameters, their defaults, and their validation against an array and a
 //! sample rate.
 
+use super::beyond::steered::Steering;
 use super::beyond::threshold::Threshold;
 use super::beyond::{Room, Talkers, MAX_AVERAGE_FRAMES, MAX_SOURCES};
 use super::paper::frames::{FrameSize, Framing};
@@ -37,8 +38,8 @@ pub struct Params {
     /// Overrides the geometry's speed of sound (m/s).
     pub speed_of_sound: Option<f64>,
     /// The steered response: a direction for frames whose pairs do not all agree, and
-    /// further sources (on with a tracker under the calibrated threshold).
-    pub steered: bool,
+    /// further sources (partial with a tracker under the calibrated threshold).
+    pub steered: Steering,
     /// Further sources from each frame's own correlations beside the averaged ones' (on
     /// with a tracker under the calibrated threshold).
     pub frame_sources: bool,
@@ -159,7 +160,7 @@ impl Default for Params {
             room: Room::default(),
             talkers: Talkers::alone(),
             speed_of_sound: None,
-            steered: false,
+            steered: Steering::Off,
             frame_sources: false,
             max_work: DEFAULT_MAX_WORK,
             noise: NoiseSettings::default(),

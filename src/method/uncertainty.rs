@@ -42,6 +42,29 @@ pub(crate) const MERGE_SHARE: f64 = 0.08;
 /// direct sound: an array of this aperture keeps `exp(-1)` of [`MERGE_SHARE`].
 pub(crate) const PEAK_S: f64 = 0.5e-3;
 
+/// `--every-frame`'s rows under the detection threshold: at a margin under
+/// [`WIDEN_BELOW`] the fit's cone is widened by `(WIDEN_BELOW / margin)^2` (the share of
+/// rows the fit's cone held fell from 95% to 80% between margins 0.6 and 0.35 on nine
+/// arrays); under [`GROSS_BELOW`] a frame peaks at a reflection or at the noise as often
+/// as at the source, and the cone grows toward the whole sphere, reached at
+/// [`ANYWHERE_BELOW`] (docs/method.md, "Uncertainty").
+pub(crate) const WIDEN_BELOW: f64 = 0.6;
+/// See [`WIDEN_BELOW`].
+pub(crate) const GROSS_BELOW: f64 = 0.3;
+/// See [`WIDEN_BELOW`].
+pub(crate) const ANYWHERE_BELOW: f64 = 0.1;
+
+/// The cone (degrees) of a row kept whatever it scores (`--every-frame`): the fit's cone
+/// `fit_deg` widened for a `margin` over the detection threshold under [`WIDEN_BELOW`].
+pub(crate) fn unvouched_cone_deg(fit_deg: f64, margin: f64) -> f64 {
+    if margin >= WIDEN_BELOW {
+        return fit_deg;
+    }
+    let widened = fit_deg * (WIDEN_BELOW / margin.max(1e-9)).powi(2);
+    let gross = 180.0 * ((GROSS_BELOW - margin) / (GROSS_BELOW - ANYWHERE_BELOW)).clamp(0.0, 1.0);
+    widened.max(gross).min(180.0)
+}
+
 /// `sqrt` of the 95% quantile of chi-squared with 2 degrees of freedom: a 2-D normal
 /// lies within this many standard deviations (Mahalanobis) with 95% probability.
 const K2: f64 = 2.447_746_830_680_816;
@@ -168,6 +191,24 @@ mod tests {
 
     const FS: f64 = 16000.0;
     const C: f64 = 343.0;
+
+    #[test]
+    fn an_unvouched_cone_widens_as_the_margin_falls_to_the_whole_sphere() {
+        // At and over WIDEN_BELOW: the fit's cone.
+        assert_eq!(unvouched_cone_deg(1.5, 0.6), 1.5);
+        assert_eq!(unvouched_cone_deg(1.5, f64::INFINITY), 1.5);
+        // Widened by (0.6 / margin)^2, then the reflections' floor.
+        assert!((unvouched_cone_deg(2.0, 0.3) - 8.0).abs() < 1e-9);
+        assert!((unvouched_cone_deg(2.0, 0.2) - 90.0).abs() < 1e-9);
+        assert_eq!(unvouched_cone_deg(2.0, 0.1), 180.0);
+        assert_eq!(unvouched_cone_deg(2.0, 0.0), 180.0);
+        let mut last = 0.0;
+        for i in (0..=100).rev() {
+            let c = unvouched_cone_deg(3.0, i as f64 / 100.0);
+            assert!(c >= last && c <= 180.0, "margin {}: {c}", i as f64 / 100.0);
+            last = c;
+        }
+    }
 
     /// The share of `trials` noisy solves per direction in `directions` whose truth
     /// (`truth(u)`, from the direction the lags were made for) lies in the cone, and the

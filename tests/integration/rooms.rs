@@ -27,6 +27,23 @@ fn office(
     azimuth: f64,
     tolerance_us: Option<f64>,
 ) -> (Vec<ssl::DetectionRecord>, ssl::Truth) {
+    let mut params = support::tracked_params();
+    if let Some(us) = tolerance_us {
+        params.tolerance = ssl::method::Tolerance::Us(us);
+    }
+    let track = ssl::track::TrackParams::default();
+    let settings = ssl::Settings::new(params, Some(track)).unwrap();
+    office_with(dir, geometry, seed, azimuth, &settings)
+}
+
+/// [`office`] analysed with `settings`.
+fn office_with(
+    dir: &std::path::Path,
+    geometry: &ssl::Geometry,
+    seed: u64,
+    azimuth: f64,
+    settings: &ssl::Settings,
+) -> (Vec<ssl::DetectionRecord>, ssl::Truth) {
     let scene = format!(
         "sample_rate = 48000\nduration = 4.0\nseed = {seed}\nformat = \"float32\"\n\
          [room]\ndimensions = [5.0, 4.0, 2.7]\nrt60 = 0.5\n\
@@ -39,12 +56,11 @@ fn office(
     );
     let path = write(dir, "office.toml", &scene);
     let scene = ssl::sim::scene::SceneFile::from_file(&path).unwrap();
-    let mut params = support::tracked_params();
-    if let Some(us) = tolerance_us {
-        params.tolerance = ssl::method::Tolerance::Us(us);
-    }
-    let track = ssl::track::TrackParams::default();
-    harness::analyse_scene(dir, &scene, geometry, &params, Some(track)).unwrap()
+    let sim = ssl::sim::simulate(&scene, dir).unwrap();
+    let channels = sim.channels.iter().map(|c| &c[..]).collect();
+    let localizer = ssl::Localizer::with_settings(geometry.clone(), settings.clone()).unwrap();
+    let recording = localizer.from_channels("office", channels, sim.sample_rate);
+    (harness::rows(recording.unwrap()).unwrap(), sim.truth)
 }
 
 /// Beyond the room's critical distance the reverberation spreads each pair's peak: with
@@ -82,6 +98,96 @@ fn a_talker_beyond_the_critical_distance_of_a_small_office_is_heard_at_48_khz() 
     }
     eprintln!("{rows_now} rows with 50 us, {rows_before} with 40 us");
     assert!(2 * rows_before < rows_now);
+}
+
+/// `--every-frame` in the office: a row for every frame (its fan and noise fill them
+/// all), with `--min-score 0` the consistent sets of `--no-track --min-score 0` among them
+/// unchanged; at the defaults most of the talker's frames placed, and cones that say how
+/// far to trust them: 95% of the talker's rows lie inside their cone, and the frames away
+/// from him, where no direction is his, get cones that claim next to nothing.
+#[test]
+fn every_frame_writes_a_direction_for_every_frame_with_a_cone_that_holds() {
+    let (dir, geometry) = prism_with_speech();
+    let every = ssl::Config::every_frame().settings().unwrap();
+    let fixed = |c: &mut ssl::Config| c.threshold = ssl::method::Threshold::Fixed { per_pair: 0.0 };
+    let mut every0 = ssl::Config::every_frame();
+    fixed(&mut every0);
+    let mut consistent = ssl::Config::untracked();
+    fixed(&mut consistent);
+    let (every0, consistent) = (every0.settings().unwrap(), consistent.settings().unwrap());
+    assert!(consistent.track.is_none() && every.track.is_none());
+    let mut held = (0, 0);
+    for (seed, azimuth) in [(4, 150.0), (5, -20.0)] {
+        let (rows, truth) = office_with(dir.path(), &geometry, seed, azimuth, &every);
+        let (rows0, _) = office_with(dir.path(), &geometry, seed, azimuth, &every0);
+        let (sets, _) = office_with(dir.path(), &geometry, seed, azimuth, &consistent);
+        // One row a frame, none missing, no source.
+        for rows in [&rows, &rows0] {
+            let last = rows.last().unwrap().frame.unwrap();
+            assert_eq!(
+                rows.len() as u64,
+                last + 1,
+                "one row for each of {} frames",
+                last + 1
+            );
+            assert!(rows.iter().all(|r| r.source.is_none()));
+        }
+        // Where the pairs agree, the row is the consistent set's.
+        let by_frame: std::collections::HashMap<u64, &ssl::DetectionRecord> =
+            rows0.iter().map(|r| (r.frame.unwrap(), r)).collect();
+        for s in &sets {
+            let r = by_frame[&s.frame.unwrap()];
+            assert_eq!(
+                (r.x, r.y, r.z, r.score, r.uncertainty_deg),
+                (s.x, s.y, s.z, s.score, s.uncertainty_deg),
+                "frame {:?}",
+                s.frame
+            );
+        }
+        let talker = &truth.sources[0];
+        let d = [talker.x, talker.y, talker.z];
+        let off = |r: &ssl::DetectionRecord| {
+            (d[0] * r.x + d[1] * r.y + d[2] * r.z)
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        };
+        let cone = |r: &ssl::DetectionRecord| r.uncertainty_deg.unwrap();
+        let [start, end] = talker.active[0];
+        let during = |r: &&ssl::DetectionRecord| r.time_s >= start && r.time_s <= end;
+        let count = |rows: &[ssl::DetectionRecord],
+                     keep: &dyn Fn(&ssl::DetectionRecord) -> bool| {
+            rows.iter().filter(during).filter(|&r| keep(r)).count()
+        };
+        let frames = count(&rows, &|_| true);
+        let placed = count(&rows, &|r| off(r) <= 10.0);
+        let placed0 = count(&sets, &|r| off(r) <= 10.0);
+        let inside = count(&rows, &|r| off(r) <= cone(r));
+        let vouched = count(&rows, &|r| cone(r) <= 10.0);
+        let vouched_right = count(&rows, &|r| cone(r) <= 10.0 && off(r) <= 10.0);
+        // Away from the talker: before his onset, and after his reverberation (0.5 s).
+        let mut away: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.time_s < start - 0.05 || r.time_s > end + 0.5)
+            .map(cone)
+            .collect();
+        away.sort_by(f64::total_cmp);
+        eprintln!(
+            "seed {seed}: {} rows; talker's frames {frames}: {placed} within 10 deg (consistent sets: \
+             {placed0}), {inside} inside their cone, {vouched} with a cone of 10 deg or less \
+             ({vouched_right} right); frames away from him: median cone {:.0} deg",
+            rows.len(),
+            away[away.len() / 2]
+        );
+        assert!(placed * 10 >= frames * 6, "{placed} of {frames}");
+        assert!(placed > 10 * placed0.max(1));
+        // A 95% cone, over a few hundred rows of one scene that are not independent.
+        assert!(inside * 100 >= frames * 93, "{inside} of {frames}");
+        held = (held.0 + inside, held.1 + frames);
+        assert!(vouched_right * 100 >= vouched * 95 && vouched * 5 >= frames);
+        assert!(away[away.len() / 2] >= 90.0);
+    }
+    assert!(held.0 * 100 >= held.1 * 95, "{held:?}");
 }
 
 /// Two ARCTIC talkers 2 m from the prism at 16 kHz, `separation` deg apart, in a

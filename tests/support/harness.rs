@@ -137,7 +137,13 @@ pub fn params_from(args: &[String]) -> ssl::Params {
             // The coherent background's time constant (0: none).
             Some("bg") => params.room.background_s = value("bg"),
             // The steered response (0: off).
-            Some("steer") => params.steered = value("steer") > 0.0,
+            Some("steer") => {
+                params.steered = if value("steer") > 0.0 {
+                    ssl::method::Steering::Partial
+                } else {
+                    ssl::method::Steering::Off
+                }
+            }
             // Candidates down to this share of the threshold.
             Some("cand") => params.talkers.candidates = Some(value("cand")),
             // Riders down to this share of the threshold (1: none).

@@ -162,7 +162,7 @@ impl Patterns {
     pub fn new(setup: &Layout, threshold: &ThresholdPlan) -> Option<Self> {
         let tau = setup.params.talkers.patterns_tau_s()?;
         let longest = setup.max_lag.iter().copied().max().unwrap_or(0);
-        if !setup.params.steered || longest < MIN_LAGS {
+        if !setup.params.steered.is_on() || longest < MIN_LAGS {
             return None;
         }
         let hop_s = setup.hop as f64 / setup.rate;
@@ -433,9 +433,9 @@ impl Patterns {
         ) else {
             return;
         };
-        let Some(residual) = self
-            .steered
-            .accepts(&steer, floor, pair_count(k), setup, solver)
+        let Some(residual) =
+            self.steered
+                .accepts(&steer, floor, pair_count(k), setup.gate(), solver)
         else {
             return;
         };

@@ -31,6 +31,30 @@ use crate::method::paper::pairs::pair_index;
 use multiversion::multiversion;
 use nalgebra::Vector3;
 
+/// When the steered response gives a frame's direction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Steering {
+    /// Never: only consistent sets (the paper's search).
+    #[default]
+    Off,
+    /// Where no set is consistent, its peak when it passes the threshold with at least
+    /// half the pairs agreeing and within the residual gate; and further sources (with a
+    /// tracker under the calibrated threshold).
+    Partial,
+    /// Where no set is consistent, its peak in every frame, whatever it scores and
+    /// however many pairs agree (`ssl analyze --every-frame`): the row's score and cone
+    /// say how far to trust it.
+    EveryFrame,
+}
+
+impl Steering {
+    /// Whether the steered response runs at all.
+    pub fn is_on(self) -> bool {
+        self != Steering::Off
+    }
+}
+
 /// Directions in the grid.
 pub(crate) const GRID_POINTS: usize = 1000;
 
@@ -199,7 +223,8 @@ impl Steered {
     /// Whether `steer`, the last search's result, is a direction: it scores `floor` or
     /// more with at least half the `pairs` agreeing, and (with the residual gate) a
     /// single source explains its delays (a source's mixed with a reflection's are no
-    /// more a direction here than in the consistency search). When it is, its fit's
+    /// more a direction here than in the consistency search): a residual of at most
+    /// `gate_us` microseconds at the speed of sound `speed`. When it is, its fit's
     /// residual ([`Steered::residual_m`], metres), computed once for the gate and the
     /// detection's uncertainty.
     pub fn accepts(
@@ -207,18 +232,15 @@ impl Steered {
         steer: &Steer,
         floor: f64,
         pairs: usize,
-        setup: &crate::method::layout::Layout,
+        (gate_us, speed): (Option<f64>, f64),
         solver: &DirectionSolver,
     ) -> Option<f64> {
         if steer.score < floor || steer.agreeing < pairs.div_ceil(2) {
             return None;
         }
         let residual = self.residual_m(steer, solver);
-        setup
-            .params
-            .room
-            .gate_us()
-            .is_none_or(|gate| residual / setup.speed * 1e6 <= gate)
+        gate_us
+            .is_none_or(|gate| residual / speed * 1e6 <= gate)
             .then_some(residual)
     }
 

@@ -4,7 +4,7 @@ use super::*;
 use crate::geometry::unit_from_angles;
 use crate::method::beyond::{DEFAULT_CANDIDATES, DEFAULT_MAX_SOURCES, DEFAULT_RIDERS};
 use crate::method::outcome::Detection;
-use crate::method::{Interpolation, Threshold};
+use crate::method::{Interpolation, Steering, Threshold};
 use crate::sim::freefield::{render, Place, Scene, Source};
 use crate::sim::signals::Signal;
 use crate::stream::source::{Channels, Framer, SampleSource};
@@ -227,7 +227,11 @@ fn pruning_changes_no_detection() {
     for (interpolation, average_frames, threshold, background_s, further) in cases {
         let mut params = Params {
             threshold,
-            steered: further,
+            steered: if further {
+                Steering::Partial
+            } else {
+                Steering::Off
+            },
             frame_sources: further,
             ..Params::default()
         };
@@ -333,7 +337,7 @@ fn the_output_does_not_depend_on_where_blocks_end() {
     });
     // The defaults with the tracker (`ssl analyze`'s): further sources, riders, patterns.
     let mut params = Params {
-        steered: true,
+        steered: Steering::Partial,
         frame_sources: true,
         ..Params::default()
     };

@@ -11,7 +11,7 @@ use super::setup::Setup;
 use crate::method::beyond::dereverb::Dereverberator;
 use crate::method::beyond::edges::Edges;
 use crate::method::beyond::frame_sources::add_further;
-use crate::method::beyond::steered::{Query, Steered, FURTHER_SHARE};
+use crate::method::beyond::steered::{Query, Steered, Steering, FURTHER_SHARE};
 use crate::method::beyond::votes::{add_riders, VotePeak};
 use crate::method::detect::{detection, direction, solver, Direction};
 use crate::method::outcome::{Clock, Detections, Outcome, StageTimes};
@@ -51,6 +51,9 @@ pub(crate) struct Worker {
     /// The votes of a span and their peaks ([`crate::method::beyond::votes`]).
     votes: Vec<Vote>,
     vote_peaks: Vec<VotePeak>,
+    /// Whether the last search's first source came from the steered response (its pairs
+    /// did not all agree) rather than from a consistent set.
+    steered_first: bool,
     /// Leave out correlations that cannot lead to a detection (always, but in a test).
     pub prune: bool,
 }
@@ -68,19 +71,20 @@ impl Worker {
                 .collect(),
             searcher: Searcher::new(setup.tolerance, setup.params.max_work),
             solvers: HashMap::new(),
-            averaged: if setup.params.steered {
+            averaged: if setup.params.steered.is_on() {
                 vec![0.0; setup.windows_len]
             } else {
                 Vec::new()
             },
             directions: Vec::with_capacity(crate::method::beyond::MAX_SOURCES),
-            steered: setup.params.steered.then(|| {
+            steered: setup.params.steered.is_on().then(|| {
                 let positions: Vec<_> = setup.geometry.mics.iter().map(|m| m.position).collect();
                 Steered::new(&positions, setup.rate, setup.speed, &setup.max_lag)
             }),
             dereverb: setup.dereverb.is_some().then(|| Dereverberator::new(setup)),
             votes: Vec::new(),
             vote_peaks: Vec::new(),
+            steered_first: false,
             prune: true,
         }
     }
@@ -158,7 +162,14 @@ impl Worker {
         state.reach = state.ceiling;
         state.threshold = setup.threshold.per_pair(&state.weights);
         state.clear = setup.threshold.clear_per_pair(&state.weights);
-        state.floor = state.threshold * setup.params.talkers.candidate_share();
+        // Every frame's direction: nothing is held back; the threshold only says which
+        // rows the run vouches for (their cones).
+        let every_frame = setup.params.steered == Steering::EveryFrame;
+        state.floor = if every_frame {
+            0.0
+        } else {
+            state.threshold * setup.params.talkers.candidate_share()
+        };
         // Riders only beside candidates (with a tracker): without one, nothing to ride.
         let riders = if setup.params.talkers.candidate_share() < 1.0 {
             setup
@@ -169,8 +180,13 @@ impl Worker {
         } else {
             setup.params.talkers.candidate_share()
         };
-        state.rider_floor = state.threshold * riders;
-        state.steady = setup.params.threshold.is_calibrated()
+        state.rider_floor = if every_frame {
+            0.0
+        } else {
+            state.threshold * riders
+        };
+        state.steady = !every_frame
+            && setup.params.threshold.is_calibrated()
             && setup.params.weighting.on
             && state.ceiling <= setup.threshold.steady_ceiling;
         if let Some(votes) = &setup.votes {
@@ -353,6 +369,17 @@ impl Worker {
             return averaged;
         }
         if let Outcome::Detected(mut found, budget) = averaged {
+            // Every frame's direction: where the average's pairs did not agree (its
+            // direction is the steered response's), a set the frame's own pairs agree on
+            // is the better evidence (an average over an onset spans the silence before
+            // it). Under a threshold the average's own direction stands, as before.
+            if self.steered_first && setup.params.steered == Steering::EveryFrame {
+                let own = &span[span.len() - 1..];
+                let consistent = self.decide_over(setup, own, index, clock, floor);
+                if !self.steered_first && matches!(consistent, Outcome::Detected(..)) {
+                    return consistent;
+                }
+            }
             // Further sources from the frame's own correlations ([`crate::method::beyond::frame_sources`]).
             let wanted = setup.params.talkers.max_sources;
             if setup.params.frame_sources && found.len() < wanted {
@@ -380,6 +407,7 @@ impl Worker {
         clock: &mut Clock,
         floor: f64,
     ) -> Outcome {
+        self.steered_first = false;
         let state = span.last().expect("a frame");
         let k = state.live.len();
         let pairs = pair_count(k) as f64;
@@ -420,7 +448,7 @@ impl Worker {
                 if frames > 1.0 {
                     self.window.iter_mut().for_each(|s| *s /= frames);
                 }
-                if setup.params.steered {
+                if setup.params.steered.is_on() {
                     self.averaged[start..start + 2 * half + 1].copy_from_slice(&self.window);
                 }
                 let peaks = &mut self.peaks[pair_index(a, b, k)];
@@ -512,7 +540,12 @@ impl Worker {
             ) else {
                 break;
             };
-            let Some(residual) = steered.accepts(&steer, floor, pair_count(k), setup, solver)
+            let accepted = steered.accepts(&steer, floor, pair_count(k), setup.gate(), solver);
+            // Every frame's direction: the response's peak even where fewer than half the
+            // pairs agree or no plane wave fits (its cone widens with its margin).
+            let every_frame = setup.params.steered == Steering::EveryFrame && found.is_empty();
+            let Some(residual) =
+                accepted.or_else(|| every_frame.then(|| steered.residual_m(&steer, solver)))
             else {
                 break;
             };
@@ -525,6 +558,7 @@ impl Worker {
         if found.is_empty() {
             first
         } else {
+            self.steered_first = !matches!(first, Outcome::Detected(..));
             Outcome::Detected(found, budget)
         }
     }
