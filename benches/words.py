@@ -16,8 +16,9 @@ Three families of fresh scenes, each drawn from a seed given on the command line
 Scores per family: words found (a row within 10 deg of its talker from 50 ms before the
 word to 0.3 s after it), the rows' mean error, false events (more than 10 deg from every
 talker speaking around them: a reflection is a false event), turns merged into another
-talker's event, and the talkers' purity (the share of a talker's rows under the source
-id it has most often; 1: one id per person).
+talker's event, the talkers' purity (the share of a talker's rows under the source id it
+has most often; 1: one id per person), and the rows whose nearest talker speaking lies
+inside their `uncertainty_deg`.
 
     python3 benches/words.py --ssl target/release/ssl --seed 500 --draws 4 [--only words,hard] [-- FLAGS]
 
@@ -262,7 +263,7 @@ def err3d(u, r):
 
 def score(truth, rows, events):
     res = {"words": 0, "found": 0, "rows": 0, "rows_ok": 0, "err_sum": 0.0, "events": len(events),
-           "false_events": 0, "merged": 0, "pairs": 0, "no_row": int(not rows), "purity_num": 0, "purity_den": 0}
+           "false_events": 0, "merged": 0, "pairs": 0, "no_row": int(not rows), "purity_num": 0, "purity_den": 0, "inside": 0}
     words = [(k, u, a, b) for k, (u, spans) in enumerate(truth) for a, b in spans]
     for k, u, a, b in words:
         res["words"] += 1
@@ -275,6 +276,7 @@ def score(truth, rows, events):
             continue
         e, k = min((err3d(u, r), k) for k, u in active)
         res["rows"] += 1
+        res["inside"] += int(e <= r.get("uncertainty_deg", 0.0))
         if e <= FOUND_DEG:
             res["rows_ok"] += 1
             res["err_sum"] += e
@@ -353,11 +355,12 @@ def main():
             for k, v in r.items():
                 if isinstance(v, (int, float)):
                     t[k] = t.get(k, 0) + v
-    print("| scenes | words found | rows within 10 deg | mean error (deg) | events | false events | merged turns | purity | scenes without a row |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| scenes | words found | rows within 10 deg | mean error (deg) | rows inside their cone | events | false events | merged turns | purity | scenes without a row |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for f, r in totals.items():
         print(f"| {f} ({r['n']}) | {r['found']}/{r['words']} ({100 * r['found'] / max(1, r['words']):.0f}%) "
               f"| {100 * r['rows_ok'] / max(1, r['rows']):.1f}% of {r['rows']} | {r['err_sum'] / max(1, r['rows_ok']):.2f} "
+              f"| {100 * r['inside'] / max(1, r['rows']):.1f}% "
               f"| {r['events']} | {r['false_events']} | {r['merged']}/{r['pairs']} "
               f"| {r['purity_num'] / max(1, r['purity_den']):.2f} | {r['no_row']} |")
     print(f"\nwork: {work}", file=sys.stderr)

@@ -101,5 +101,6 @@ pub(crate) fn detection(
         peak_margin: margin,
         uncertainty_deg,
         rider: false,
+        span_s: 0.0,
     }
 }

@@ -44,6 +44,11 @@ pub struct Detection {
     /// down to [`Talkers::riders`](crate::method::Talkers::riders); a tracker only lets it add a row to a
     /// talking track (see [`track`](crate::track)).
     pub rider: bool,
+    /// Seconds from the centre of the first frame whose correlations gave the direction
+    /// to this one's (0: this frame's own; the frames averaged before it otherwise): the
+    /// direction is that span's, so a moving source's lags `span_s / 2` behind
+    /// [`Detection::time_s`], which the tracker's smoother takes out.
+    pub span_s: f64,
 }
 
 /// A frame's detections, strongest first (at most 4).
@@ -67,6 +72,14 @@ impl Detections {
             self.items[self.count] = d;
             self.count += 1;
         }
+    }
+
+    /// Every detection's [`Detection::span_s`] set to `span_s`.
+    pub(crate) fn spanning(mut self, span_s: f64) -> Self {
+        self.items[..self.count]
+            .iter_mut()
+            .for_each(|d| d.span_s = span_s);
+        self
     }
 
     /// How many.

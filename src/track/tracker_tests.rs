@@ -21,6 +21,7 @@ fn detection(frame: u64, azimuth: f64) -> Detection {
         peak_margin: 2.0,
         uncertainty_deg: 2.0,
         rider: false,
+        span_s: 0.0,
     }
 }
 

@@ -102,6 +102,7 @@ mod tests {
             peak_margin: 1.0,
             uncertainty_deg: 2.0,
             rider: false,
+            span_s: 0.0,
         }
     }
 

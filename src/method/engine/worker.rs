@@ -363,7 +363,13 @@ impl Worker {
         let averaged = if self.prune && bound < threshold {
             Outcome::BelowThreshold(false, bound / pairs, false)
         } else {
-            self.decide_over(setup, span, index, clock, floor)
+            match self.decide_over(setup, span, index, clock, floor) {
+                Outcome::Detected(found, budget) => {
+                    let span_s = (span.len() - 1) as f64 * setup.hop as f64 / setup.rate;
+                    Outcome::Detected(found.spanning(span_s), budget)
+                }
+                other => other,
+            }
         };
         if span.len() == 1 || state.correlated != Correlated::Yes {
             return averaged;
