@@ -6,7 +6,8 @@ Scenes are drawn from the seed given (rooms 5.5-9 x 4.5-7.5 x 2.6-3.4 m at RT60 
 SNR 0-20 dB over a fan and diffuse noise, four ARCTIC utterances in turn 1-3 m away at
 elevations -10 to 30 deg), rendered by `ssl simulate` for nine arrays (3-D, planar and
 linear, 4 to 8 microphones, 6.5 cm to 50 cm, 16 and 48 kHz) and analysed by `ssl analyze
---events` at its defaults. A row is scored against the talker speaking at its time (0.3 s
+--events` at its defaults, or with the options given after `--` (`-- --every-frame`: every
+frame's row, no events). A row is scored against the talker speaking at its time (0.3 s
 of reverberation after allowed), an event against the talkers speaking during it.
 
 Planar and linear arrays cannot tell a direction from its mirror image: the truth is taken

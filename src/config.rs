@@ -89,8 +89,8 @@ impl Config {
         }
     }
 
-    /// The best direction of every frame with sound, no threshold, no tracker (`ssl
-    /// analyze --every-frame`).
+    /// A direction for every frame with sound, no tracker; the threshold only sets the
+    /// cones (`ssl analyze --every-frame`).
     pub fn every_frame() -> Self {
         Config {
             every_frame: true,

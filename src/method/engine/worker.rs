@@ -380,9 +380,13 @@ impl Worker {
             // is the better evidence (an average over an onset spans the silence before
             // it). Under a threshold the average's own direction stands, as before.
             if self.steered_first && setup.params.steered == Steering::EveryFrame {
+                // The consistency search alone: without the steered response its grid
+                // search, whose answer would be dropped, is not made.
                 let own = &span[span.len() - 1..];
+                let steered = self.steered.take();
                 let consistent = self.decide_over(setup, own, index, clock, floor);
-                if !self.steered_first && matches!(consistent, Outcome::Detected(..)) {
+                self.steered = steered;
+                if matches!(consistent, Outcome::Detected(..)) {
                     return consistent;
                 }
             }
