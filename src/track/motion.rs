@@ -27,6 +27,26 @@ pub(super) const STILL_SPAN_S: f64 = 0.25;
 /// the gate follows slower talkers anyway.
 pub(super) const STILL_SPEED: f64 = 10.0 * std::f64::consts::PI / 180.0;
 
+/// A turn slower than [`STILL_SPEED`] is measured over spans of this long (seconds).
+pub(super) const SLOW_SPAN_S: f64 = 1.0;
+
+/// Over a [`SLOW_SPAN_S`], a track that has moved [`SLOW_TURN_SCATTERS`] times the
+/// scatter of its detections (the root mean square of their angles from where it was
+/// predicted), and at least this far (radians, 3 deg), turns, however slowly: a walker
+/// at 10 deg/s, measured over half a second only, read as still about half the time,
+/// and his track, predicted where he paused, split from him after a pause; a still
+/// talker's smoothed direction wanders less than that.
+pub(super) const SLOW_TURN: f64 = 3.0 * std::f64::consts::PI / 180.0;
+
+/// See [`SLOW_TURN`].
+pub(super) const SLOW_TURN_SCATTERS: f64 = 3.0;
+
+/// A track's scatter is averaged over about this many detections.
+const SCATTER_DETECTIONS: f64 = 20.0;
+
+/// A new track's scatter (radians, 5 deg) until its detections measure it.
+const SCATTER_START: f64 = 5.0 * std::f64::consts::PI / 180.0;
+
 /// A track is predicted at most this far past its last detection (seconds).
 const PREDICT_S: f64 = 1.0;
 
@@ -41,6 +61,13 @@ pub(super) struct Track {
     anchor: (Vector3<f64>, f64),
     /// Whether its velocity has been measured yet (over [`VELOCITY_SPAN_S`]).
     measured: bool,
+    /// Its direction and the time its slow turn was last measured from, and that turn
+    /// (zero unless it turned [`SLOW_TURN`] over [`SLOW_SPAN_S`]).
+    slow_anchor: (Vector3<f64>, f64),
+    slow_velocity: Vector3<f64>,
+    /// The mean square angle (radians^2) of its detections from where it was predicted,
+    /// over about [`SCATTER_DETECTIONS`] detections.
+    scatter: f64,
     /// Its evidence as a source heard in bursts, kept on after it was confirmed: a
     /// candidate at its place after a silence starts from it.
     pub bursts: Bursts,
@@ -62,6 +89,9 @@ impl Track {
             velocity: Vector3::zeros(),
             anchor: (direction, last_s),
             measured: false,
+            slow_anchor: (direction, last_s),
+            slow_velocity: Vector3::zeros(),
+            scatter: SCATTER_START.powi(2),
             bursts,
         }
     }
@@ -90,6 +120,8 @@ impl Track {
     /// and for a planar array (normal `plane`) about the normal only.
     pub fn update(&mut self, d: &Detection, max_speed: f64, plane: Option<Vector3<f64>>) {
         let predicted = self.predicted(d.time_s);
+        let off = predicted.angle(&d.direction);
+        self.scatter += (off * off - self.scatter) / SCATTER_DETECTIONS;
         // A candidate under the threshold moves a track by one frame's share, however
         // long the gap before it.
         let since = if d.margin >= 1.0 {
@@ -107,23 +139,28 @@ impl Track {
                 self.measured = true;
             }
         }
+        let (slow_from, slow_from_s) = self.slow_anchor;
+        let slow_span = d.time_s - slow_from_s;
+        if slow_span >= SLOW_SPAN_S {
+            let u = self.direction;
+            let slow_turn = (SLOW_TURN_SCATTERS * self.scatter.sqrt()).max(SLOW_TURN);
+            self.slow_velocity = if u.angle(&slow_from) >= slow_turn {
+                tangent(&u, (u - slow_from) / slow_span, plane)
+            } else {
+                Vector3::zeros()
+            };
+            self.slow_anchor = (u, d.time_s);
+            if self.velocity.norm() < STILL_SPEED {
+                self.velocity = self.slow_velocity;
+            }
+        }
         if span >= VELOCITY_SPAN_S {
             let u = self.direction;
-            let v = (u - from) / span;
-            let mut v = v - u * u.dot(&v);
-            // A planar array's elevations are rough: its tracks turn in its plane.
-            if let Some(n) = plane {
-                let along = n.cross(&u);
-                let norm = along.norm();
-                v = if norm > 1e-9 {
-                    along * (along.dot(&v) / (norm * norm))
-                } else {
-                    Vector3::zeros()
-                };
-            }
+            let v = tangent(&u, (u - from) / span, plane);
             let speed = v.norm();
             self.velocity = if speed < STILL_SPEED {
-                Vector3::zeros()
+                // Slower than a half-second span measures: the slow turn, if any.
+                self.slow_velocity
             } else if speed > max_speed {
                 v * (max_speed / speed)
             } else {
@@ -132,6 +169,25 @@ impl Track {
             self.anchor = (u, d.time_s);
             self.measured = true;
         }
+    }
+}
+
+/// Velocity `v` at direction `u` made tangent to the sphere there, and for a planar
+/// array (normal `plane`) about the normal only: its elevations are rough, so its
+/// tracks turn in its plane.
+fn tangent(u: &Vector3<f64>, v: Vector3<f64>, plane: Option<Vector3<f64>>) -> Vector3<f64> {
+    let v = v - u * u.dot(&v);
+    match plane {
+        Some(n) => {
+            let along = n.cross(u);
+            let norm = along.norm();
+            if norm > 1e-9 {
+                along * (along.dot(&v) / (norm * norm))
+            } else {
+                Vector3::zeros()
+            }
+        }
+        None => v,
     }
 }
 

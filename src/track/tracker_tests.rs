@@ -212,6 +212,44 @@ fn a_turning_talker_is_followed_through_a_pause() {
     assert!(rows.iter().all(|r| r.1 == 1));
 }
 
+/// A walker turning at 9 deg/s, under the half-second turn's threshold, who talks for
+/// 1.2 s and pauses for 2 s (18 deg on, further than a still track's gate widens): his
+/// turn is measured over a longer span, and his track carries him through the pauses
+/// (before, each stretch was a new track). A still talker whose directions scatter by
+/// 6 deg over the same times is not taken as turning: one track each.
+#[test]
+fn a_slow_walker_is_followed_through_a_pause() {
+    let talking = |f: usize| (f % 320) < 120;
+    let walker: Vec<Vec<f64>> = (0..760)
+        .map(|f| {
+            if talking(f) {
+                vec![-40.0 + 9.0 * f as f64 * HOP]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let (rows, _) = track(&walker);
+    assert!(rows.len() > 300, "{}", rows.len());
+    assert!(
+        rows.iter().all(|r| r.1 == 1),
+        "{:?}",
+        rows.iter().map(|r| r.1).collect::<Vec<_>>()
+    );
+    let still: Vec<Vec<f64>> = (0..760)
+        .map(|f| {
+            if talking(f) {
+                vec![20.0 + 6.0 * ((f * 7919) % 13) as f64 / 12.0 - 3.0]
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let (rows, _) = track(&still);
+    assert!(rows.len() > 300);
+    assert!(rows.iter().all(|r| r.1 == 1));
+}
+
 #[test]
 fn two_sources_in_the_same_frames_get_one_row_each() {
     let frames: Vec<Vec<f64>> = (0..100).map(|_| vec![10.0, 70.0]).collect();
