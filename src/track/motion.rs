@@ -28,7 +28,7 @@ pub(super) const STILL_SPAN_S: f64 = 0.25;
 pub(super) const STILL_SPEED: f64 = 10.0 * std::f64::consts::PI / 180.0;
 
 /// A turn slower than [`STILL_SPEED`] is measured over spans of this long (seconds).
-pub(super) const SLOW_SPAN_S: f64 = 1.0;
+const SLOW_SPAN_S: f64 = 1.0;
 
 /// Over a [`SLOW_SPAN_S`], a track that has moved [`SLOW_TURN_SCATTERS`] times the
 /// scatter of its detections (the root mean square of their angles from where it was
@@ -36,10 +36,10 @@ pub(super) const SLOW_SPAN_S: f64 = 1.0;
 /// at 10 deg/s, measured over half a second only, read as still about half the time,
 /// and his track, predicted where he paused, split from him after a pause; a still
 /// talker's smoothed direction wanders less than that.
-pub(super) const SLOW_TURN: f64 = 3.0 * std::f64::consts::PI / 180.0;
+const SLOW_TURN: f64 = 3.0 * std::f64::consts::PI / 180.0;
 
 /// See [`SLOW_TURN`].
-pub(super) const SLOW_TURN_SCATTERS: f64 = 3.0;
+const SLOW_TURN_SCATTERS: f64 = 3.0;
 
 /// A track's scatter is averaged over about this many detections.
 const SCATTER_DETECTIONS: f64 = 20.0;
