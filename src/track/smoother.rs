@@ -28,6 +28,15 @@ use std::collections::VecDeque;
 /// How far back (seconds) a track's rows give the rate at which its direction turns.
 const TURN_S: f64 = 1.0;
 
+/// A turn under the tracker's [`STILL_SPEED`] turns rows when it is at least
+/// [`SLOW_TURNS_SE`] standard errors of the rows' slope, and at least [`MIN_TURN`]
+/// (radians per second, 2 deg/s): on the prism a walker at 10 deg/s was otherwise
+/// smoothed as still, his rows 0.4 deg behind and outside their 0.8 deg cones.
+const SLOW_TURNS_SE: f64 = 4.0;
+
+/// See [`SLOW_TURNS_SE`].
+const MIN_TURN: f64 = 2.0 * std::f64::consts::PI / 180.0;
+
 /// `u` turned by `turn` (an angular velocity) for `dt` seconds (Rodrigues' formula).
 fn turned(u: &Vector3<f64>, turn: &Vector3<f64>, dt: f64) -> Vector3<f64> {
     let rate = turn.norm();
@@ -95,7 +104,8 @@ impl Smoother {
     /// span for a turn), or when it is under the tracker's [`STILL_SPEED`].
     fn turn(&self, source: u64, t: f64) -> Vector3<f64> {
         let mut count = 0.0;
-        let (mut st, mut stt) = (0.0, 0.0);
+        let (mut st, mut stt, mut span) = (0.0, 0.0, 0.0);
+        let (mut last, mut step) = (f64::NAN, f64::INFINITY);
         let (mut su, mut stu) = (Vector3::zeros(), Vector3::zeros());
         for r in self.rows.iter().filter(|r| {
             r.source == Some(source)
@@ -104,6 +114,11 @@ impl Smoother {
         }) {
             let (dt, own) = (r.detection.time_s - t, &r.detection.direction);
             count += 1.0;
+            span += r.detection.span_s;
+            if dt > last {
+                step = step.min(dt - last);
+            }
+            last = dt;
             st += dt;
             stt += dt * dt;
             su += own;
@@ -123,8 +138,33 @@ impl Smoother {
         let middle = su.normalize();
         let turn = middle.cross(&slope);
         let rate = turn.norm();
-        if !rate.is_finite() || rate < STILL_SPEED {
+        if !rate.is_finite() {
             return Vector3::zeros();
+        }
+        if rate < STILL_SPEED {
+            // A slower turn counts when the rows' slope stands out of their scatter.
+            let (mean_u, mut residual) = (su / count, 0.0);
+            for r in self.rows.iter().filter(|r| {
+                r.source == Some(source)
+                    && r.detection.time_s >= t - TURN_S
+                    && r.detection.time_s <= t + self.half_s
+            }) {
+                let dt = r.detection.time_s - t - mean_t;
+                residual += (r.detection.direction - mean_u - slope * dt).norm_squared();
+            }
+            // Rows share frames: a row heard over a span is that span's frames' average
+            // (six at the defaults), so the rows tell as much as a sixth as many
+            // independent ones would.
+            let frames_per_row = if step.is_finite() {
+                1.0 + span / count / step
+            } else {
+                1.0
+            };
+            let spread = (residual / count / 2.0).max(0.0);
+            let se = (spread * frames_per_row / (count * var_t)).sqrt();
+            if rate < SLOW_TURNS_SE * se || rate < MIN_TURN {
+                return Vector3::zeros();
+            }
         }
         turn
     }
@@ -365,6 +405,51 @@ mod tests {
         }
         assert!(worst_plain > 2.0, "{worst_plain}");
         assert!(worst < 0.3, "{worst}");
+    }
+
+    #[test]
+    fn a_slow_walker_is_turned_and_a_still_talkers_scatter_is_not() {
+        // 6 deg/s, under the tracker's turn, in bursts, its rows scattered by 0.5 deg:
+        // the rows' slope stands out of their scatter, so each row is turned to its
+        // time (the plain mean lags at the bursts' edges).
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let truth = |t: f64| unit_from_angles(-60.0 + 6.0 * t, 5.0);
+        let rows: Vec<Tracked> = (0..800)
+            .map(|k| k as f64 * 0.008)
+            .filter(|t| t % 0.9 < 0.6)
+            .map(|t| {
+                let u = truth(t)
+                    + Vector3::new(
+                        rng.random_range(-0.005..0.005),
+                        rng.random_range(-0.005..0.005),
+                        rng.random_range(-0.005..0.005),
+                    );
+                row(t, u.normalize(), Some(1))
+            })
+            .collect();
+        let plain = brute_force(0.2, &rows);
+        let out = smooth_all(0.2, &rows);
+        let (mut err_plain, mut err, mut n) = (0.0, 0.0, 0.0);
+        for ((o, r), p) in out.iter().zip(&rows).zip(&plain) {
+            if r.detection.time_s < 0.9 {
+                continue;
+            }
+            let want = truth(r.detection.time_s);
+            err_plain += angle_between_deg(p, &want);
+            err += angle_between_deg(&o.detection.direction, &want);
+            n += 1.0;
+        }
+        assert!(err < 0.7 * err_plain, "{} {}", err / n, err_plain / n);
+        // A still talker scattered by 4 deg is smoothed by the plain mean: its slope
+        // does not stand out.
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        assert_eq!(
+            smooth_all(0.2, &two_talkers(&mut rng))
+                .iter()
+                .map(|r| r.detection.direction)
+                .collect::<Vec<_>>(),
+            brute_force(0.2, &two_talkers(&mut ChaCha8Rng::seed_from_u64(7)))
+        );
     }
 
     #[test]
