@@ -35,9 +35,22 @@ pub(super) struct Candidate {
     pub heard: u64,
     pub first_s: f64,
     pub best_nats: f64,
+    /// The tracks that took a detection in a frame that gave it one, with how many such
+    /// frames (see `Tracker::confirm`).
+    pub together: Vec<(u64, u64)>,
 }
 
 impl Candidate {
+    /// The mean of its detections' [`Detection::uncertainty_deg`] (0 with none).
+    pub fn uncertainty_deg(&self) -> f64 {
+        let n = self.hits.len().max(1) as f64;
+        self.hits
+            .iter()
+            .map(|(_, d)| d.uncertainty_deg)
+            .sum::<f64>()
+            / n
+    }
+
     /// What it tells of its place if it is dropped unconfirmed (`needed_nats`: what a
     /// source needs, with the evidence test).
     pub fn as_place(&self, needed_nats: Option<f64>) -> FaintPlace {

@@ -86,6 +86,16 @@ impl Accumulator {
         self.start_s
     }
 
+    /// The mean of its detections' [`Detection::uncertainty_deg`] so far.
+    pub fn uncertainty_deg(&self) -> f64 {
+        self.uncertainty / self.count as f64
+    }
+
+    /// The mean direction of its detections so far.
+    pub fn direction(&self) -> Vector3<f64> {
+        self.sum.try_normalize(1e-12).unwrap_or(self.last)
+    }
+
     /// Adds `d` (detections may come out of order: a candidate's, once confirmed).
     pub fn add(&mut self, d: &Detection) {
         if d.time_s < self.start_s {

@@ -49,6 +49,12 @@ const STILL_WANDER_DEG: f64 = 3.0;
 /// (72% -> 52%).
 const WEAK_WIDENING: f64 = 1.5;
 
+/// A candidate heard in the same frames as a track in more than this share of its
+/// frames is another source than that track, however close (see [`Tracker::confirm`]):
+/// one source gives two detections in a frame only when they are more than
+/// `frame_sources::SEPARATION_DEG` apart, which its scatter rarely reaches.
+const TOGETHER_SHARE: f64 = 0.1;
+
 /// The defaults a tracker assumes before it is told the recording's looks
 /// ([`Tracker::looking`]): 6 hops of 512 samples at 48 kHz, candidates down to 0.4.
 const DEFAULT_LOOK_S: f64 = 0.064;
@@ -100,7 +106,7 @@ pub struct Tracker {
     evidence: Evidence,
     clutter: Clutter,
     spread_deg: f64,
-    /// Whether the array is volumetric (see [`WEAK_WIDENING`]).
+    /// Whether the array is volumetric (see [`WEAK_WIDENING`] and [`Tracker::confirm`]).
     volumetric: bool,
     /// Until then (seconds) candidates under the threshold tell nothing (see
     /// [`Tracker::looking`]).
@@ -290,8 +296,9 @@ impl Tracker {
         taken.clear();
         self.associate(time_s, detections, frame, &mut used, &mut taken);
         self.ride(time_s, detections, &mut used, &mut taken);
-        self.taken = taken;
         self.start(time_s, detections, frame, &mut used);
+        self.heard_together(&used, &taken);
+        self.taken = taken;
         // Rows wait in the frame's order of its detections.
         for (d, slot) in detections.iter().zip(&used) {
             if let Some(slot) = *slot {
@@ -405,6 +412,25 @@ impl Tracker {
         self.pairs = pairs;
     }
 
+    /// Notes, for each candidate that took one of the frame's detections (`used`), the
+    /// tracks that took another (`taken`).
+    fn heard_together(&mut self, used: &[Option<Slot>], taken: &[(bool, u64)]) {
+        for slot in used.iter().flatten() {
+            let Slot::Candidate(key, _) = *slot else {
+                continue;
+            };
+            let Some(c) = self.candidates.iter_mut().find(|c| c.key == key) else {
+                continue;
+            };
+            for &(_, id) in taken.iter().filter(|(track, _)| *track) {
+                match c.together.iter_mut().find(|(t, _)| *t == id) {
+                    Some((_, n)) => *n += 1,
+                    None => c.together.push((id, 1)),
+                }
+            }
+        }
+    }
+
     /// The detections nothing took start candidates, unless they are riders or a live
     /// track's outliers.
     fn start(
@@ -457,6 +483,7 @@ impl Tracker {
                 heard: 0,
                 first_s: d.time_s,
                 best_nats: f64::NEG_INFINITY,
+                together: Vec::new(),
             });
             *placed = Some(self.join(d, Slot::Candidate(key, 0), frame));
         }
@@ -587,16 +614,36 @@ impl Tracker {
             self.stats.reflections += c.hits.len() as u64;
             return;
         }
+        // A track in a stretch of activity is the candidate's source when the two (the
+        // track where it is predicted or its detections' mean) lie within their cones
+        // combined (the array cannot tell them apart), even beyond its gate: a talker on
+        // a 5.7 cm tetrahedron at 16 kHz scatters by 5-10 deg, and his words' detections
+        // 12-19 deg from his track confirmed a second one beside it. Not a track heard in the same frames as the candidate (two talkers at
+        // once, which the frames tell apart), and only on a volumetric array: a planar
+        // array's cone is mostly its elevation's uncertainty, which association weighs
+        // little (two talkers 30 deg apart on the 6-mic circle at once were taken as
+        // one), and a linear array's holds the circle around its axis.
+        let cone = c.uncertainty_deg();
         let near = self
             .tracks
             .iter()
             .enumerate()
-            .map(|(i, t)| (i, self.distance(&c.direction, &t.predicted(now)), t))
-            .filter(|(_, angle, t)| *angle <= self.track_gate(t, now))
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(i, _, _)| i);
+            .filter_map(|(i, t)| {
+                let angle = self.distance(&c.direction, &t.predicted(now));
+                let in_gate = angle <= self.track_gate(t, now);
+                let same = self.volumetric
+                    && t.event.as_ref().is_some_and(|e| {
+                        let together = c.together.iter().find(|(id, _)| *id == t.id);
+                        let together = together.map_or(0, |&(_, n)| n) as f64;
+                        let mean = self.distance(&c.direction, &e.direction());
+                        angle.min(mean) <= e.uncertainty_deg().hypot(cone)
+                            && together < TOGETHER_SHARE * c.heard as f64
+                    });
+                (in_gate || same).then_some((i, angle, in_gate))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
         let id = match near {
-            Some(i) => {
+            Some((i, _, in_gate)) => {
                 let t = &mut self.tracks[i];
                 for (_, d) in &c.hits {
                     match t.event.as_mut() {
@@ -604,11 +651,11 @@ impl Tracker {
                         None => t.event = Some(Accumulator::new(d)),
                     }
                 }
-                t.direction = if t.last_s > c.last_s {
-                    t.direction
-                } else {
-                    c.direction
-                };
+                // A track taken up where the candidate is heard; one whose scatter the
+                // candidate was stays where it is.
+                if in_gate && t.last_s <= c.last_s {
+                    t.direction = c.direction;
+                }
                 t.last_s = t.last_s.max(c.last_s);
                 t.bursts = c.bursts;
                 t.id
