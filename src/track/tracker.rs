@@ -49,8 +49,8 @@ const STILL_WANDER_DEG: f64 = 3.0;
 /// (72% -> 52%).
 const WEAK_WIDENING: f64 = 1.5;
 
-/// A candidate heard in the same frames as a track in more than this share of its
-/// frames is another source than that track, however close (see [`Tracker::confirm`]):
+/// A candidate heard in the same frames as a track in this share of its frames or more
+/// is another source than that track, however close (see [`Tracker::confirm`]):
 /// one source gives two detections in a frame only when they are more than
 /// `frame_sources::SEPARATION_DEG` apart, which its scatter rarely reaches.
 const TOGETHER_SHARE: f64 = 0.1;
@@ -618,11 +618,12 @@ impl Tracker {
         // track where it is predicted or its detections' mean) lie within their cones
         // combined (the array cannot tell them apart), even beyond its gate: a talker on
         // a 5.7 cm tetrahedron at 16 kHz scatters by 5-10 deg, and his words' detections
-        // 12-19 deg from his track confirmed a second one beside it. Not a track heard in the same frames as the candidate (two talkers at
-        // once, which the frames tell apart), and only on a volumetric array: a planar
-        // array's cone is mostly its elevation's uncertainty, which association weighs
-        // little (two talkers 30 deg apart on the 6-mic circle at once were taken as
-        // one), and a linear array's holds the circle around its axis.
+        // 12-19 deg from his track confirmed a second one beside it. Not a track heard
+        // in the same frames as the candidate (two talkers at once, which the frames
+        // tell apart), and only on a volumetric array: a planar array's cone is mostly
+        // its elevation's uncertainty, which association weighs little (two talkers 30
+        // deg apart on the 6-mic circle at once were taken as one), and a linear
+        // array's holds the circle around its axis.
         let cone = c.uncertainty_deg();
         let near = self
             .tracks
