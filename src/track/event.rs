@@ -115,11 +115,7 @@ impl Accumulator {
     pub fn finish(&self, source: u64) -> Event {
         let n = self.count as f64;
         let resultant = self.sum.norm() / n;
-        let direction = if self.sum.norm() > 0.0 {
-            self.sum / self.sum.norm()
-        } else {
-            Vector3::x()
-        };
+        let direction = self.direction();
         Event {
             source,
             start_s: self.start_s,
@@ -130,7 +126,7 @@ impl Accumulator {
             score: self.score / n,
             start_direction: self.first,
             end_direction: self.last,
-            uncertainty_deg: self.uncertainty / n,
+            uncertainty_deg: self.uncertainty_deg(),
         }
     }
 }

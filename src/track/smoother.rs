@@ -142,16 +142,10 @@ impl Smoother {
             return Vector3::zeros();
         }
         if rate < STILL_SPEED {
-            // A slower turn counts when the rows' slope stands out of their scatter.
-            let (mean_u, mut residual) = (su / count, 0.0);
-            for r in self.rows.iter().filter(|r| {
-                r.source == Some(source)
-                    && r.detection.time_s >= t - TURN_S
-                    && r.detection.time_s <= t + self.half_s
-            }) {
-                let dt = r.detection.time_s - t - mean_t;
-                residual += (r.detection.direction - mean_u - slope * dt).norm_squared();
-            }
+            // A slower turn counts when the rows' slope stands out of their scatter: their
+            // residual from the line, the rows being unit vectors (squares summing to
+            // `count`).
+            let residual = count - su.norm_squared() / count - slope.norm_squared() * count * var_t;
             // Rows share frames: a row heard over a span is that span's frames' average
             // (six at the defaults), so the rows tell as much as a sixth as many
             // independent ones would.
