@@ -23,7 +23,6 @@ the same audio of each talker's turns, the azimuth error of pyroomacoustics' SRP
 Needs numpy, scipy and pyroomacoustics (pip install numpy scipy pyroomacoustics).
 """
 
-import argparse
 import json
 import math
 import os
@@ -43,21 +42,12 @@ TAIL_S = 0.3
 FOUND_DEG = 10.0
 
 
-def circle(k, r):
-    return [[r * math.cos(2 * math.pi * i / k), r * math.sin(2 * math.pi * i / k), 0.0] for i in range(k)]
-
-
-def tetrahedron(edge):
-    a = edge / (2 * math.sqrt(2))
-    return [[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]]
-
-
 # name -> (positions, planar)
 ARRAYS = {
-    "tetrahedron, 4 mics, 5.7 cm": (tetrahedron(0.057), False),
-    "circle, 6 mics, r 4.63 cm": (circle(6, 0.0463), True),
-    "square, 4 mics, 4.57 cm": (circle(4, 0.0457 / math.sqrt(2)), True),
-    "circle, 8 mics, r 15 cm": (circle(8, 0.15), True),
+    "tetrahedron, 4 mics, 5.7 cm": (W.tetrahedron(0.057), False),
+    "circle, 6 mics, r 4.63 cm": (W.circle(6, 0.0463), True),
+    "square, 4 mics, 4.57 cm": (W.circle(4, 0.0457 / math.sqrt(2)), True),
+    "circle, 8 mics, r 15 cm": (W.circle(8, 0.15), True),
 }
 
 
@@ -133,25 +123,7 @@ def render(seed, mics_local, low, other):
         r.add_microphone_array(centre[:, None] + np.array(mics_local).T)
         return r
 
-    speech = np.zeros((n, len(mics_local)))
-    truth = []
-    for k, (az, el, p) in enumerate(talkers):
-        dry = np.zeros(n)
-        spans = []
-        for kk, start, x in sched:
-            if kk == k:
-                s = int(start * RATE)
-                dry[s:s + len(x)] += x / (np.std(x) + 1e-12)
-                spans.append((start, start + len(x) / RATE))
-        r = room()
-        r.add_source(p, signal=dry)
-        r.simulate()
-        img = r.mic_array.signals[:, :n].T
-        mask = np.zeros(n, bool)
-        for a, b in spans:
-            mask[int(a * RATE):int(b * RATE)] = True
-        speech += img / math.sqrt(np.mean(img[mask] ** 2))
-        truth.append(((p - centre) / np.linalg.norm(p - centre), spans))
+    speech, truth = W.talkers_heard(room, [p for _, _, p in talkers], sched, n, RATE, centre)
     fan = np.array([rng.choice([0.4, dims[0] - 0.4]), rng.choice([0.4, dims[1] - 0.4]), dims[2] - 0.3])
     r = room()
     lead = int(0.5 * RATE)
@@ -212,30 +184,16 @@ def one(ssl, seed, k, name, work, low, other, extra):
         audio, truth, info = render(seed, mics, low, other)
         W.write_wav(wav, audio, RATE)
         info["srp_az"] = [srp(audio, mics, spans, planar) for _, spans in truth]
-        with open(geo, "w") as f:
-            f.write(f"name = \"{name}\"\n")
-            for q in mics:
-                f.write(f"[[mic]]\nposition = [{q[0]:.6f}, {q[1]:.6f}, {q[2]:.6f}]\n")
-        with open(tpath, "w") as f:
-            json.dump({"info": info, "talkers": [{"u": list(u), "spans": s} for u, s in truth]}, f)
-    with open(tpath) as f:
-        doc = json.load(f)
-    truth = [(np.array(t["u"]), [tuple(s) for s in t["spans"]]) for t in doc["talkers"]]
+        W.save_scene(geo, tpath, name, mics, info, truth)
+    truth, info = W.load_scene(tpath)
     rows, events, _ = W.run_ssl(ssl, wav, geo, extra)
     per, false = score(truth, rows, events)
-    srp_err = [az_diff(a, az_of(u)) for a, (u, _) in zip(doc["info"]["srp_az"], truth)]
-    return per, false, len(events), srp_err, doc["info"]
+    srp_err = [az_diff(a, az_of(u)) for a, (u, _) in zip(info["srp_az"], truth)]
+    return per, false, len(events), srp_err, info
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--ssl", default=os.path.join(W.REPO, "target", "release", "ssl"))
-    ap.add_argument("--seed", type=int, default=100)
-    ap.add_argument("--scenes", type=int, default=4)
-    ap.add_argument("--work", default=None, help="keep the rendered scenes here (reused)")
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--per-scene", action="store_true")
-    ap.add_argument("extra", nargs="*", help="arguments for ssl analyze")
+    ap = W.scenes_parser()
     args = ap.parse_args()
     low, other = voices()
     work = args.work or tempfile.mkdtemp(prefix="ssl-voices-")

@@ -107,6 +107,47 @@ def cut_phrases(x, rate):
     return cut_words(x, rate, 0.4, 1.2)
 
 
+def circle(k, r):
+    """`k` microphones evenly on a horizontal circle of radius `r` (metres)."""
+    return [[r * math.cos(2 * math.pi * i / k), r * math.sin(2 * math.pi * i / k), 0.0] for i in range(k)]
+
+
+def tetrahedron(edge):
+    """A regular tetrahedron of side `edge` (metres) around the origin."""
+    a = edge / (2 * math.sqrt(2))
+    return [[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]]
+
+
+def save_scene(geometry, truth_path, name, mics, info, truth):
+    """A rendered scene's geometry file and truth (`info` and [(unit vector, spans)])."""
+    with open(geometry, "w") as f:
+        f.write(f"name = \"{name}\"\n")
+        for q in mics:
+            f.write(f"[[mic]]\nposition = [{q[0]:.6f}, {q[1]:.6f}, {q[2]:.6f}]\n")
+    with open(truth_path, "w") as f:
+        json.dump({"info": info, "talkers": [{"u": list(u), "spans": s} for u, s in truth]}, f)
+
+
+def load_scene(truth_path):
+    """What `save_scene` wrote: ([(unit vector, [(start, end)])], info)."""
+    with open(truth_path) as f:
+        doc = json.load(f)
+    return [(np.array(t["u"]), [tuple(s) for s in t["spans"]]) for t in doc["talkers"]], doc["info"]
+
+
+def scenes_parser():
+    """The options of a benchmark over rendered scenes (`benches/voices.py`, `benches/cones.py`)."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--ssl", default=os.path.join(REPO, "target", "release", "ssl"))
+    ap.add_argument("--seed", type=int, default=100)
+    ap.add_argument("--scenes", type=int, default=4)
+    ap.add_argument("--work", default=None, help="keep the rendered scenes here (reused)")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--per-scene", action="store_true")
+    ap.add_argument("extra", nargs="*", help="arguments for ssl analyze")
+    return ap
+
+
 def unit(az, el):
     a, e = math.radians(az), math.radians(el)
     return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
@@ -134,6 +175,32 @@ def pink(n, rng):
 
 def inside(dims, p, margin=0.3):
     return all(margin < p[i] < dims[i] - margin for i in range(3))
+
+
+def talkers_heard(room, places, sched, n, rate, centre):
+    """Each talker's turns (`sched`: (talker, start s, samples)) through a fresh `room()`,
+    each scaled to unit mean power over its own turns, summed: (samples x mics, [(unit
+    vector from `centre`, [(start, end)])])."""
+    speech, truth = None, []
+    for k, p in enumerate(places):
+        dry = np.zeros(n)
+        spans = []
+        for kk, start, x in sched:
+            if kk == k:
+                s = int(start * rate)
+                dry[s:s + len(x)] += x / (np.std(x) + 1e-12)
+                spans.append((start, start + len(x) / rate))
+        r = room()
+        r.add_source(p, signal=dry)
+        r.simulate()
+        img = r.mic_array.signals[:, :n].T
+        mask = np.zeros(n, bool)
+        for a, b in spans:
+            mask[int(a * rate):int(b * rate)] = True
+        img = img / math.sqrt(np.mean(img[mask] ** 2))
+        speech = img if speech is None else speech + img
+        truth.append(((p - centre) / np.linalg.norm(p - centre), spans))
+    return speech, truth
 
 
 def draw_place(rng, dims, centre, dist, az=None, el=None):

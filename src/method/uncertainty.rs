@@ -31,13 +31,13 @@ use nalgebra::{Matrix3, Vector2, Vector3};
 
 /// The timing error (seconds, standard deviation per microphone) the residual cannot
 /// see: reflections shift every pair's peak alike, which no plane wave's misfit shows.
-pub(crate) const FLOOR_S: f64 = 5e-6;
+pub(crate) const FLOOR_S: f64 = 6e-6;
 /// The timing error (seconds) of a detection with no fit of its own (a rider).
 pub(crate) const NO_FIT_S: f64 = 20e-6;
 /// The fraction by which the delays of an array much smaller than a correlation peak may
 /// all shrink together: the floor's and ceiling's images fall within the direct sound's
 /// peak and pull every delay toward theirs (docs/method.md, "Uncertainty").
-pub(crate) const MERGE_SHARE: f64 = 0.08;
+pub(crate) const MERGE_SHARE: f64 = 0.2;
 /// The width (seconds) of a speech correlation peak, over which images merge with the
 /// direct sound: an array of this aperture keeps `exp(-1)` of [`MERGE_SHARE`].
 pub(crate) const PEAK_S: f64 = 0.5e-3;

@@ -8,7 +8,9 @@
 //! track's neighbouring rows is nearer the talker (docs/tracking.md). Speech comes in
 //! bursts, so the window is often one-sided, where a moving talker's mean lags: the
 //! turn, the least-squares slope of the track's rows over the last second, is taken out
-//! first (when they span half a second and it is at least the tracker's 10 deg/s). Each
+//! first (when they span half a second and it is at least the tracker's 10 deg/s, or
+//! when it stands four standard errors out of their scatter: a slower turn, or a
+//! talker's first words before half a second of rows). Each
 //! row's direction is that of the frames averaged up to it
 //! ([`Detection::span_s`](crate::method::Detection::span_s)), centred half their span
 //! before it: turned by that much too, a talker walking at 30 deg/s is no longer placed
@@ -99,9 +101,10 @@ impl Smoother {
 
     /// How `source`'s direction turns around `t` (an angular velocity: its axis, and its
     /// length in radians per second), from the least-squares slope of its rows from
-    /// [`TURN_S`] before `t` to the half window after it; none when they
-    /// spread over less than rows spread evenly over [`VELOCITY_SPAN_S`] (the tracker's
-    /// span for a turn), or when it is under the tracker's [`STILL_SPEED`].
+    /// [`TURN_S`] before `t` to the half window after it. When they spread over less
+    /// than rows spread evenly over [`VELOCITY_SPAN_S`] (the tracker's span for a turn),
+    /// or it is under the tracker's [`STILL_SPEED`], only a turn that stands
+    /// [`SLOW_TURNS_SE`] standard errors out of the rows' scatter counts.
     fn turn(&self, source: u64, t: f64) -> Vector3<f64> {
         let mut count = 0.0;
         let (mut st, mut stt, mut span) = (0.0, 0.0, 0.0);
@@ -129,9 +132,12 @@ impl Smoother {
         }
         let mean_t = st / count;
         let var_t = stt / count - mean_t * mean_t;
-        if var_t < VELOCITY_SPAN_S * VELOCITY_SPAN_S / 12.0 {
+        if var_t <= 0.0 {
             return Vector3::zeros();
         }
+        // Rows over less than the tracker's span (a talker's first words, or his first
+        // after a pause) turn them only when their slope stands out of their scatter.
+        let short = var_t < VELOCITY_SPAN_S * VELOCITY_SPAN_S / 12.0;
         let slope = (stu / count - su / count * mean_t) / var_t;
         // As a rotation: the rows' arc is curved, and a slope taken at their middle
         // points off the tangent at `t` by half the angle turned.
@@ -141,7 +147,7 @@ impl Smoother {
         if !rate.is_finite() {
             return Vector3::zeros();
         }
-        if rate < STILL_SPEED {
+        if rate < STILL_SPEED || short {
             // A slower turn counts when the rows' slope stands out of their scatter: their
             // residual from the line, the rows being unit vectors (squares summing to
             // `count`).
@@ -444,6 +450,45 @@ mod tests {
                 .collect::<Vec<_>>(),
             brute_force(0.2, &two_talkers(&mut ChaCha8Rng::seed_from_u64(7)))
         );
+    }
+
+    #[test]
+    fn a_walkers_first_words_are_turned_before_half_a_second_of_rows() {
+        // 30 deg/s, 0.4 s of rows scattered by 0.3 deg (a prism's): the window is
+        // one-sided at the first rows, and its plain mean leads them by up to 3 deg; the
+        // rows' slope stands out of their scatter, so each is turned to its time.
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let truth = |t: f64| unit_from_angles(30.0 * t, 5.0);
+        let rows: Vec<Tracked> = (0..38)
+            .map(|k| {
+                let t = k as f64 * 0.0107;
+                let u = truth(t)
+                    + Vector3::new(
+                        rng.random_range(-0.003..0.003),
+                        rng.random_range(-0.003..0.003),
+                        rng.random_range(-0.003..0.003),
+                    );
+                let mut r = row(t, u.normalize(), Some(1));
+                r.detection.uncertainty_deg = 1.0;
+                r
+            })
+            .collect();
+        let plain = brute_force(0.2, &rows);
+        let out = smooth_all(0.2, &rows);
+        let (mut worst_plain, mut worst) = (0.0f64, 0.0f64);
+        for ((o, r), p) in out.iter().zip(&rows).zip(&plain) {
+            let want = truth(r.detection.time_s);
+            worst_plain = worst_plain.max(angle_between_deg(p, &want));
+            let err = angle_between_deg(&o.detection.direction, &want);
+            assert!(
+                err <= o.detection.uncertainty_deg,
+                "{} s: {err} deg",
+                r.detection.time_s
+            );
+            worst = worst.max(err);
+        }
+        assert!(worst_plain > 2.0, "{worst_plain}");
+        assert!(worst < 0.5, "{worst}");
     }
 
     #[test]
