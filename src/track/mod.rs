@@ -75,6 +75,7 @@ pub(crate) mod faint;
 pub(crate) mod image;
 mod motion;
 mod output;
+mod slope;
 pub mod smoother;
 mod tracker;
 

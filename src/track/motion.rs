@@ -4,8 +4,9 @@
 
 use super::event::Accumulator;
 use super::evidence::Bursts;
+use super::slope::Slope;
 use crate::method::Detection;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 /// How much of a new detection a track's direction takes.
 const SMOOTHING: f64 = 0.3;
@@ -80,93 +81,7 @@ pub(super) struct Track {
     pub bursts: Bursts,
     /// Its detections since the velocity was last measured, for the least-squares
     /// slope that tells whether the measured turn stands out of their scatter.
-    fit: Fit,
-}
-
-/// Sums for the least-squares slope of a track's detections over time (times from the
-/// first one's).
-#[derive(Clone, Copy, Debug, Default)]
-struct Fit {
-    n: f64,
-    t0: Option<f64>,
-    st: f64,
-    stt: f64,
-    su: Vector3<f64>,
-    stu: Vector3<f64>,
-    suu: Matrix3<f64>,
-    /// The detections' spans summed, the last one's time, and the smallest step between
-    /// two (rows that share frames tell less than as many independent ones).
-    span: f64,
-    last: f64,
-    step: f64,
-}
-
-impl Fit {
-    fn add(&mut self, d: &Detection) {
-        let t0 = *self.t0.get_or_insert(d.time_s);
-        let t = d.time_s - t0;
-        if self.n > 0.0 && t > self.last {
-            self.step = if self.step > 0.0 {
-                self.step.min(t - self.last)
-            } else {
-                t - self.last
-            };
-        }
-        self.last = t;
-        self.n += 1.0;
-        self.st += t;
-        self.stt += t * t;
-        self.su += d.direction;
-        self.stu += d.direction * t;
-        self.suu += d.direction * d.direction.transpose();
-        self.span += d.span_s;
-    }
-
-    /// Whether the slope, made tangent at `u` (about `plane`'s normal for a planar
-    /// array), is at least `k` of its standard errors.
-    fn slope_stands(&self, u: &Vector3<f64>, plane: Option<Vector3<f64>>, k: f64) -> bool {
-        let n = self.n;
-        if n < 3.0 {
-            return false;
-        }
-        let mean_t = self.st / n;
-        let var_t = self.stt / n - mean_t * mean_t;
-        if var_t <= 0.0 {
-            return false;
-        }
-        let mean_u = self.su / n;
-        let slope = (self.stu / n - mean_u * mean_t) / var_t;
-        // The residuals across `u`: along its turn in the plane for a planar array
-        // (whose angle out of it scatters more and is not turned), else both ways.
-        let (axes, count) = match plane {
-            Some(normal) => match normal.cross(u).try_normalize(1e-9) {
-                Some(along) => ([along, Vector3::zeros()], 1),
-                None => return false,
-            },
-            None => {
-                let a = u
-                    .cross(&Vector3::z())
-                    .try_normalize(1e-9)
-                    .unwrap_or_else(Vector3::x);
-                ([a, u.cross(&a)], 2)
-            }
-        };
-        let rss: f64 = axes[..count]
-            .iter()
-            .map(|e| {
-                let (m, b) = (e.dot(&mean_u), e.dot(&slope));
-                (e.dot(&(self.suu * e)) - n * m * m - b * b * n * var_t).max(0.0)
-            })
-            .sum();
-        let frames_per_row = if self.step > 0.0 {
-            1.0 + self.span / n / self.step
-        } else {
-            1.0
-        };
-        let sigma2 = rss / (count as f64 * (n - 2.0));
-        let se = (sigma2 * frames_per_row / (n * var_t)).sqrt();
-        tangent(u, slope, plane).norm() >= k * se
-    }
+    fit: Slope,
 }
 
 impl Track {
@@ -189,7 +104,7 @@ impl Track {
             slow_velocity: Vector3::zeros(),
             scatter: SCATTER_START.powi(2),
             bursts,
-            fit: Fit::default(),
+            fit: Slope::default(),
         }
     }
 
@@ -228,7 +143,7 @@ impl Track {
         };
         self.direction = smooth(&predicted, &d.direction, since);
         self.last_s = d.time_s;
-        self.fit.add(d);
+        self.fit.add(d.time_s, &d.direction, d.span_s);
         let (from, from_s) = self.anchor;
         let span = d.time_s - from_s;
         if !self.measured && (STILL_SPAN_S..VELOCITY_SPAN_S).contains(&span) {
@@ -256,8 +171,13 @@ impl Track {
             let u = self.direction;
             let v = tangent(&u, (u - from) / span, plane);
             let speed = v.norm();
-            let stands = self.fit.slope_stands(&u, plane, TURN_STANDARD_ERRORS);
-            self.fit = Fit::default();
+            let stands = match (self.fit.line(), self.fit.standard_error(&u, plane)) {
+                (Some((_, slope)), Some(se)) => {
+                    tangent(&u, slope, plane).norm() >= TURN_STANDARD_ERRORS * se
+                }
+                _ => false,
+            };
+            self.fit = Slope::default();
             self.velocity = if speed < STILL_SPEED || !stands {
                 // Slower than a half-second span measures: the slow turn, if any.
                 self.slow_velocity

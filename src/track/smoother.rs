@@ -22,6 +22,7 @@
 //! [`TrackParams::smooth_s`]: super::TrackParams::smooth_s
 
 use super::motion::{STILL_SPEED, VELOCITY_SPAN_S};
+use super::slope::Slope;
 use super::Tracked;
 use crate::geometry::angles_deg;
 use nalgebra::Vector3;
@@ -106,65 +107,40 @@ impl Smoother {
     /// or it is under the tracker's [`STILL_SPEED`], only a turn that stands
     /// [`SLOW_TURNS_SE`] standard errors out of the rows' scatter counts.
     fn turn(&self, source: u64, t: f64) -> Vector3<f64> {
-        let mut count = 0.0;
-        let (mut st, mut stt, mut span) = (0.0, 0.0, 0.0);
-        let (mut last, mut step) = (f64::NAN, f64::INFINITY);
-        let (mut su, mut stu) = (Vector3::zeros(), Vector3::zeros());
+        let mut fit = Slope::default();
         for r in self.rows.iter().filter(|r| {
             r.source == Some(source)
                 && r.detection.time_s >= t - TURN_S
                 && r.detection.time_s <= t + self.half_s
         }) {
-            let (dt, own) = (r.detection.time_s - t, &r.detection.direction);
-            count += 1.0;
-            span += r.detection.span_s;
-            if dt > last {
-                step = step.min(dt - last);
-            }
-            last = dt;
-            st += dt;
-            stt += dt * dt;
-            su += own;
-            stu += own * dt;
+            fit.add(
+                r.detection.time_s,
+                &r.detection.direction,
+                r.detection.span_s,
+            );
         }
-        if count < 2.0 {
+        let Some((mean, slope)) = fit.line() else {
             return Vector3::zeros();
-        }
-        let mean_t = st / count;
-        let var_t = stt / count - mean_t * mean_t;
-        if var_t <= 0.0 {
-            return Vector3::zeros();
-        }
-        // Rows over less than the tracker's span (a talker's first words, or his first
-        // after a pause) turn them only when their slope stands out of their scatter.
-        let short = var_t < VELOCITY_SPAN_S * VELOCITY_SPAN_S / 12.0;
-        let slope = (stu / count - su / count * mean_t) / var_t;
+        };
         // As a rotation: the rows' arc is curved, and a slope taken at their middle
         // points off the tangent at `t` by half the angle turned.
-        let middle = su.normalize();
+        let middle = mean.normalize();
         let turn = middle.cross(&slope);
         let rate = turn.norm();
         if !rate.is_finite() {
             return Vector3::zeros();
         }
-        if rate < STILL_SPEED || short {
-            // A slower turn counts when the rows' slope stands out of their scatter: their
-            // residual from the line, the rows being unit vectors (squares summing to
-            // `count`).
-            let residual = count - su.norm_squared() / count - slope.norm_squared() * count * var_t;
-            // Rows share frames: a row heard over a span is that span's frames' average
-            // (six at the defaults), so the rows tell as much as a sixth as many
-            // independent ones would.
-            let frames_per_row = if step.is_finite() {
-                1.0 + span / count / step
-            } else {
-                1.0
-            };
-            let spread = (residual / count / 2.0).max(0.0);
-            let se = (spread * frames_per_row / (count * var_t)).sqrt();
-            if rate < SLOW_TURNS_SE * se || rate < MIN_TURN {
-                return Vector3::zeros();
-            }
+        // Rows over less than the tracker's span (a talker's first words, or his first
+        // after a pause), or a turn slower than it counts, turn them only when their
+        // slope stands out of their scatter.
+        let short = fit.time_variance() < VELOCITY_SPAN_S * VELOCITY_SPAN_S / 12.0;
+        if (rate < STILL_SPEED || short)
+            && (rate < MIN_TURN
+                || fit
+                    .standard_error(&middle, None)
+                    .is_none_or(|se| rate < SLOW_TURNS_SE * se))
+        {
+            return Vector3::zeros();
         }
         turn
     }
