@@ -74,7 +74,6 @@ def az_diff(a, b):
 
 def render(kind, seed, mics_local, rate, cardioids, clips):
     """The scene's audio (samples x mics) and its talkers: [(unit vector, [(start, end)])]."""
-    import pyroomacoustics as pra
     from pyroomacoustics.directivities import Cardioid, DirectionVector
 
     rng = random.Random(seed * 6151 + sum(map(ord, kind)))
@@ -102,7 +101,6 @@ def render(kind, seed, mics_local, rate, cardioids, clips):
         sched.append((k, t, x))
         t += len(x) / rate + rng.uniform(0.3, 0.8)
     n = int((t + 0.5) * rate)
-    e_abs, max_order = pra.inverse_sabine(rt60, dims)
     directivity = None
     if cardioids:
         directivity = []
@@ -112,23 +110,12 @@ def render(kind, seed, mics_local, rate, cardioids, clips):
             col = math.degrees(math.acos(q[2] / np.linalg.norm(q)))
             directivity.append(Cardioid(DirectionVector(az, col, degrees=True)))
 
-    def room():
-        r = pra.ShoeBox(dims, fs=rate, materials=pra.Material(e_abs), max_order=min(max_order, 30))
-        r.add_microphone_array(pra.MicrophoneArray(centre[:, None] + np.array(mics_local).T, rate, directivity=directivity))
-        return r
+    room = W.shoebox(dims, rate, rt60, centre + np.array(mics_local), 30, directivity)
 
     speech, truth = W.talkers_heard(room, [p for _, _, p in talkers], sched, n, rate, centre)
-    noise = np.zeros((n, len(mics_local)))
-    fans = [np.array([rng.choice([0.4, dims[0] - 0.4]), rng.choice([0.4, dims[1] - 0.4]), dims[2] - 0.3]),
+    fans = [W.ceiling_fan(rng, dims),
             np.array([rng.uniform(0.5, dims[0] - 0.5), rng.choice([0.4, dims[1] - 0.4]), rng.uniform(0.3, 1.0)])]
-    lead = int(0.5 * rate)
-    for f in fans:
-        r = room()
-        r.add_source(f, signal=W.pink(n + lead, nrng))
-        r.simulate()
-        noise += r.mic_array.signals[:, lead:lead + n].T
-    noise = noise / math.sqrt(np.mean(noise ** 2)) + 0.3 * nrng.standard_normal(noise.shape)
-    noise *= 10 ** (-10 / 20) / math.sqrt(np.mean(noise ** 2))
+    noise = W.fans_heard(room, fans, n, rate, nrng, 0.3, 10.0)
     return speech + noise, truth, {"rt60": round(rt60, 2), "talkers": n_talkers}
 
 

@@ -84,26 +84,13 @@ def az_diff(a, b):
 def draw(seed):
     rng = random.Random(seed * 7451)
     rt60 = rng.uniform(0.3, 0.73)
-    for _ in range(1000):
-        dims = np.array([rng.uniform(5.0, 8.0), rng.uniform(4.0, 6.5), rng.uniform(2.6, 3.2)])
-        centre = np.array([rng.uniform(1.5, dims[0] - 1.5), rng.uniform(1.5, dims[1] - 1.5), rng.uniform(0.8, 1.3)])
-        talkers = []
-        for _ in range(200):
-            az, el, dist = rng.uniform(-180, 180), rng.uniform(0, 20), rng.uniform(1.0, 2.5)
-            p = centre + dist * W.unit(az, el)
-            if W.inside(dims, p, 0.4) and all(az_diff(az, t[0]) >= 40 for t in talkers):
-                talkers.append((az, el, p))
-                if len(talkers) == 2:
-                    break
-        if len(talkers) == 2:
-            break
+    dims, centre, talkers = W.small_room_talkers(
+        rng, 2, lambda az, others: all(az_diff(az, t[0]) >= 40 for t in others), 200)
     return rng, rt60, dims, centre, talkers
 
 
 def render(seed, mics_local, low, other):
     """The scene's audio for one array and its talkers: [(unit vector, [(start, end)])]."""
-    import pyroomacoustics as pra
-
     rng, rt60, dims, centre, talkers = draw(seed)
     nrng = np.random.default_rng(seed * 17)
     factor = rng.uniform(1.0, 1.15)
@@ -116,22 +103,10 @@ def render(seed, mics_local, low, other):
         sched.append((k, t, x))
         t += len(x) / RATE + rng.uniform(0.3, 0.8)
     n = int((t + 0.5) * RATE)
-    e_abs, max_order = pra.inverse_sabine(rt60, dims)
-
-    def room():
-        r = pra.ShoeBox(dims, fs=RATE, materials=pra.Material(e_abs), max_order=min(max_order, 40))
-        r.add_microphone_array(centre[:, None] + np.array(mics_local).T)
-        return r
+    room = W.shoebox(dims, RATE, rt60, centre + np.array(mics_local))
 
     speech, truth = W.talkers_heard(room, [p for _, _, p in talkers], sched, n, RATE, centre)
-    fan = np.array([rng.choice([0.4, dims[0] - 0.4]), rng.choice([0.4, dims[1] - 0.4]), dims[2] - 0.3])
-    r = room()
-    lead = int(0.5 * RATE)
-    r.add_source(fan, signal=W.pink(n + lead, nrng))
-    r.simulate()
-    noise = r.mic_array.signals[:, lead:lead + n].T
-    noise = noise / math.sqrt(np.mean(noise ** 2)) + 0.5 * nrng.standard_normal(noise.shape)
-    noise *= 10 ** (-15 / 20) / math.sqrt(np.mean(noise ** 2))
+    noise = W.fans_heard(room, [W.ceiling_fan(rng, dims)], n, RATE, nrng, 0.5, 15.0)
     info = {"rt60": round(rt60, 2), "f0_factor": round(factor, 3), "talkers_az": [round(a, 1) for a, _, _ in talkers]}
     return speech + noise, truth, info
 

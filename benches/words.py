@@ -148,6 +148,42 @@ def scenes_parser():
     return ap
 
 
+def fans_heard(room, fans, n, rate, nrng, diffuse, below_db):
+    """Pink noise from each of `fans` through a fresh `room()`, plus diffuse (uncorrelated)
+    noise of `diffuse` times their RMS, scaled to `below_db` under unit power (the
+    talkers' of `talkers_heard`): samples x mics."""
+    lead = int(0.5 * rate)
+    noise = None
+    for f in fans:
+        r = room()
+        r.add_source(f, signal=pink(n + lead, nrng))
+        r.simulate()
+        heard = r.mic_array.signals[:, lead:lead + n].T
+        noise = heard if noise is None else noise + heard
+    noise = noise / math.sqrt(np.mean(noise ** 2)) + diffuse * nrng.standard_normal(noise.shape)
+    return noise * 10 ** (-below_db / 20) / math.sqrt(np.mean(noise ** 2))
+
+
+def shoebox(dims, rate, rt60, positions, max_order=40, directivity=None):
+    """A maker of fresh pyroomacoustics rooms of `dims` at `rt60` (Sabine) with the
+    microphones at `positions` (metres, mics x 3; with `directivity`, one per mic)."""
+    import pyroomacoustics as pra
+
+    e_abs, order = pra.inverse_sabine(rt60, dims)
+
+    def room():
+        r = pra.ShoeBox(dims, fs=rate, materials=pra.Material(e_abs), max_order=min(order, max_order))
+        r.add_microphone_array(pra.MicrophoneArray(np.array(positions).T, rate, directivity=directivity))
+        return r
+
+    return room
+
+
+def ceiling_fan(rng, dims):
+    """A fan in a corner near the ceiling."""
+    return np.array([rng.choice([0.4, dims[0] - 0.4]), rng.choice([0.4, dims[1] - 0.4]), dims[2] - 0.3])
+
+
 def unit(az, el):
     a, e = math.radians(az), math.radians(el)
     return np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
@@ -201,6 +237,24 @@ def talkers_heard(room, places, sched, n, rate, centre):
         speech = img if speech is None else speech + img
         truth.append(((p - centre) / np.linalg.norm(p - centre), spans))
     return speech, truth
+
+
+def small_room_talkers(rng, count, apart, tries):
+    """A room of 5-8 x 4-6.5 x 2.6-3.2 m, an array centre 1.5 m or more from its walls at
+    0.8-1.3 m, and `count` talkers 1-2.5 m from it at elevations 0-20 deg whose azimuths
+    pass `apart(az, [(az, el, position)])`: (dims, centre, talkers)."""
+    for _ in range(1000):
+        dims = np.array([rng.uniform(5.0, 8.0), rng.uniform(4.0, 6.5), rng.uniform(2.6, 3.2)])
+        centre = np.array([rng.uniform(1.5, dims[0] - 1.5), rng.uniform(1.5, dims[1] - 1.5), rng.uniform(0.8, 1.3)])
+        talkers = []
+        for _ in range(tries):
+            az, el, dist = rng.uniform(-180, 180), rng.uniform(0, 20), rng.uniform(1.0, 2.5)
+            p = centre + dist * unit(az, el)
+            if inside(dims, p, 0.4) and apart(az, talkers):
+                talkers.append((az, el, p))
+                if len(talkers) == count:
+                    return dims, centre, talkers
+    return dims, centre, talkers
 
 
 def draw_place(rng, dims, centre, dist, az=None, el=None):
