@@ -221,6 +221,13 @@ pub const PAUSE_S: f64 = 3.0;
 /// fan beside the array confirmed once gave 15 false events in the tracking bench).
 pub const ON_NATS: f64 = 2.0;
 
+/// [`ON_NATS`] while another source talks (heard within [`ACTIVE_S`]): its reflections
+/// and strays land everywhere, and a silent talker's place, which needs only
+/// [`ON_NATS`] to sound again, gathered them: on small arrays, events of 3-5 detections
+/// at a silent talker's place 80-100 deg from the one talking (`benches/voices.py`;
+/// docs/experiments.md, 2026-12-06).
+pub const ON_BUSY_NATS: f64 = 4.0;
+
 /// A candidate's evidence as a source that sounds in bursts: a talker says a word,
 /// falls silent, says another from the same place. [`Test`] takes a source as heard
 /// in `P_DETECT` of the looks from its first detection on, so a silent look counts
@@ -333,9 +340,11 @@ impl Bursts {
     }
 
     /// Whether the evidence makes a source that sounds now: at least `confirm_nats`
-    /// that there is one, and at least [`ON_NATS`] that it is heard in this burst.
-    pub fn confirms(&self, e: &Evidence) -> bool {
-        self.total() >= e.confirm_nats && self.on_nats() >= ON_NATS
+    /// that there is one, and at least [`ON_NATS`] that it is heard in this burst
+    /// ([`ON_BUSY_NATS`] while another source talks: `busy`).
+    pub fn confirms(&self, e: &Evidence, busy: bool) -> bool {
+        let on = if busy { ON_BUSY_NATS } else { ON_NATS };
+        self.total() >= e.confirm_nats && self.on_nats() >= on
     }
 }
 

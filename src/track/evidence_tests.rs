@@ -332,3 +332,33 @@ fn a_talker_too_faint_to_confirm_is_placed_in_what_the_run_says() {
         .collect();
     assert_eq!(run(&strays).faint, None);
 }
+
+/// A talker heard at 20 deg falls silent; another talks 100 deg away. A short run at
+/// 20 deg (two looks under the threshold) revives the silent talker when nobody else
+/// talks, but not while the other does: his reflections and strays land anywhere, and
+/// a silent talker's place needs `ON_BUSY_NATS`, not `ON_NATS`, to sound again then.
+#[test]
+fn a_silent_talkers_place_needs_more_while_another_talks() {
+    let run = |other_until: usize, margin: f64| {
+        let mut frames = vec![Vec::new(); 700];
+        for f in (10..60).step_by(2) {
+            frames[f] = vec![(20.0, 2.0)];
+        }
+        for f in (200..other_until).step_by(2) {
+            frames[f] = vec![(-80.0, 2.0)];
+        }
+        for f in [400, 401, 407] {
+            frames[f].push((20.3, margin));
+        }
+        let (rows, _) = confirmed_rows(track_with(evidence(), &frames));
+        rows.iter()
+            .filter(|r| r.0 >= 400 && r.0 <= 407 && (r.2 - 20.0).abs() < 5.0)
+            .count()
+    };
+    // Nobody else talks at 4.3 s: a faint run is the silent talker's again.
+    assert_eq!(run(300, 0.6), 3);
+    // The other talks through it: the same run is nothing...
+    assert_eq!(run(600, 0.6), 0);
+    // ...unless it stands over the threshold.
+    assert_eq!(run(600, 1.2), 3);
+}

@@ -257,6 +257,13 @@ impl Tracker {
             .max(self.gate(Some(0.0), 0.0))
     }
 
+    /// Whether a track is talking: heard within [`ACTIVE_S`] of `now`.
+    fn talking(&self, now: f64) -> bool {
+        self.tracks
+            .iter()
+            .any(|t| t.event.is_some() && now - t.last_s <= ACTIVE_S)
+    }
+
     /// Whether a track heard within [`ACTIVE_S`] of `now` is within reach of
     /// `direction` or in its vertical plane (its floor and ceiling images,
     /// [`in_vertical_plane`]), and whether any is heard at all.
@@ -533,6 +540,7 @@ impl Tracker {
                 let far = self.distance(&d.direction, &self.candidates[i].direction)
                     / self.candidate_gate.max(1e-9);
                 let in_place = weighed.flatten().map(|n| n - 2.0 * far.max(1.0).ln());
+                let busy = self.talking(d.time_s);
                 let c = &mut self.candidates[i];
                 c.direction = smooth(&c.direction, &d.direction, d.time_s - c.last_s);
                 c.last_s = d.time_s;
@@ -549,7 +557,7 @@ impl Tracker {
                         c.test.hit(look, weighed.flatten(), e);
                         c.bursts.hit(look, in_place, e);
                         c.best_nats = c.best_nats.max(c.test.total()).max(c.bursts.total());
-                        c.test.total() >= e.confirm_nats || c.bursts.confirms(e)
+                        c.test.total() >= e.confirm_nats || c.bursts.confirms(e, busy)
                     }
                 };
                 if confirmed {
