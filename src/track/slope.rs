@@ -148,8 +148,8 @@ mod tests {
         let se = s.standard_error(&mean.normalize(), None).unwrap();
         assert!(rate.to_radians() > 20.0 * se, "{rate} deg/s, {se} rad/s");
         // Still directions scattered uniformly by +-0.01 (sd 0.0058 per axis): over
-        // many draws the slope across the direction is within two standard errors
-        // about 95% of the time (a 2-D slope: chi with two degrees of freedom, 86%).
+        // many draws the slope across the direction (two axes) is within two standard
+        // errors as often as a 2-D normal is within two deviations (86%).
         let mut within = 0;
         for seed in 0..400 {
             let s = walk(0.0, 0.01, 0.5, seed);
