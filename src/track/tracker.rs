@@ -236,6 +236,15 @@ impl Tracker {
             .min(p.max_gate_deg)
     }
 
+    /// How far `u` is from track `t` at `now`: from where it is predicted, or from where
+    /// it was last heard when that is nearer (a still talker's directions on a small
+    /// planar array wander by 5 deg over a second, which reads as a turn of 10-15 deg/s
+    /// that predicts him away from his next words).
+    fn off_track(&self, u: &Vector3<f64>, t: &Track, now: f64) -> f64 {
+        self.distance(u, &t.predicted(now))
+            .min(self.distance(u, &t.direction))
+    }
+
     /// A track's gate at `now`.
     fn track_gate(&self, t: &Track, now: f64) -> f64 {
         self.gate(t.speed_deg_s(), now - t.last_s)
@@ -345,7 +354,7 @@ impl Tracker {
                 }
             };
             for t in self.tracks.iter().filter(|t| t.event.is_some()) {
-                let angle = self.distance(&d.direction, &t.predicted(time_s));
+                let angle = self.off_track(&d.direction, t, time_s);
                 if angle <= gate(t.speed_deg_s(), time_s - t.last_s) {
                     pairs.push((angle, i, Slot::Track(t.id)));
                 }
@@ -392,7 +401,7 @@ impl Tracker {
         pairs.clear();
         for (i, d) in detections.iter().enumerate().filter(|(_, d)| d.rider) {
             for t in self.tracks.iter().filter(|t| t.event.is_some()) {
-                let angle = self.distance(&d.direction, &t.predicted(time_s));
+                let angle = self.off_track(&d.direction, t, time_s);
                 if angle <= self.candidate_gate && !taken.contains(&(true, t.id)) {
                     pairs.push((angle, i, Slot::Track(t.id)));
                 }
@@ -457,8 +466,7 @@ impl Tracker {
                 || d.margin < 1.0
                     && self.tracks.iter().any(|t| {
                         t.event.is_some()
-                            && self.distance(&d.direction, &t.predicted(time_s))
-                                <= self.track_gate(t, time_s)
+                            && self.off_track(&d.direction, t, time_s) <= self.track_gate(t, time_s)
                     })
             {
                 if self.params.keep_unconfirmed {
@@ -638,7 +646,7 @@ impl Tracker {
             .iter()
             .enumerate()
             .filter_map(|(i, t)| {
-                let angle = self.distance(&c.direction, &t.predicted(now));
+                let angle = self.off_track(&c.direction, t, now);
                 let in_gate = angle <= self.track_gate(t, now);
                 let same = self.volumetric
                     && t.event.as_ref().is_some_and(|e| {

@@ -580,3 +580,41 @@ fn a_run_within_a_talkers_cones_is_his_unless_heard_with_him() {
     assert_eq!(ids(Run::Between, 28.0, 25.0), vec![1]);
     assert_eq!(ids(Run::Together, 28.0, 25.0), vec![1, 2]);
 }
+
+/// A still talker on a 6-mic circle of radius 4.63 cm whose directions wander: 9 deg
+/// over 0.6 s, smoothly (the room's reflections change with what he says), which
+/// measures as a turn of 15 deg/s and predicts his track on; after a 30 ms gap he is
+/// heard back where he began, 9 deg from where his track was last heard and further
+/// from where it is predicted. Near where it was last heard, that is his track, not a
+/// second source.
+#[test]
+fn a_wandering_talker_back_where_he_was_is_one_track() {
+    let positions: Vec<[f64; 3]> = (0..6)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / 6.0;
+            [0.0463 * a.cos(), 0.0463 * a.sin(), 0.0]
+        })
+        .collect();
+    let circle = Geometry::from_positions(&positions).unwrap();
+    let mut tracker = Tracker::for_array(TrackParams::default(), &circle, 16000.0, 343.0);
+    let at = |frame: u64, azimuth: f64| Detection {
+        elevation_deg: 33.0,
+        direction: unit_from_angles(azimuth, 33.0),
+        uncertainty_deg: 30.0,
+        ..detection(frame, azimuth)
+    };
+    let mut sources = Vec::new();
+    for f in 0..150u64 {
+        let ds = match f {
+            0..=59 => vec![at(f, -117.0 - 0.15 * f as f64)],
+            63..=92 => vec![at(f, -117.3)],
+            _ => Vec::new(),
+        };
+        tracker.push(f as f64 * HOP, &ds);
+        sources.extend(tracker.take_rows().filter_map(|r| r.source));
+    }
+    tracker.finish();
+    sources.extend(tracker.take_rows().filter_map(|r| r.source));
+    assert_eq!(sources.len(), 90, "{sources:?}");
+    assert!(sources.iter().all(|&s| s == sources[0]), "{sources:?}");
+}
