@@ -189,11 +189,8 @@ def main():
     for n in names:
         t = totals[n]
         rows, evs = t["rows"], t["events"]
-        re = np.array([e for e, _ in rows]) if rows else np.zeros(1)
-        rc = np.array([c for _, c in rows]) if rows else np.zeros(1)
-        ee = np.array([e for e, _, _ in evs]) if evs else np.zeros(1)
-        ec = np.array([c for _, c, _ in evs]) if evs else np.zeros(1)
-        eo = np.array([o for _, _, o in evs]) if evs else np.zeros(1)
+        re, rc = np.array(rows or [(0.0, 0.0)]).T
+        ee, ec, eo = np.array(evs or [(0.0, 0.0, 0.0)]).T
         print(f"| {ARRAYS[n][0]} | {n} | {len(rows)} | {100 * np.mean(re <= rc):.1f}% | {np.median(rc):.1f} deg "
               f"| {np.median(re):.1f} deg | {np.percentile(re, 95):.1f} deg | {len(evs)} "
               f"| {int(np.sum(eo > 10))} | {100 * np.mean((ee <= ec)[eo <= 10]) if np.any(eo <= 10) else float('nan'):.0f}% "

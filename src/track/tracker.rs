@@ -121,6 +121,12 @@ struct Frame {
     strongest: f64,
 }
 
+/// Whether track `t` is talking at `now`: in a stretch of activity and heard within
+/// [`ACTIVE_S`].
+fn talks(t: &Track, now: f64) -> bool {
+    t.event.is_some() && now - t.last_s <= ACTIVE_S
+}
+
 /// The angle between `a` and `b` for association (degrees): see [`Tracker::distance`].
 fn distance(plane: Option<Vector3<f64>>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
     let Some(n) = plane else {
@@ -266,29 +272,21 @@ impl Tracker {
             .max(self.gate(Some(0.0), 0.0))
     }
 
-    /// Whether a track is talking: heard within [`ACTIVE_S`] of `now`.
+    /// Whether any track is talking (see [`talks`]).
     fn talking(&self, now: f64) -> bool {
-        self.tracks
-            .iter()
-            .any(|t| t.event.is_some() && now - t.last_s <= ACTIVE_S)
+        self.tracks.iter().any(|t| talks(t, now))
     }
 
-    /// Whether a track heard within [`ACTIVE_S`] of `now` is within reach of
-    /// `direction` or in its vertical plane (its floor and ceiling images,
-    /// [`in_vertical_plane`]), and whether any is heard at all.
+    /// Whether a talking track (see [`talks`]) is within reach of `direction` or in its
+    /// vertical plane (its floor and ceiling images, [`in_vertical_plane`]), and whether
+    /// any is talking at all.
     fn beside(&self, direction: &Vector3<f64>, now: f64) -> (bool, bool) {
         let reach = self.reach();
-        let mut busy = false;
-        for t in &self.tracks {
-            if t.event.is_some() && now - t.last_s <= ACTIVE_S {
-                busy = true;
-                let at = t.predicted(now);
-                if self.distance(direction, &at) <= reach || in_vertical_plane(direction, &at) {
-                    return (true, true);
-                }
-            }
-        }
-        (false, busy)
+        let near = self.tracks.iter().filter(|t| talks(t, now)).any(|t| {
+            let at = t.predicted(now);
+            self.distance(direction, &at) <= reach || in_vertical_plane(direction, &at)
+        });
+        (near, near || self.talking(now))
     }
 
     /// Takes the detections of the frame at `time_s` (frames in order; none is fine: time
@@ -631,15 +629,15 @@ impl Tracker {
             return;
         }
         // A track in a stretch of activity is the candidate's source when the two (the
-        // track where it is predicted or its detections' mean) lie within their cones
-        // combined (the array cannot tell them apart), even beyond its gate: a talker on
-        // a 5.7 cm tetrahedron at 16 kHz scatters by 5-10 deg, and his words' detections
-        // 12-19 deg from his track confirmed a second one beside it. Not a track heard
-        // in the same frames as the candidate (two talkers at once, which the frames
-        // tell apart), and only on a volumetric array: a planar array's cone is mostly
-        // its elevation's uncertainty, which association weighs little (two talkers 30
-        // deg apart on the 6-mic circle at once were taken as one), and a linear
-        // array's holds the circle around its axis.
+        // track where it is predicted or last heard, or its detections' mean) lie within
+        // their cones combined (the array cannot tell them apart), even beyond its gate:
+        // a talker on a 5.7 cm tetrahedron at 16 kHz scatters by 5-10 deg, and his
+        // words' detections 12-19 deg from his track confirmed a second one beside it.
+        // Not a track heard in the same frames as the candidate (two talkers at once,
+        // which the frames tell apart), and only on a volumetric array: a planar array's
+        // cone is mostly its elevation's uncertainty, which association weighs little
+        // (two talkers 30 deg apart on the 6-mic circle at once were taken as one), and
+        // a linear array's holds the circle around its axis.
         let cone = c.uncertainty_deg();
         let near = self
             .tracks
