@@ -79,7 +79,7 @@ class Options(TypedDict, total=False):
     riders: Union[float, str]
     """--riders: Search a frame that gives nothing down to --candidates again down to this share of the threshold: what it gives only adds a row to a talking track within a candidate's gate, without moving it, and starts nothing; at or above --candidates, none [default: 0.3 with the calibrated threshold, 1 (none) with --min-score]"""
     patterns_s: Union[float, str]
-    """--patterns-s: Learn each talker's correlation pattern (its reflections too) while it dominates, and look for other talkers once it is removed from each pair's correlation averaged over about this many seconds (arrays whose longest delay is 8 samples or more); 0: none [default: 0.17]"""
+    """--patterns-s: Learn each talker's correlation pattern (its reflections too) while it dominates, and look for other talkers once it is removed from each pair's correlation averaged over about this many seconds; in frames that give nothing, that average's best direction adds up a faint talker's frames (arrays whose longest delay is 8 samples or more); 0: neither [default: 0.17]"""
     no_bin_votes: bool
     """--no-bin-votes: No riders from single frequency bins: on arrays a few centimetres across, each bin's own direction finds a talker that a louder one hides in the correlations, and adds its rows to that talker's track (two talkers on a 6-mic circle at 16 kHz: 60-70% of the 0.1 s windows instead of 56-66%)"""
 

@@ -39,6 +39,9 @@
 //! 8-48 kHz) 2-8 points at 48 kHz and 2-12 at 16 kHz over three draws
 //! (docs/tracking.md).
 //!
+//! The same longer average gives a frame that gave nothing its best direction, a faint
+//! talker's frames added up ([`accumulated`]).
+//!
 //! It runs in frame order after the frames' own stages, so its output does not depend on
 //! the thread count, and its memory is fixed (a few patterns of every pair's lags).
 
@@ -137,6 +140,15 @@ struct Slot {
     seen: u64,
 }
 
+/// What the longer average gives ([`Patterns::residual_source`]).
+struct Heard {
+    direction: Vector3<f64>,
+    score: f64,
+    uncertainty_deg: f64,
+    /// The longer average's threshold over the frame's live pairs.
+    threshold: f64,
+}
+
 /// The learned patterns, the longer average and the buffers of the second look.
 pub(crate) struct Patterns {
     keep: f32,
@@ -201,6 +213,10 @@ impl Patterns {
             let span = &states[i..=i + carried];
             let state = &span[carried];
             self.fold(setup, state);
+            if let Some(d) = self.accumulated_look(setup, span, outcome, index) {
+                *outcome = Outcome::Detected(Detections::one(d), false);
+                continue;
+            }
             let Outcome::Detected(found, _) = outcome else {
                 continue;
             };
@@ -375,6 +391,45 @@ impl Patterns {
         slot
     }
 
+    /// The best direction of `residual` (the longer average, less what was removed) with
+    /// `directions` cleared, down to the candidates' share of the longer average's own
+    /// threshold (the frame's with its chance part scaled by the exponential average's
+    /// spread over independent frames), fitting one source, and heard in the frame's own
+    /// span too: a source that has stopped stays in the longer average a while.
+    fn residual_source(&mut self, setup: &Layout, span: &[FrameState]) -> Option<Heard> {
+        let state = span.last().expect("a frame");
+        let solver = solver(&mut self.solvers, setup, state)?;
+        let pairs = pair_count(state.live.len());
+        let threshold = self.threshold.per_pair_spread(&state.weights, self.spread) * pairs as f64;
+        let floor = threshold * setup.params.talkers.candidate_share();
+        let steer = self.steered.search(
+            &mut self.residual,
+            &Query {
+                live: &state.live,
+                mics: setup.mics(),
+                found: &self.directions,
+                tolerance: setup.tolerance,
+                floor,
+            },
+            solver,
+        )?;
+        let residual = self
+            .steered
+            .accepts(&steer, floor, pairs, setup.gate(), solver)?;
+        let (direction, score) = (steer.direction, steer.score);
+        let uncertainty_deg = uncertainty_deg(solver, &direction, Some(residual), setup.speed);
+        let now = self.score_now(setup, span, &direction);
+        if now < NOW_SHARE * score || now < NOW_FLOOR * state.floor * pairs as f64 {
+            return None;
+        }
+        Some(Heard {
+            direction,
+            score,
+            uncertainty_deg,
+            threshold,
+        })
+    }
+
     /// The second look (see the module): what is left of the longer average once the
     /// pattern of `slot` is removed.
     fn look(
@@ -409,44 +464,13 @@ impl Patterns {
             let out = &mut self.residual[r.clone()];
             remove(out, &self.long[r.clone()], &pattern.pattern[r], scale, gain);
         }
-        let Some(solver) = solver(&mut self.solvers, setup, state) else {
-            return;
-        };
         self.directions.clear();
         self.directions
             .extend(found.as_slice().iter().map(|d| d.direction));
-        let k = state.live.len();
-        // The threshold of the longer average: the frame's with its chance part scaled
-        // by the exponential average's spread over independent frames.
-        let threshold = self.threshold.per_pair_spread(&state.weights, self.spread);
-        let floor = threshold * setup.params.talkers.candidate_share() * pair_count(k) as f64;
-        let Some(steer) = self.steered.search(
-            &mut self.residual,
-            &Query {
-                live: &state.live,
-                mics: setup.mics(),
-                found: &self.directions,
-                tolerance: setup.tolerance,
-                floor,
-            },
-            solver,
-        ) else {
+        let Some(heard) = self.residual_source(setup, span) else {
             return;
         };
-        let Some(residual) =
-            self.steered
-                .accepts(&steer, floor, pair_count(k), setup.gate(), solver)
-        else {
-            return;
-        };
-        let (u, score) = (steer.direction, steer.score);
-        let uncertainty = uncertainty_deg(solver, &u, Some(residual), setup.speed);
-        // A source that has stopped stays in the longer average a while: the source
-        // must be heard in the frame's own span too.
-        let now = self.score_now(setup, span, &u);
-        if now < NOW_SHARE * score || now < NOW_FLOOR * state.floor * pair_count(k) as f64 {
-            return;
-        }
+        let (u, score, uncertainty) = (heard.direction, heard.score, heard.uncertainty_deg);
         // Not a reflection of a source of the frame, nor of a talker heard lately (its
         // direction there is its own).
         let near = SLOT_DEG.to_radians().cos();
@@ -510,6 +534,9 @@ fn products(a: &[f32], b: &[f32]) -> (f64, f64) {
     }
     (c, e)
 }
+
+#[path = "accumulated.rs"]
+mod accumulated;
 
 #[cfg(test)]
 #[path = "patterns_tests.rs"]
