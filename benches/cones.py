@@ -30,7 +30,6 @@ reports (above its plane), as docs/interface.md defines the cone.
 Needs numpy, scipy and pyroomacoustics (pip install numpy scipy pyroomacoustics).
 """
 
-import json
 import math
 import os
 import random
@@ -41,7 +40,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import words as W  # noqa: E402  (wav, speech and scoring helpers)
+import rooms as R  # noqa: E402  (rooms, talkers, fans, scene files)
 
 TAIL_S = 0.3
 
@@ -60,9 +59,9 @@ def sphere(k, r):
 # name -> (kind, positions, rate, planar, cardioids)
 ARRAYS = {
     "prism, 8 mics, 50 x 40 x 36 cm, 16 kHz": ("paper", [[x * 0.25, y * 0.20, z * 0.18] for x in (1, -1) for y in (1, -1) for z in (1, -1)], 16000, False, False),
-    "tetrahedron, 4 mics, 5.7 cm, 16 kHz": ("reverberant", W.tetrahedron(0.057), 16000, False, False),
-    "circle, 6 mics, r 4.63 cm, 16 kHz": ("reverberant", W.circle(6, 0.0463), 16000, True, False),
-    "square, 4 mics, 4.57 cm, 16 kHz": ("reverberant", W.circle(4, 0.0457 / math.sqrt(2)), 16000, True, False),
+    "tetrahedron, 4 mics, 5.7 cm, 16 kHz": ("reverberant", R.tetrahedron(0.057), 16000, False, False),
+    "circle, 6 mics, r 4.63 cm, 16 kHz": ("reverberant", R.circle(6, 0.0463), 16000, True, False),
+    "square, 4 mics, 4.57 cm, 16 kHz": ("reverberant", R.circle(4, 0.0457 / math.sqrt(2)), 16000, True, False),
     "open sphere, 16 cardioids, r 5 cm, 48 kHz": ("cardioids", sphere(16, 0.05), 48000, False, True),
     "cube, 8 cardioids, 10 cm, 48 kHz": ("cardioids", [[x * 0.05, y * 0.05, z * 0.05] for x in (1, -1) for y in (1, -1) for z in (1, -1)], 48000, False, True),
 }
@@ -86,8 +85,8 @@ def render(kind, seed, mics_local, rate, cardioids, clips):
         talkers = []
         for _ in range(300):
             az, el, dist = rng.uniform(-180, 180), rng.uniform(-10, 30), rng.uniform(1.0, 3.5)
-            p = centre + dist * W.unit(az, el)
-            if W.inside(dims, p, 0.4) and all(az_diff(az, t[0]) >= 30 for t in talkers):
+            p = centre + dist * R.unit(az, el)
+            if R.inside(dims, p, 0.4) and all(az_diff(az, t[0]) >= 30 for t in talkers):
                 talkers.append((az, el, p))
                 if len(talkers) == n_talkers:
                     break
@@ -110,12 +109,12 @@ def render(kind, seed, mics_local, rate, cardioids, clips):
             col = math.degrees(math.acos(q[2] / np.linalg.norm(q)))
             directivity.append(Cardioid(DirectionVector(az, col, degrees=True)))
 
-    room = W.shoebox(dims, rate, rt60, centre + np.array(mics_local), 30, directivity)
+    room = R.shoebox(dims, rate, rt60, centre + np.array(mics_local), 30, directivity)
 
-    speech, truth = W.talkers_heard(room, [p for _, _, p in talkers], sched, n, rate, centre)
-    fans = [W.ceiling_fan(rng, dims),
+    speech, truth = R.talkers_heard(room, [p for _, _, p in talkers], sched, n, rate, centre)
+    fans = [R.ceiling_fan(rng, dims),
             np.array([rng.uniform(0.5, dims[0] - 0.5), rng.choice([0.4, dims[1] - 0.4]), rng.uniform(0.3, 1.0)])]
-    noise = W.fans_heard(room, fans, n, rate, nrng, 0.3, 10.0)
+    noise = R.fans_heard(room, fans, n, rate, nrng, 0.3, 10.0)
     return speech + noise, truth, {"rt60": round(rt60, 2), "talkers": n_talkers}
 
 
@@ -126,7 +125,7 @@ def score(truth, rows, events, planar):
         return np.array([u[0], u[1], abs(u[2])]) if planar else u
 
     def err(u, r):
-        return W.angle(onto(u), np.array([r["x"], r["y"], r["z"]]))
+        return R.angle(onto(u), np.array([r["x"], r["y"], r["z"]]))
 
     out = {"rows": [], "events": []}
     for r in rows:
@@ -153,19 +152,19 @@ def one(ssl, seed, name, work, clips, extra):
     wav, tpath, geo = (os.path.join(d, f) for f in ("rec.wav", "truth.json", "array.toml"))
     if not os.path.exists(tpath):
         audio, truth, info = render(kind, seed, mics, rate, cardioids, clips[rate])
-        W.write_wav(wav, audio, rate)
-        W.save_scene(geo, tpath, name, mics, info, truth)
-    truth, info = W.load_scene(tpath)
-    rows, events, _ = W.run_ssl(ssl, wav, geo, extra)
+        R.write_wav(wav, audio, rate)
+        R.save_scene(geo, tpath, name, mics, info, truth)
+    truth, info = R.load_scene(tpath)
+    rows, events, _ = R.run_ssl(ssl, wav, geo, extra)
     return score(truth, rows, events, planar), info
 
 
 def main():
-    ap = W.scenes_parser()
+    ap = R.scenes_parser()
     ap.add_argument("--only", default=None, help="kinds or array names containing one of these texts (comma-separated)")
     args = ap.parse_args()
     names = [n for n in ARRAYS if args.only is None or any(o in n or o == ARRAYS[n][0] for o in args.only.split(","))]
-    clips = {rate: W.speech_clips(rate) for rate in {ARRAYS[n][2] for n in names}}
+    clips = {rate: R.speech_clips(rate) for rate in {ARRAYS[n][2] for n in names}}
     work = args.work or tempfile.mkdtemp(prefix="ssl-cones-")
     jobs = [(s, n) for n in names for s in range(args.seed, args.seed + args.scenes)]
     with ThreadPoolExecutor(args.jobs) as pool:

@@ -30,14 +30,14 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import words as W  # noqa: E402  (wav, speech, scene and scoring helpers)
+import rooms as R  # noqa: E402  (rooms, talkers, fans, scene files)
 
 RATE = 16000
 FOUND_DEG = 10.0
 
 
 def rings():
-    outer = W.circle(4, 0.16)
+    outer = R.circle(4, 0.16)
     inner = [[0.08 * math.cos(math.pi / 4 + i * math.pi / 2), 0.08 * math.sin(math.pi / 4 + i * math.pi / 2), 0.0]
              for i in range(4)]
     return outer + inner
@@ -45,8 +45,8 @@ def rings():
 
 # name -> (positions, planar)
 ARRAYS = {
-    "tetrahedron, 4 mics, 5.7 cm": (W.tetrahedron(0.057), False),
-    "circle, 6 mics, r 4.63 cm": (W.circle(6, 0.0463), True),
+    "tetrahedron, 4 mics, 5.7 cm": (R.tetrahedron(0.057), False),
+    "circle, 6 mics, r 4.63 cm": (R.circle(6, 0.0463), True),
     "two rings, 8 mics, 32 cm": (rings(), True),
 }
 
@@ -63,15 +63,15 @@ def render(seed, mics_local, clips):
     rng = random.Random(seed * 4231)
     nrng = np.random.default_rng(seed * 19)
     rt60 = rng.uniform(0.3, 0.7)
-    dims, centre, talkers = W.small_room_talkers(
+    dims, centre, talkers = R.small_room_talkers(
         rng, 2, lambda az, others: all(30 <= az_diff(az, t[0]) <= 120 for t in others), 300)
     picks = rng.sample(range(len(clips)), 2)
     sched = [(0, 0.4, clips[picks[0]]), (1, 0.4 + rng.uniform(0.0, 0.5), clips[picks[1]])]
     n = int((max(s + len(x) / RATE for _, s, x in sched) + 0.5) * RATE)
-    room = W.shoebox(dims, RATE, rt60, centre + np.array(mics_local))
+    room = R.shoebox(dims, RATE, rt60, centre + np.array(mics_local))
 
-    speech, truth = W.talkers_heard(room, [p for _, _, p in talkers], sched, n, RATE, centre)
-    noise = W.fans_heard(room, [W.ceiling_fan(rng, dims)], n, RATE, nrng, 0.5, 15.0)
+    speech, truth = R.talkers_heard(room, [p for _, _, p in talkers], sched, n, RATE, centre)
+    noise = R.fans_heard(room, [R.ceiling_fan(rng, dims)], n, RATE, nrng, 0.5, 15.0)
     # The 0.1 s windows in which each talker sounds (its dry sentence, heard dist / c later).
     sounding = []
     for (k, start, x), (_, _, p) in zip(sched, talkers):
@@ -94,7 +94,7 @@ def score(truth, info, rows, events, planar):
     def err(u, r):
         if planar:
             return az_diff(r["azimuth_deg"], az_of(u))
-        return W.angle(u, np.array([r["x"], r["y"], r["z"]]))
+        return R.angle(u, np.array([r["x"], r["y"], r["z"]]))
 
     starts = [sorted(s) for s in info["sounding"]]
     found, shared, errs = 0, 0, []
@@ -119,17 +119,17 @@ def one(ssl, seed, name, work, clips, extra):
     wav, tpath, geo = (os.path.join(d, f) for f in ("rec.wav", "truth.json", "array.toml"))
     if not os.path.exists(tpath):
         audio, truth, info = render(seed, mics, clips)
-        W.write_wav(wav, audio, RATE)
-        W.save_scene(geo, tpath, name, mics, info, truth)
-    truth, info = W.load_scene(tpath)
-    rows, events, _ = W.run_ssl(ssl, wav, geo, extra)
+        R.write_wav(wav, audio, RATE)
+        R.save_scene(geo, tpath, name, mics, info, truth)
+    truth, info = R.load_scene(tpath)
+    rows, events, _ = R.run_ssl(ssl, wav, geo, extra)
     return score(truth, info, rows, events, planar), info
 
 
 def main():
-    ap = W.scenes_parser()
+    ap = R.scenes_parser()
     args = ap.parse_args()
-    clips = W.speech_clips(RATE)
+    clips = R.speech_clips(RATE)
     work = args.work or tempfile.mkdtemp(prefix="ssl-together-")
     jobs = [(s, n) for n in ARRAYS for s in range(args.seed, args.seed + args.scenes)]
     totals = {}

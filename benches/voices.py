@@ -23,11 +23,9 @@ the same audio of each talker's turns, the azimuth error of pyroomacoustics' SRP
 Needs numpy, scipy and pyroomacoustics (pip install numpy scipy pyroomacoustics).
 """
 
-import json
 import math
 import os
 import random
-import subprocess
 import sys
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
@@ -35,7 +33,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import words as W  # noqa: E402  (wav and speech helpers)
+import rooms as R  # noqa: E402  (rooms, talkers, fans, scene files)
 
 RATE = 16000
 TAIL_S = 0.3
@@ -44,23 +42,23 @@ FOUND_DEG = 10.0
 
 # name -> (positions, planar)
 ARRAYS = {
-    "tetrahedron, 4 mics, 5.7 cm": (W.tetrahedron(0.057), False),
-    "circle, 6 mics, r 4.63 cm": (W.circle(6, 0.0463), True),
-    "square, 4 mics, 4.57 cm": (W.circle(4, 0.0457 / math.sqrt(2)), True),
-    "circle, 8 mics, r 15 cm": (W.circle(8, 0.15), True),
+    "tetrahedron, 4 mics, 5.7 cm": (R.tetrahedron(0.057), False),
+    "circle, 6 mics, r 4.63 cm": (R.circle(6, 0.0463), True),
+    "square, 4 mics, 4.57 cm": (R.circle(4, 0.0457 / math.sqrt(2)), True),
+    "circle, 8 mics, r 15 cm": (R.circle(8, 0.15), True),
 }
 
 
 def voices():
     """(low voice clips, other clips) at 16 kHz, by speaker."""
     low, other = [], []
-    for d in W.SPEECH_DIRS:
+    for d in R.SPEECH_DIRS:
         if not os.path.isdir(d):
             continue
         for f in sorted(os.listdir(d)):
             if not f.endswith(".wav") or any(f == g for g, _ in low + other):
                 continue
-            x, r = W.read_wav(os.path.join(d, f))
+            x, r = R.read_wav(os.path.join(d, f))
             assert r == RATE, f
             (low if "_aew_" in f else other).append((f, x[:, 0]))
     return [x for _, x in low], [x for _, x in other]
@@ -84,7 +82,7 @@ def az_diff(a, b):
 def draw(seed):
     rng = random.Random(seed * 7451)
     rt60 = rng.uniform(0.3, 0.73)
-    dims, centre, talkers = W.small_room_talkers(
+    dims, centre, talkers = R.small_room_talkers(
         rng, 2, lambda az, others: all(az_diff(az, t[0]) >= 40 for t in others), 200)
     return rng, rt60, dims, centre, talkers
 
@@ -103,10 +101,10 @@ def render(seed, mics_local, low, other):
         sched.append((k, t, x))
         t += len(x) / RATE + rng.uniform(0.3, 0.8)
     n = int((t + 0.5) * RATE)
-    room = W.shoebox(dims, RATE, rt60, centre + np.array(mics_local))
+    room = R.shoebox(dims, RATE, rt60, centre + np.array(mics_local))
 
-    speech, truth = W.talkers_heard(room, [p for _, _, p in talkers], sched, n, RATE, centre)
-    noise = W.fans_heard(room, [W.ceiling_fan(rng, dims)], n, RATE, nrng, 0.5, 15.0)
+    speech, truth = R.talkers_heard(room, [p for _, _, p in talkers], sched, n, RATE, centre)
+    noise = R.fans_heard(room, [R.ceiling_fan(rng, dims)], n, RATE, nrng, 0.5, 15.0)
     info = {"rt60": round(rt60, 2), "f0_factor": round(factor, 3), "talkers_az": [round(a, 1) for a, _, _ in talkers]}
     return speech + noise, truth, info
 
@@ -157,18 +155,18 @@ def one(ssl, seed, k, name, work, low, other, extra):
     wav, tpath, geo = (os.path.join(d, f) for f in ("rec.wav", "truth.json", "array.toml"))
     if not os.path.exists(tpath):
         audio, truth, info = render(seed, mics, low, other)
-        W.write_wav(wav, audio, RATE)
+        R.write_wav(wav, audio, RATE)
         info["srp_az"] = [srp(audio, mics, spans, planar) for _, spans in truth]
-        W.save_scene(geo, tpath, name, mics, info, truth)
-    truth, info = W.load_scene(tpath)
-    rows, events, _ = W.run_ssl(ssl, wav, geo, extra)
+        R.save_scene(geo, tpath, name, mics, info, truth)
+    truth, info = R.load_scene(tpath)
+    rows, events, _ = R.run_ssl(ssl, wav, geo, extra)
     per, false = score(truth, rows, events)
     srp_err = [az_diff(a, az_of(u)) for a, (u, _) in zip(info["srp_az"], truth)]
     return per, false, len(events), srp_err, info
 
 
 def main():
-    ap = W.scenes_parser()
+    ap = R.scenes_parser()
     args = ap.parse_args()
     low, other = voices()
     work = args.work or tempfile.mkdtemp(prefix="ssl-voices-")
