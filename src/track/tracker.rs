@@ -311,7 +311,7 @@ impl Tracker {
         self.associate(time_s, detections, frame, &mut used, &mut taken);
         self.ride(time_s, detections, &mut used, &mut taken);
         self.start(time_s, detections, frame, &mut used);
-        self.heard_together(&used, &taken);
+        self.heard_together(detections, &used, &taken);
         self.taken = taken;
         // Rows wait in the frame's order of its detections.
         for (d, slot) in detections.iter().zip(&used) {
@@ -427,16 +427,32 @@ impl Tracker {
     }
 
     /// Notes, for each candidate that took one of the frame's detections (`used`), the
-    /// tracks that took another (`taken`).
-    fn heard_together(&mut self, used: &[Option<Slot>], taken: &[(bool, u64)]) {
-        for slot in used.iter().flatten() {
-            let Slot::Candidate(key, _) = *slot else {
-                continue;
-            };
-            let Some(c) = self.candidates.iter_mut().find(|c| c.key == key) else {
+    /// tracks that took another of them beyond its reach (`taken`): two detections of
+    /// one frame closer than that are the array's scatter of one source, not two heard
+    /// together.
+    fn heard_together(
+        &mut self,
+        detections: &[Detection],
+        used: &[Option<Slot>],
+        taken: &[(bool, u64)],
+    ) {
+        let reach = self.reach();
+        for (i, slot) in used.iter().enumerate() {
+            let Some(Slot::Candidate(key, _)) = *slot else {
                 continue;
             };
             for &(_, id) in taken.iter().filter(|(track, _)| *track) {
+                // The track's detections of this frame all beyond reach of the candidate's.
+                let far = used.iter().zip(detections).all(|(s, d)| {
+                    !matches!(s, Some(Slot::Track(t)) if *t == id)
+                        || self.distance(&d.direction, &detections[i].direction) > reach
+                });
+                if !far {
+                    continue;
+                }
+                let Some(c) = self.candidates.iter_mut().find(|c| c.key == key) else {
+                    continue;
+                };
                 match c.together.iter_mut().find(|(t, _)| *t == id) {
                     Some((_, n)) => *n += 1,
                     None => c.together.push((id, 1)),
@@ -628,17 +644,22 @@ impl Tracker {
             self.stats.reflections += c.hits.len() as u64;
             return;
         }
-        // A track in a stretch of activity is the candidate's source when the two (the
-        // track where it is predicted or last heard, or its detections' mean) lie within
-        // their cones combined (the array cannot tell them apart), even beyond its gate:
-        // a talker on a 5.7 cm tetrahedron at 16 kHz scatters by 5-10 deg, and his
-        // words' detections 12-19 deg from his track confirmed a second one beside it.
-        // Not a track heard in the same frames as the candidate (two talkers at once,
-        // which the frames tell apart), and only on a volumetric array: a planar array's
-        // cone is mostly its elevation's uncertainty, which association weighs little
-        // (two talkers 30 deg apart on the 6-mic circle at once were taken as one), and
-        // a linear array's holds the circle around its axis.
+        // A track in a stretch of activity is the candidate's source, even beyond its
+        // gate, when the two (the track where it is predicted or last heard, or its
+        // detections' mean) are closer than the array can tell apart, and the
+        // candidate was not heard in the same frames as the track (two talkers at once,
+        // which the frames tell apart):
+        // - within reach (a sample and a half of delay, [`Tracker::reach`]), on any
+        //   array: a low voice on the 6-mic circle at 16 kHz, heard 8-10 deg from his
+        //   track in azimuth as his words went on, confirmed a second track beside it;
+        // - within their cones combined, on a volumetric array: a talker on a 5.7 cm
+        //   tetrahedron at 16 kHz scatters by 5-10 deg, and his words' detections 12-19
+        //   deg from his track confirmed a second one beside it. Not on a planar array,
+        //   whose cone is mostly its elevation's uncertainty, which association weighs
+        //   little (two talkers 30 deg apart on the 6-mic circle at once were taken as
+        //   one), nor on a linear one, whose cone holds the circle around its axis.
         let cone = c.uncertainty_deg();
+        let reach = self.reach();
         let near = self
             .tracks
             .iter()
@@ -646,14 +667,15 @@ impl Tracker {
             .filter_map(|(i, t)| {
                 let angle = self.off_track(&c.direction, t, now);
                 let in_gate = angle <= self.track_gate(t, now);
-                let same = self.volumetric
-                    && t.event.as_ref().is_some_and(|e| {
-                        let together = c.together.iter().find(|(id, _)| *id == t.id);
-                        let together = together.map_or(0, |&(_, n)| n) as f64;
-                        let mean = self.distance(&c.direction, &e.direction());
-                        angle.min(mean) <= e.uncertainty_deg().hypot(cone)
-                            && together < TOGETHER_SHARE * c.heard as f64
-                    });
+                let same = t.event.as_ref().is_some_and(|e| {
+                    let together = c.together.iter().find(|(id, _)| *id == t.id);
+                    let together = together.map_or(0, |&(_, n)| n) as f64;
+                    let mean = self.distance(&c.direction, &e.direction());
+                    together < TOGETHER_SHARE * c.heard as f64
+                        && (angle <= reach
+                            || self.volumetric
+                                && angle.min(mean) <= e.uncertainty_deg().hypot(cone))
+                });
                 (in_gate || same).then_some((i, angle, in_gate))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1));
