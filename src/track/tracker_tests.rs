@@ -581,14 +581,9 @@ fn a_run_within_a_talkers_cones_is_his_unless_heard_with_him() {
     assert_eq!(ids(Run::Together, 28.0, 25.0), vec![1, 2]);
 }
 
-/// A still talker on a 6-mic circle of radius 4.63 cm whose directions wander: 9 deg
-/// over 0.6 s, smoothly (the room's reflections change with what he says), which
-/// measures as a turn of 15 deg/s and predicts his track on; after a 30 ms gap he is
-/// heard back where he began, 9 deg from where his track was last heard and further
-/// from where it is predicted. Near where it was last heard, that is his track, not a
-/// second source.
-#[test]
-fn a_wandering_talker_back_where_he_was_is_one_track() {
+/// The sources of the rows a tracker on a 6-mic circle of radius 4.63 cm at 16 kHz (a
+/// ReSpeaker-like array) gives for `frames` (frame `f`'s detections at `f` hops).
+fn small_circle_sources(frames: impl Iterator<Item = Vec<Detection>>) -> Vec<u64> {
     let positions: Vec<[f64; 3]> = (0..6)
         .map(|i| {
             let a = std::f64::consts::TAU * i as f64 / 6.0;
@@ -597,24 +592,41 @@ fn a_wandering_talker_back_where_he_was_is_one_track() {
         .collect();
     let circle = Geometry::from_positions(&positions).unwrap();
     let mut tracker = Tracker::for_array(TrackParams::default(), &circle, 16000.0, 343.0);
-    let at = |frame: u64, azimuth: f64| Detection {
-        elevation_deg: 33.0,
-        direction: unit_from_angles(azimuth, 33.0),
-        uncertainty_deg: 30.0,
-        ..detection(frame, azimuth)
-    };
     let mut sources = Vec::new();
-    for f in 0..150u64 {
-        let ds = match f {
-            0..=59 => vec![at(f, -117.0 - 0.15 * f as f64)],
-            63..=92 => vec![at(f, -117.3)],
-            _ => Vec::new(),
-        };
+    for (f, ds) in frames.enumerate() {
         tracker.push(f as f64 * HOP, &ds);
         sources.extend(tracker.take_rows().filter_map(|r| r.source));
     }
     tracker.finish();
     sources.extend(tracker.take_rows().filter_map(|r| r.source));
+    sources
+}
+
+/// A detection at `azimuth` and 33 deg up with a planar array's wide cone.
+fn high_on_a_circle(frame: u64, azimuth: f64, margin: f64) -> Detection {
+    Detection {
+        elevation_deg: 33.0,
+        direction: unit_from_angles(azimuth, 33.0),
+        uncertainty_deg: 30.0,
+        margin,
+        peak_margin: margin,
+        ..detection(frame, azimuth)
+    }
+}
+
+/// A still talker on a 6-mic circle of radius 4.63 cm whose directions wander: 9 deg
+/// over 0.6 s, smoothly (the room's reflections change with what he says), which
+/// measures as a turn of 15 deg/s and predicts his track on; after a 30 ms gap he is
+/// heard back where he began, 9 deg from where his track was last heard and further
+/// from where it is predicted. Near where it was last heard, that is his track, not a
+/// second source.
+#[test]
+fn a_wandering_talker_back_where_he_was_is_one_track() {
+    let sources = small_circle_sources((0..150u64).map(|f| match f {
+        0..=59 => vec![high_on_a_circle(f, -117.0 - 0.15 * f as f64, 2.0)],
+        63..=92 => vec![high_on_a_circle(f, -117.3, 2.0)],
+        _ => Vec::new(),
+    }));
     assert_eq!(sources.len(), 90, "{sources:?}");
     assert!(sources.iter().all(|&s| s == sources[0]), "{sources:?}");
 }
@@ -626,35 +638,13 @@ fn a_wandering_talker_back_where_he_was_is_one_track() {
 /// together: the candidate is his track's, not a second source.
 #[test]
 fn a_talkers_scatter_within_reach_is_his_even_heard_in_his_frames() {
-    let positions: Vec<[f64; 3]> = (0..6)
-        .map(|i| {
-            let a = std::f64::consts::TAU * i as f64 / 6.0;
-            [0.0463 * a.cos(), 0.0463 * a.sin(), 0.0]
-        })
-        .collect();
-    let circle = Geometry::from_positions(&positions).unwrap();
-    let mut tracker = Tracker::for_array(TrackParams::default(), &circle, 16000.0, 343.0);
-    let at = |frame: u64, azimuth: f64, margin: f64| Detection {
-        elevation_deg: 33.0,
-        direction: unit_from_angles(azimuth, 33.0),
-        uncertainty_deg: 30.0,
-        margin,
-        peak_margin: margin,
-        ..detection(frame, azimuth)
-    };
-    let mut sources = Vec::new();
-    for f in 0..200u64 {
-        let ds = match f {
-            0..=39 => vec![at(f, 60.0, 2.0)],
-            40..=59 => vec![at(f, 60.0, 2.0), at(f, 51.0, 0.7)],
-            60..=119 => vec![at(f, 51.0, 0.7)],
-            _ => Vec::new(),
-        };
-        tracker.push(f as f64 * HOP, &ds);
-        sources.extend(tracker.take_rows().filter_map(|r| r.source));
-    }
-    tracker.finish();
-    sources.extend(tracker.take_rows().filter_map(|r| r.source));
+    let at = high_on_a_circle;
+    let sources = small_circle_sources((0..200u64).map(|f| match f {
+        0..=39 => vec![at(f, 60.0, 2.0)],
+        40..=59 => vec![at(f, 60.0, 2.0), at(f, 51.0, 0.7)],
+        60..=119 => vec![at(f, 51.0, 0.7)],
+        _ => Vec::new(),
+    }));
     assert!(sources.len() >= 100, "{}", sources.len());
     assert!(sources.iter().all(|&s| s == sources[0]), "{sources:?}");
 }
