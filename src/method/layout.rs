@@ -4,6 +4,7 @@
 //! threshold's floors, the diffuse coherences, the bins' solvers) are built by their
 //! stages; the engine's [`Setup`](super::engine::setup::Setup) holds them beside this.
 
+use super::beyond::steered::steer_tolerance;
 use super::paper::correlation::weight_energy;
 use super::paper::frames::FrameSize;
 use super::paper::pairs::{pair_count, pair_index};
@@ -38,6 +39,9 @@ pub(crate) struct Layout {
     pub band: (usize, usize),
     /// The consistency tolerance of eq. (8) in samples at this rate.
     pub tolerance: f32,
+    /// How far (samples) a pair's peak may lie from a steered direction's delay
+    /// ([`steer_tolerance`]).
+    pub steer_tolerance: f32,
 }
 
 impl Layout {
@@ -77,9 +81,12 @@ impl Layout {
         let mics = geometry.mics.len();
         let mut max_lag = vec![0; pair_count(mics)];
         let mut widest = 0;
+        let mut longest = 0.0f64;
         for a in 0..mics {
             for b in a + 1..mics {
-                let lag = lag_range(geometry.max_lag_samples(a, b, rate, speed));
+                let delay = geometry.max_lag_samples(a, b, rate, speed);
+                longest = longest.max(delay);
+                let lag = lag_range(delay);
                 max_lag[pair_index(a, b, mics)] = lag;
                 widest = widest.max(lag);
             }
@@ -132,6 +139,7 @@ impl Layout {
             windows_len,
             band,
             tolerance,
+            steer_tolerance: steer_tolerance(tolerance, longest),
         })
     }
 

@@ -408,7 +408,7 @@ impl Patterns {
                 live: &state.live,
                 mics: setup.mics(),
                 found: &self.directions,
-                tolerance: setup.tolerance,
+                tolerance: setup.steer_tolerance,
                 floor,
             },
             solver,

@@ -66,6 +66,33 @@ pub(crate) const COVER_RAD: f64 = 0.085;
 /// source's delay before the next is looked for.
 pub const CLEAR_SAMPLES: f32 = 1.0;
 
+/// The tolerance (samples) of a steered direction's pairs where the consistency
+/// tolerance sits at its floor of one sample (at 20 kHz and under with the default 50
+/// us), on arrays whose longest delay is at least [`LOOSE_MIN_LAGS`] samples: in a faint
+/// talker's frames in a reverberant room a pair's refined peak stands up to two samples
+/// at 16 kHz off the plane wave's delay. On the prism at 16 kHz, words found 94-99% ->
+/// 99-100% and hard rooms 56-96% -> 78-100%, no false event (benches/words.py,
+/// docs/experiments.md, 2026-12-06).
+pub(crate) const LOOSE_SAMPLES: f32 = 2.0;
+
+/// Arrays whose longest delay is under this many samples keep the consistency
+/// tolerance for the steered response: on the 8-mic circle of radius 15 cm at 16 kHz
+/// (14 samples) two samples split one talker in eight into two tracks
+/// (benches/voices.py), and on smaller arrays they are a quarter of the delays or more.
+pub(crate) const LOOSE_MIN_LAGS: f64 = 16.0;
+
+/// How far (samples) a pair's peak may lie from a steered direction's delay, for an
+/// array whose longest delay is `longest` samples: [`LOOSE_SAMPLES`] where the
+/// consistency `tolerance` is one sample or less on arrays of [`LOOSE_MIN_LAGS`] or
+/// more (at higher rates, 50 us is 1.6 samples and more and is kept), else `tolerance`.
+pub(crate) fn steer_tolerance(tolerance: f32, longest: f64) -> f32 {
+    if longest >= LOOSE_MIN_LAGS && tolerance <= 1.0 {
+        LOOSE_SAMPLES
+    } else {
+        tolerance
+    }
+}
+
 /// Further sources are looked for this far (degrees) from those found.
 pub(crate) const EXCLUDE_DEG: f64 = 15.0;
 

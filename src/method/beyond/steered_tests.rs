@@ -277,3 +277,38 @@ fn whole_within_is_ceil_and_floor() {
         }
     }
 }
+
+/// The steered response's pairs take two samples at 16 kHz on the prism (the default
+/// consistency tolerance there is one), the consistency tolerance on an 8-mic circle of
+/// radius 15 cm (its longest delay, 14 samples, is under [`LOOSE_MIN_LAGS`]) and at 48
+/// kHz (where the tolerance is 2.4 samples, 1.9 at 40 us).
+#[test]
+fn a_steered_direction_takes_two_samples_on_arrays_of_sixteen_or_more() {
+    use crate::method::layout::Layout;
+    use crate::method::Params;
+    let prism = Geometry::from_file(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml"),
+    )
+    .unwrap();
+    let circle: Vec<[f64; 3]> = (0..8)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / 8.0;
+            [0.15 * a.cos(), 0.15 * a.sin(), 0.0]
+        })
+        .collect();
+    let circle = Geometry::from_positions(&circle).unwrap();
+    let at = |g: &Geometry, rate, us| {
+        let params = Params {
+            tolerance: crate::method::Tolerance::Us(us),
+            ..Params::default()
+        };
+        let l = Layout::new(g, rate, &params).unwrap();
+        (l.tolerance, l.steer_tolerance)
+    };
+    assert_eq!(at(&prism, 16000, 50.0), (1.0, LOOSE_SAMPLES));
+    assert_eq!(at(&circle, 16000, 50.0), (1.0, 1.0));
+    for us in [50.0, 40.0] {
+        let (tolerance, steer) = at(&prism, 48000, us);
+        assert!((tolerance - us as f32 * 0.048).abs() < 1e-4 && steer == tolerance);
+    }
+}

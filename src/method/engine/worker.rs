@@ -543,7 +543,7 @@ impl Worker {
                     live: &state.live,
                     mics: setup.mics(),
                     found: &directions,
-                    tolerance: setup.tolerance,
+                    tolerance: setup.steer_tolerance,
                     floor,
                 },
                 solver,
