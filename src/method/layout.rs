@@ -4,7 +4,7 @@
 //! threshold's floors, the diffuse coherences, the bins' solvers) are built by their
 //! stages; the engine's [`Setup`](super::engine::setup::Setup) holds them beside this.
 
-use super::beyond::steered::{steer_tolerance, Steering};
+use super::beyond::steered::steer_tolerance;
 use super::paper::correlation::weight_energy;
 use super::paper::frames::FrameSize;
 use super::paper::pairs::{pair_count, pair_index};
@@ -127,14 +127,7 @@ impl Layout {
                 here
             })
             .collect();
-        // Every frame's direction keeps the consistency tolerance: its cones, fitted to
-        // that, held the truth in 90% of a pyroomacoustics room's frames with two samples
-        // (93% asked, python/tests/test_pyroomacoustics.py).
-        let steer_tolerance = if params.steered == Steering::EveryFrame {
-            tolerance
-        } else {
-            steer_tolerance(tolerance, longest)
-        };
+        let steer_tolerance = steer_tolerance(tolerance, longest, params.steered);
         Ok(Layout {
             geometry: geometry.clone(),
             params,

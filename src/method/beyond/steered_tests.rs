@@ -27,13 +27,18 @@ fn running_max_is_the_naive_one() {
 const RATE: f64 = 48000.0;
 const SPEED: f64 = 343.0;
 
+/// The shipped prism (`testdata/prism.toml`).
+fn prism_geometry() -> Geometry {
+    Geometry::from_file(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml"),
+    )
+    .unwrap()
+}
+
 /// The prism at 48 kHz: its positions, lags per pair, a steered response and
 /// the solver of all its microphones.
 fn prism() -> (Vec<Vector3<f64>>, Vec<usize>, Steered, DirectionSolver) {
-    let geometry = Geometry::from_file(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml"),
-    )
-    .unwrap();
+    let geometry = prism_geometry();
     let positions: Vec<Vector3<f64>> = geometry.mics.iter().map(|m| m.position).collect();
     let mics = positions.len();
     let max_lag: Vec<usize> = (0..pair_count(mics))
@@ -281,15 +286,12 @@ fn whole_within_is_ceil_and_floor() {
 /// The steered response's pairs take two samples at 16 kHz on the prism (the default
 /// consistency tolerance there is one), the consistency tolerance on an 8-mic circle of
 /// radius 15 cm (its longest delay, 14 samples, is under [`LOOSE_MIN_LAGS`]) and at 48
-/// kHz (where the tolerance is 2.4 samples, 1.9 at 40 us).
+/// kHz (where the tolerance is 2.4 samples, 1.9 at 40 us), and with `--every-frame`.
 #[test]
 fn a_steered_direction_takes_two_samples_on_arrays_of_sixteen_or_more() {
     use crate::method::layout::Layout;
     use crate::method::Params;
-    let prism = Geometry::from_file(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/prism.toml"),
-    )
-    .unwrap();
+    let prism = prism_geometry();
     let circle: Vec<[f64; 3]> = (0..8)
         .map(|i| {
             let a = i as f64 * std::f64::consts::TAU / 8.0;
@@ -297,15 +299,22 @@ fn a_steered_direction_takes_two_samples_on_arrays_of_sixteen_or_more() {
         })
         .collect();
     let circle = Geometry::from_positions(&circle).unwrap();
-    let at = |g: &Geometry, rate, us| {
+    let at_steering = |g: &Geometry, rate, us, steered| {
         let params = Params {
             tolerance: crate::method::Tolerance::Us(us),
+            steered,
             ..Params::default()
         };
         let l = Layout::new(g, rate, &params).unwrap();
         (l.tolerance, l.steer_tolerance)
     };
+    let at = |g: &Geometry, rate, us| at_steering(g, rate, us, Params::default().steered);
     assert_eq!(at(&prism, 16000, 50.0), (1.0, LOOSE_SAMPLES));
+    // Every frame's direction keeps the consistency tolerance.
+    assert_eq!(
+        at_steering(&prism, 16000, 50.0, Steering::EveryFrame),
+        (1.0, 1.0)
+    );
     assert_eq!(at(&circle, 16000, 50.0), (1.0, 1.0));
     for us in [50.0, 40.0] {
         let (tolerance, steer) = at(&prism, 48000, us);
