@@ -13,8 +13,8 @@
 //!   gate, when heard again;
 //! - **riders ride along:** a rider ([`Detection::rider`](crate::method::Detection::rider):
 //!   from a frame that gave nothing down to the candidates' share, found down to
-//!   [`Talkers::riders`](crate::method::Talkers::riders)) only adds a row to the nearest talking
-//!   track within the candidates' gate that none of the frame's other detections
+//!   [`Talkers::riders`](crate::method::Talkers::riders)) only adds a row to the nearest track
+//!   in a stretch of activity within the candidates' gate that none of the frame's other detections
 //!   joined; the track is left as it was (its direction, and the time it was last
 //!   heard, are the other detections'), and the rider starts, joins and confirms no
 //!   candidate. (Letting weak detections do what candidates do gave a false track next
@@ -30,7 +30,9 @@
 //!   [`TrackParams::delay_s`]. A track's gate is then narrow right after a pause unless
 //!   its speed has been measured, and a stretch of activity ends after a silence as
 //!   long as itself (at least 0.3 s, at most [`TrackParams::end_s`]): each clap is its
-//!   own event. The image and silent-track rules below hold as well;
+//!   own event; it also ends when another source starts one after it has been silent
+//!   for 0.2 s (a turn ends when another takes the floor). The image and silent-track
+//!   rules below hold as well;
 //! - **birth on confirmation** ([`ConfirmBy::Rules`], 0.2.0's): a detection that joins
 //!   no track starts a candidate; the
 //!   candidate becomes a track once [`TrackParams::confirm_hits`] detections above the

@@ -85,7 +85,7 @@ impl TrackStats {
                 ),
             };
             format!(
-                "no source confirmed: {fate}; {} of them came from one place, azimuth {} deg, elevation {} deg, from {} to {} s, and {short}: a source too faint to confirm (a talker across a reverberant room: --wpe --dereverb on hear more of one, docs/guide.md; or a steady noise such as a fan){tail}",
+                "no source confirmed: {fate}; {} of them came from one place, azimuth {} deg, elevation {} deg, from {} to {} s, and {short}: a source too faint to confirm (a talker across a reverberant room, or a steady noise such as a fan; a larger --false-per-hour confirms fainter sources, and more false ones: docs/guide.md){tail}",
                 place.detections,
                 BriefNumber((azimuth * 10.0).round() / 10.0),
                 BriefNumber((elevation * 10.0).round() / 10.0),

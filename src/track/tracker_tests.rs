@@ -148,6 +148,56 @@ fn neighbours_in_turn_each_keep_their_own_id() {
     assert_eq!(events.len(), order.len(), "{events:?}");
 }
 
+#[test]
+fn a_turn_ends_when_another_talker_takes_the_floor() {
+    // A at 30 deg for 1 s, then B at 50 deg from 0.3 s after A's last word; while B
+    // talks, a stray at A's place (a detection just above the threshold in B's frame) and a
+    // rider beside it, 0.5-0.6 s after A fell silent: within the silence that ends A's
+    // stretch (as long as the stretch), but B took the floor, so A's turn ended with
+    // his last detection (five talkers in turn: A's event ran on into B's turn).
+    let mut tracker = Tracker::new(TrackParams::default());
+    let mut events = Vec::new();
+    for f in 0..400u64 {
+        let mut ds = Vec::new();
+        if (10..110).contains(&f) && f % 2 == 0 {
+            ds.push(detection(f, 30.0));
+        }
+        if (140..240).contains(&f) && f % 2 == 0 {
+            ds.push(detection(f, 50.0));
+        }
+        if f == 160 {
+            ds.push(Detection {
+                margin: 1.1,
+                peak_margin: 1.1,
+                ..detection(f, 31.0)
+            });
+        }
+        if f == 165 {
+            ds.push(Detection {
+                margin: 0.35,
+                peak_margin: 0.35,
+                rider: true,
+                ..detection(f, 31.0)
+            });
+        }
+        tracker.push(f as f64 * HOP, &ds);
+        events.extend(tracker.take_events());
+    }
+    tracker.finish();
+    events.extend(tracker.take_events());
+    let a: Vec<&Event> = events
+        .iter()
+        .filter(|e| angle_between_deg(&e.direction, &unit_from_angles(30.0, 0.0)) < 5.0)
+        .collect();
+    assert!(!a.is_empty(), "{events:?}");
+    assert!(a.iter().all(|e| e.end_s < 1.1), "{events:?}");
+    let b = events
+        .iter()
+        .filter(|e| angle_between_deg(&e.direction, &unit_from_angles(50.0, 0.0)) < 5.0)
+        .count();
+    assert_eq!(b, 1, "{events:?}");
+}
+
 /// The defaults, confirming by the rules of 0.2.0.
 fn rules() -> TrackParams {
     TrackParams {
