@@ -26,6 +26,7 @@
 use super::{Det, Metric, Source, HIT_DEG};
 use crate::record::event::is_path;
 use crate::record::EventRecord;
+use crate::track::TURN_GAP_S;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
@@ -274,7 +275,9 @@ fn source_tracks(
 
 /// The events read off the rows: each track's runs of rows split where it is silent
 /// longer than the tracker ends an event after (the defaults' rule,
-/// [`continues`](super::coverage::continues)), with the sum of their directions.
+/// [`continues`](super::coverage::continues)), or where another track's run starts
+/// after it has been silent for [`TURN_GAP_S`] (a turn ends when another takes the
+/// floor), with the sum of their directions.
 fn stretches(dets: &[Det], tracks: &[u64]) -> Vec<Stretch> {
     let mut open: BTreeMap<u64, Stretch> = BTreeMap::new();
     let mut stretches = Vec::new();
@@ -295,6 +298,14 @@ fn stretches(dets: &[Det], tracks: &[u64]) -> Vec<Stretch> {
                 };
                 if let Some(done) = open.insert(t, new) {
                     stretches.push(done);
+                }
+                let ended: Vec<u64> = open
+                    .iter()
+                    .filter(|&(&other, s)| other != t && d.time_s - s.end > TURN_GAP_S)
+                    .map(|(&other, _)| other)
+                    .collect();
+                for other in ended {
+                    stretches.extend(open.remove(&other));
                 }
             }
         }
@@ -359,6 +370,27 @@ mod tests {
             frame: None,
             source: None,
         }
+    }
+
+    #[test]
+    fn events_read_off_rows_end_a_turn_when_another_takes_the_floor() {
+        // Track 1 talks 0-1 s, track 2 from 1.3 s; a row of track 1 at 1.5 s, within
+        // the silence that would end its stretch (as long as the stretch), is a new
+        // stretch: track 2 took the floor after track 1 had been silent 0.3 s. The
+        // tracker writes its events by the same rule.
+        let mut rows: Vec<(Det, u64)> = (0..=20).map(|i| (det(0.05 * i as f64, 0.0), 1)).collect();
+        rows.extend((0..=20).map(|i| (det(1.3 + 0.05 * i as f64, 20.0), 2)));
+        rows.push((det(1.5, 1.0), 1));
+        rows.sort_by(|a, b| a.0.time_s.total_cmp(&b.0.time_s));
+        let (dets, ids): (Vec<Det>, Vec<u64>) = rows.into_iter().unzip();
+        let mut spans: Vec<(f64, f64)> = stretches(&dets, &ids)
+            .iter()
+            .map(|s| (s.start, s.end))
+            .collect();
+        spans.sort_by(|a, b| a.0.total_cmp(&b.0));
+        assert_eq!(spans.len(), 3, "{spans:?}");
+        assert!((spans[0].1 - 1.0).abs() < 1e-9, "{spans:?}");
+        assert!((spans[2].0 - 1.5).abs() < 1e-9, "{spans:?}");
     }
 
     #[test]

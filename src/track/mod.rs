@@ -86,6 +86,7 @@ pub use event::Event;
 pub use faint::FaintPlace;
 pub use output::{TrackStats, Tracked};
 pub use tracker::Tracker;
+pub(crate) use tracker::TURN_GAP_S;
 
 /// How a candidate becomes a source.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

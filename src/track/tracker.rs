@@ -62,7 +62,7 @@ const TOGETHER_SHARE: f64 = 0.1;
 /// turn: an event ran 0.1-0.7 s into the next talker's turn in 19 of 498 turns, 9 at
 /// 0.2 s; at 0.1 s two talkers at once on a 6-mic circle had their events split, 10 ->
 /// 14).
-const TURN_GAP_S: f64 = 0.2;
+pub(crate) const TURN_GAP_S: f64 = 0.2;
 
 /// The defaults a tracker assumes before it is told the recording's looks
 /// ([`Tracker::looking`]): 6 hops of 512 samples at 48 kHz, candidates down to 0.4.
