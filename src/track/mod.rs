@@ -31,8 +31,9 @@
 //!   its speed has been measured, and a stretch of activity ends after a silence as
 //!   long as itself (at least 0.3 s, at most [`TrackParams::end_s`]): each clap is its
 //!   own event; it also ends when another source starts one after it has been silent
-//!   for 0.2 s (a turn ends when another takes the floor). The image and silent-track
-//!   rules below hold as well;
+//!   for 0.2 s (a turn ends when another takes the floor), and a track silent that long
+//!   takes no detection scoring under half its frame's strongest (another source's
+//!   stray). The image and silent-track rules below hold as well;
 //! - **birth on confirmation** ([`ConfirmBy::Rules`], 0.2.0's): a detection that joins
 //!   no track starts a candidate; the
 //!   candidate becomes a track once [`TrackParams::confirm_hits`] detections above the

@@ -148,13 +148,10 @@ fn neighbours_in_turn_each_keep_their_own_id() {
     assert_eq!(events.len(), order.len(), "{events:?}");
 }
 
-#[test]
-fn a_turn_ends_when_another_talker_takes_the_floor() {
-    // A at 30 deg for 1 s, then B at 50 deg from 0.3 s after A's last word; while B
-    // talks, a stray at A's place (a detection just above the threshold in B's frame) and a
-    // rider beside it, 0.5-0.6 s after A fell silent: within the silence that ends A's
-    // stretch (as long as the stretch), but B took the floor, so A's turn ended with
-    // his last detection (five talkers in turn: A's event ran on into B's turn).
+/// A at 30 deg for 1 s (frames 10-110), B at 50 deg from 0.3 s after him (frames
+/// 140-240, at `b_margin`), and `extra` detections per frame, through a tracker with
+/// the default parameters: the events at A's place and the number at B's.
+fn a_then_b(b_margin: f64, extra: impl Fn(u64) -> Option<Detection>) -> (Vec<Event>, usize) {
     let mut tracker = Tracker::new(TrackParams::default());
     let mut events = Vec::new();
     for f in 0..400u64 {
@@ -163,39 +160,63 @@ fn a_turn_ends_when_another_talker_takes_the_floor() {
             ds.push(detection(f, 30.0));
         }
         if (140..240).contains(&f) && f % 2 == 0 {
-            ds.push(detection(f, 50.0));
-        }
-        if f == 160 {
             ds.push(Detection {
-                margin: 1.1,
-                peak_margin: 1.1,
-                ..detection(f, 31.0)
+                margin: b_margin,
+                peak_margin: b_margin,
+                ..detection(f, 50.0)
             });
         }
-        if f == 165 {
-            ds.push(Detection {
-                margin: 0.35,
-                peak_margin: 0.35,
-                rider: true,
-                ..detection(f, 31.0)
-            });
-        }
+        ds.extend(extra(f));
         tracker.push(f as f64 * HOP, &ds);
         events.extend(tracker.take_events());
     }
     tracker.finish();
     events.extend(tracker.take_events());
-    let a: Vec<&Event> = events
-        .iter()
-        .filter(|e| angle_between_deg(&e.direction, &unit_from_angles(30.0, 0.0)) < 5.0)
-        .collect();
-    assert!(!a.is_empty(), "{events:?}");
-    assert!(a.iter().all(|e| e.end_s < 1.1), "{events:?}");
-    let b = events
-        .iter()
-        .filter(|e| angle_between_deg(&e.direction, &unit_from_angles(50.0, 0.0)) < 5.0)
-        .count();
-    assert_eq!(b, 1, "{events:?}");
+    let near = |e: &Event, azimuth: f64| {
+        angle_between_deg(&e.direction, &unit_from_angles(azimuth, 0.0)) < 5.0
+    };
+    let b = events.iter().filter(|e| near(e, 50.0)).count();
+    (events.into_iter().filter(|e| near(e, 30.0)).collect(), b)
+}
+
+#[test]
+fn a_turn_ends_when_another_talker_takes_the_floor() {
+    // While B talks, a stray at A's place (a detection just above the threshold in B's
+    // frame) and a rider beside it, 0.5-0.6 s after A fell silent: within the silence
+    // that ends A's stretch (as long as the stretch), but B took the floor, so A's turn
+    // ended with his last detection (five talkers in turn: A's event ran on into B's).
+    let (a, b) = a_then_b(2.0, |f| match f {
+        160 => Some(Detection {
+            margin: 1.1,
+            peak_margin: 1.1,
+            ..detection(f, 31.0)
+        }),
+        165 => Some(Detection {
+            margin: 0.35,
+            peak_margin: 0.35,
+            rider: true,
+            ..detection(f, 31.0)
+        }),
+        _ => None,
+    });
+    assert!(!a.is_empty() && a.iter().all(|e| e.end_s < 1.1), "{a:?}");
+    assert_eq!(b, 1);
+}
+
+#[test]
+fn a_silent_talker_takes_no_stray_from_the_next_ones_frames() {
+    // B under the threshold (confirmed only after a few looks); in his second frame a
+    // detection beside A scoring 0.3 of his: before B is confirmed, it would have
+    // joined A's stretch (still open) and run it on into B's turn.
+    let (a, _) = a_then_b(0.6, |f| {
+        (f == 142).then(|| Detection {
+            score: 3.0,
+            margin: 1.1,
+            peak_margin: 1.1,
+            ..detection(f, 31.0)
+        })
+    });
+    assert!(!a.is_empty() && a.iter().all(|e| e.end_s < 1.1), "{a:?}");
 }
 
 /// The defaults, confirming by the rules of 0.2.0.
