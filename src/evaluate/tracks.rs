@@ -26,7 +26,7 @@
 use super::{Det, Metric, Source, HIT_DEG};
 use crate::record::event::is_path;
 use crate::record::EventRecord;
-use crate::track::TURN_GAP_S;
+use crate::track::turn_ended;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
@@ -88,6 +88,7 @@ pub struct TrackReport {
 
 /// An event: its first and last row's times, the sum of its rows' directions, and its
 /// first and last row's directions (where a moving source started and ended).
+#[derive(Clone, Copy)]
 pub(super) struct Stretch {
     pub(super) start: f64,
     pub(super) end: f64,
@@ -276,8 +277,8 @@ fn source_tracks(
 /// The events read off the rows: each track's runs of rows split where it is silent
 /// longer than the tracker ends an event after (the defaults' rule,
 /// [`continues`](super::coverage::continues)), or where another track's run starts
-/// after it has been silent for [`TURN_GAP_S`] (a turn ends when another takes the
-/// floor), with the sum of their directions.
+/// after it has been silent for a turn's gap (the tracker's rule, [`turn_ended`]),
+/// with the sum of their directions.
 fn stretches(dets: &[Det], tracks: &[u64]) -> Vec<Stretch> {
     let mut open: BTreeMap<u64, Stretch> = BTreeMap::new();
     let mut stretches = Vec::new();
@@ -299,14 +300,13 @@ fn stretches(dets: &[Det], tracks: &[u64]) -> Vec<Stretch> {
                 if let Some(done) = open.insert(t, new) {
                     stretches.push(done);
                 }
-                let ended: Vec<u64> = open
-                    .iter()
-                    .filter(|&(&other, s)| other != t && d.time_s - s.end > TURN_GAP_S)
-                    .map(|(&other, _)| other)
-                    .collect();
-                for other in ended {
-                    stretches.extend(open.remove(&other));
-                }
+                open.retain(|&other, s| {
+                    let ended = other != t && turn_ended(s.end, d.time_s);
+                    if ended {
+                        stretches.push(*s);
+                    }
+                    !ended
+                });
             }
         }
     }

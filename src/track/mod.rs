@@ -13,9 +13,9 @@
 //!   gate, when heard again;
 //! - **riders ride along:** a rider ([`Detection::rider`](crate::method::Detection::rider):
 //!   from a frame that gave nothing down to the candidates' share, found down to
-//!   [`Talkers::riders`](crate::method::Talkers::riders)) only adds a row to the nearest track
-//!   in a stretch of activity within the candidates' gate that none of the frame's other detections
-//!   joined; the track is left as it was (its direction, and the time it was last
+//!   [`Talkers::riders`](crate::method::Talkers::riders)) only adds a row to the nearest
+//!   track in a stretch of activity within the candidates' gate that none of the
+//!   frame's other detections joined; the track is left as it was (its direction, and the time it was last
 //!   heard, are the other detections'), and the rider starts, joins and confirms no
 //!   candidate. (Letting weak detections do what candidates do gave a false track next
 //!   to a fan and a false event a minute in a meeting; searching every frame down to
@@ -82,12 +82,11 @@ mod slope;
 pub mod smoother;
 mod tracker;
 
-pub(crate) use event::ends_after;
 pub use event::Event;
+pub(crate) use event::{ends_after, turn_ended};
 pub use faint::FaintPlace;
 pub use output::{TrackStats, Tracked};
 pub use tracker::Tracker;
-pub(crate) use tracker::TURN_GAP_S;
 
 /// How a candidate becomes a source.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -2,7 +2,7 @@
 
 use super::candidate::{candidate_gate_deg, heard_alone, Candidate};
 use super::clutter::Clutter;
-use super::event::{Accumulator, Event};
+use super::event::{turn_ended, Accumulator, Event};
 use super::evidence::{self, Bursts, Evidence, Test, ACTIVE_S};
 use super::faint::{self, FaintPlace, FaintPlaces};
 use super::image::{in_vertical_plane, is_vertical_image, IMAGE_TALKING_S};
@@ -55,17 +55,8 @@ const WEAK_WIDENING: f64 = 1.5;
 /// `frame_sources::SEPARATION_DEG` apart, which its scatter rarely reaches.
 const TOGETHER_SHARE: f64 = 0.1;
 
-/// With [`ConfirmBy::Evidence`], a track silent for longer than this (seconds) when
-/// another source starts a stretch of activity ends its own there: a turn ends when
-/// another takes the floor. Its stretch would otherwise run on for a silence as long
-/// as itself and take the new talker's first strays (five talkers 12-20 deg apart in
-/// turn: an event ran 0.1-0.7 s into the next talker's turn in 19 of 498 turns, 9 at
-/// 0.2 s; at 0.1 s two talkers at once on a 6-mic circle had their events split, 10 ->
-/// 14).
-pub(crate) const TURN_GAP_S: f64 = 0.2;
-
-/// A track silent for longer than [`TURN_GAP_S`] takes a detection only if it scores at
-/// least this share of its frame's strongest: a weaker one beside it, in a frame
+/// A track silent for a turn's gap ([`turn_ended`]) takes a detection only if it scores
+/// at least this share of its frame's strongest: a weaker one beside it, in a frame
 /// another source dominates, is that source's stray (five talkers in turn: a further
 /// source of the next talker's frame, at the silent one's elevation and 2-4 deg from
 /// him, scoring 0.4 of the talker, ran the silent one's event on into the next turn).
@@ -375,7 +366,7 @@ impl Tracker {
             for t in self
                 .tracks
                 .iter()
-                .filter(|t| t.event.is_some() && !(stray && time_s - t.last_s > TURN_GAP_S))
+                .filter(|t| t.event.is_some() && !(stray && turn_ended(t.last_s, time_s)))
             {
                 let angle = self.off_track(&d.direction, t, time_s);
                 if angle <= gate(t.speed_deg_s(), time_s - t.last_s) {
@@ -411,8 +402,8 @@ impl Tracker {
         self.pairs = pairs;
     }
 
-    /// Riders: rows of the tracks in a stretch of activity near them that the frame's other detections
-    /// left, nearest first; the tracks themselves are left as they were.
+    /// Riders: rows of the tracks in a stretch of activity near them that the frame's
+    /// other detections left, nearest first; the tracks themselves are left as they were.
     fn ride(
         &mut self,
         time_s: f64,
@@ -761,7 +752,7 @@ impl Tracker {
     /// source takes the floor).
     fn take_the_floor(&mut self, id: u64, start_s: f64) {
         for t in &mut self.tracks {
-            if t.id != id && t.event.is_some() && start_s - t.last_s > TURN_GAP_S {
+            if t.id != id && t.event.is_some() && turn_ended(t.last_s, start_s) {
                 let e = t.event.take().expect("checked");
                 self.events.push(e.finish(t.id));
             }
