@@ -11,9 +11,10 @@
 //!   no fit of its own (a rider, read from single frequency bins) takes [`NO_FIT_S`].
 //! - **How much all delays shrink together** (a fraction): on an array smaller than a
 //!   correlation peak, the floor's and ceiling's images merge with the direct sound's
-//!   peak and pull every delay toward theirs. A 3-D array's normalisation removes it; a
-//!   planar array reads it as a higher elevation, a linear one as a direction nearer
-//!   broadside ([`merge_share`]).
+//!   peak and pull every delay toward theirs. A planar array reads it as a higher
+//!   elevation, a linear one as a direction nearer broadside ([`merge_share`]). A 3-D
+//!   array's normalisation removes a common shrink, but the nearer image pulls its
+//!   direction up or down ([`IMAGE_RISE`]).
 //! - **What that does to the direction**: through the least squares of eq. (13)
 //!   ([`Spread`]), mapped onto the sphere the way the direction is: normalised for a 3-D
 //!   array; for a planar array the in-plane part, with the out-of-plane part from the
@@ -38,6 +39,11 @@ pub(crate) const NO_FIT_S: f64 = 20e-6;
 /// all shrink together: the floor's and ceiling's images fall within the direct sound's
 /// peak and pull every delay toward theirs (docs/method.md, "Uncertainty").
 pub(crate) const MERGE_SHARE: f64 = 0.2;
+/// How far the floor's or ceiling's image lies from the direct sound, in the vertical
+/// component of the unit direction, as it pulls a 3-D array's direction: a share
+/// [`MERGE_SHARE`] of it merged moves the direction up or down by that share of this
+/// (docs/method.md, "Uncertainty").
+pub(crate) const IMAGE_RISE: f64 = 0.3;
 /// The width (seconds) of a speech correlation peak, over which images merge with the
 /// direct sound: an array of this aperture keeps `exp(-1)` of [`MERGE_SHARE`].
 pub(crate) const PEAK_S: f64 = 0.5e-3;
@@ -99,7 +105,8 @@ pub(crate) fn merge_share(solver: &DirectionSolver, speed: f64) -> f64 {
 
 /// The half-angle (degrees) of the 95% cone around `u` when every microphone's timing
 /// errs by `sigma` seconds and all delays shrink together by a fraction `shrink`
-/// (standard deviations).
+/// (standard deviations): on a 3-D array, whose normalisation undoes a shrink, that
+/// share of a vertical image pulls the direction by `shrink * IMAGE_RISE`.
 pub(crate) fn cone_deg(spread: &Spread, u: &Vector3<f64>, sigma: f64, shrink: f64) -> f64 {
     let var = sigma * sigma;
     let deg = match spread {
@@ -108,7 +115,10 @@ pub(crate) fn cone_deg(spread: &Spread, u: &Vector3<f64>, sigma: f64, shrink: f6
             // radius around the tip of the (unit) solution subtends asin(radius); one
             // that holds the origin leaves any direction possible.
             let across = Matrix3::identity() - u * u.transpose();
-            let cov = across * (cov * var) * across;
+            // The share of the floor's or ceiling's image merged with the direct
+            // sound pulls the direction up or down, across it (docs/interface.md: z up).
+            let up = across * Vector3::z() * (shrink * IMAGE_RISE);
+            let cov = across * (cov * var) * across + up * up.transpose();
             let worst = cov.symmetric_eigenvalues().max().max(0.0);
             let radius = K2 * worst.sqrt();
             if radius >= 1.0 {
@@ -212,11 +222,14 @@ mod tests {
 
     /// The share of `trials` noisy solves per direction in `directions` whose truth
     /// (`truth(u)`, from the direction the lags were made for) lies in the cone, and the
-    /// median cone.
+    /// median cone. `pull`: the standard deviation of a vertical image's pull on the
+    /// direction (the lags are made for `u + z * N(0, pull)`), with `shrink` the share
+    /// the cone is told.
     fn coverage(
         positions: &[[f64; 3]],
         directions: &[(f64, f64)],
         sigma_s: f64,
+        (pull, shrink): (f64, f64),
         truth: impl Fn(&Vector3<f64>) -> Vector3<f64>,
     ) -> (f64, f64) {
         let g = Geometry::from_positions(positions).unwrap();
@@ -224,15 +237,17 @@ mod tests {
         let solver = DirectionSolver::new(&g, (1u64 << k) - 1, FS, C).unwrap();
         let mut rng = rand::rngs::StdRng::seed_from_u64(11);
         let noise = Normal::new(0.0, sigma_s * FS).unwrap();
+        let pulled = Normal::new(0.0, pull.max(1e-12)).unwrap();
         let (mut inside, mut all, mut cones) = (0usize, 0usize, Vec::new());
         for &(az, el) in directions {
             let u = unit_from_angles(az, el);
             for _ in 0..400 {
                 // t_i = -u . p_i / c plus noise, in samples; lag_ab = t_a - t_b.
+                let heard = u + Vector3::z() * pulled.sample(&mut rng);
                 let t: Vec<f64> = g
                     .positions()
                     .iter()
-                    .map(|p| -u.dot(p) / C * FS + noise.sample(&mut rng))
+                    .map(|p| -heard.dot(p) / C * FS + noise.sample(&mut rng))
                     .collect();
                 let mut lags = vec![0.0; pair_count(k)];
                 for a in 0..k {
@@ -243,7 +258,7 @@ mod tests {
                 let Some(got) = solver.solve(&lags) else {
                     continue;
                 };
-                let cone = cone_deg(solver.spread(), &got, sigma_s, 0.0);
+                let cone = cone_deg(solver.spread(), &got, sigma_s, shrink);
                 inside += usize::from(angle_between_deg(&got, &truth(&u)) <= cone);
                 all += 1;
                 cones.push(cone);
@@ -267,13 +282,34 @@ mod tests {
     fn a_3d_arrays_cone_holds_95_percent() {
         let a = 0.065 / (2.0 * 2f64.sqrt());
         let tetra = [[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]];
-        let (share, median) = coverage(&tetra, &around(), 10e-6, |u| *u);
+        let (share, median) = coverage(&tetra, &around(), 10e-6, (0.0, 0.0), |u| *u);
         // The cone takes the worst axis of the error ellipse: a little over 95%.
         assert!(
             (0.94..=0.995).contains(&share),
             "{share} (median {median} deg)"
         );
         assert!(median > 1.0 && median < 30.0, "{median}");
+    }
+
+    #[test]
+    fn a_3d_arrays_cone_holds_a_vertical_images_pull() {
+        // A 10 cm sphere-like array at 16 kHz, little timing noise, and the direction
+        // pulled up or down as a merged floor or ceiling image pulls it: the share the
+        // cone is told, times IMAGE_RISE, is the pull's standard deviation.
+        let a = 0.05 / 3f64.sqrt();
+        let cube: Vec<[f64; 3]> = (0..8)
+            .map(|i| {
+                let s = |b: usize| if i >> b & 1 == 1 { a } else { -a };
+                [s(0), s(1), s(2)]
+            })
+            .collect();
+        let shrink = 0.15;
+        let pull = shrink * IMAGE_RISE;
+        let (held, median) = coverage(&cube, &around(), 2e-6, (pull, shrink), |u| *u);
+        assert!((0.94..=0.999).contains(&held), "{held} ({median} deg)");
+        // Told no share, the cone is the timing's only, and the pull escapes it.
+        let (blind, _) = coverage(&cube, &around(), 2e-6, (pull, 0.0), |u| *u);
+        assert!(blind < 0.8, "{blind}");
     }
 
     #[test]
@@ -286,10 +322,10 @@ mod tests {
             .collect();
         // Sources below the plane are reported above it: the truth on that side.
         let up = |u: &Vector3<f64>| Vector3::new(u.x, u.y, u.z.abs());
-        let (share, _) = coverage(&circle, &around(), 5e-6, up);
+        let (share, _) = coverage(&circle, &around(), 5e-6, (0.0, 0.0), up);
         assert!((0.93..=0.995).contains(&share), "{share}");
-        let (_, near) = coverage(&circle, &[(30.0, 5.0)], 5e-6, up);
-        let (_, high) = coverage(&circle, &[(30.0, 60.0)], 5e-6, up);
+        let (_, near) = coverage(&circle, &[(30.0, 5.0)], 5e-6, (0.0, 0.0), up);
+        let (_, high) = coverage(&circle, &[(30.0, 60.0)], 5e-6, (0.0, 0.0), up);
         assert!(
             near > 2.0 * high,
             "near the plane {near} deg, high {high} deg"
@@ -314,10 +350,10 @@ mod tests {
             .iter()
             .map(|&az| (az, 0.0))
             .collect();
-        let (share, _) = coverage(&line, &dirs, 10e-6, turned);
+        let (share, _) = coverage(&line, &dirs, 10e-6, (0.0, 0.0), turned);
         assert!(share >= 0.95, "{share}");
         // Broadside, the array knows nothing around its axis: a quarter turn either way.
-        let (_, broadside) = coverage(&line, &[(90.0, 0.0)], 1e-9, turned);
+        let (_, broadside) = coverage(&line, &[(90.0, 0.0)], 1e-9, (0.0, 0.0), turned);
         assert!((broadside - 90.0).abs() < 0.5, "{broadside}");
     }
 }
