@@ -29,13 +29,22 @@ pub const IMAGE_TALKING_S: f64 = 0.5;
 /// plane (degrees): near the zenith an azimuth means little.
 pub(crate) const IMAGE_MAX_ELEVATION_DEG: f64 = 80.0;
 
-/// Whether `candidate` looks like a vertical reflection of a source heard from
-/// `source`: the same azimuth (within [`IMAGE_AZIMUTH_DEG`]), an elevation at least
-/// [`IMAGE_ELEVATION_DEG`] away, both within [`IMAGE_MAX_ELEVATION_DEG`] of the
-/// horizontal plane.
-pub fn is_vertical_image(candidate: &Vector3<f64>, source: &Vector3<f64>) -> bool {
+/// Whether `candidate` (its cone of half-angle `cone_deg`) looks like a vertical
+/// reflection of a source heard from `source`: the same azimuth (within
+/// [`IMAGE_AZIMUTH_DEG`]; any, when its cone holds the zenith or the nadir, where an
+/// azimuth means nothing), an elevation at least [`IMAGE_ELEVATION_DEG`] away, both
+/// within [`IMAGE_MAX_ELEVATION_DEG`] of the horizontal plane. A small planar array
+/// reads a ceiling image high above its plane, where its azimuth is loose: a talker's
+/// image on a 6-mic circle of 4.63 cm at 68 deg of elevation read 75 deg from his
+/// azimuth, its cone 68 deg wide (`benches/voices.py --seed 300`).
+pub fn is_vertical_image(candidate: &Vector3<f64>, cone_deg: f64, source: &Vector3<f64>) -> bool {
     let elevation = |u: &Vector3<f64>| u.z.clamp(-1.0, 1.0).asin().to_degrees();
-    in_vertical_plane(candidate, source)
+    let within = if cone_deg >= 90.0 - elevation(candidate).abs() {
+        180.0
+    } else {
+        IMAGE_AZIMUTH_DEG
+    };
+    in_plane_within(candidate, source, within)
         && (elevation(candidate) - elevation(source)).abs() >= IMAGE_ELEVATION_DEG
 }
 
@@ -45,6 +54,11 @@ pub fn is_vertical_image(candidate: &Vector3<f64>, source: &Vector3<f64>) -> boo
 /// while the source talks: `evidence::ACTIVE_S`; a clap's floor image 19 deg below it
 /// was a false source on the fresh draws).
 pub fn in_vertical_plane(candidate: &Vector3<f64>, source: &Vector3<f64>) -> bool {
+    in_plane_within(candidate, source, IMAGE_AZIMUTH_DEG)
+}
+
+/// [`in_vertical_plane`] within `azimuth_deg` of azimuth.
+fn in_plane_within(candidate: &Vector3<f64>, source: &Vector3<f64>, azimuth_deg: f64) -> bool {
     let elevation = |u: &Vector3<f64>| u.z.clamp(-1.0, 1.0).asin().to_degrees();
     let (ec, es) = (elevation(candidate), elevation(source));
     if ec.abs() > IMAGE_MAX_ELEVATION_DEG || es.abs() > IMAGE_MAX_ELEVATION_DEG {
@@ -55,7 +69,7 @@ pub fn in_vertical_plane(candidate: &Vector3<f64>, source: &Vector3<f64>) -> boo
     if apart > 180.0 {
         apart = 360.0 - apart;
     }
-    apart <= IMAGE_AZIMUTH_DEG
+    apart <= azimuth_deg
 }
 
 #[cfg(test)]
@@ -67,15 +81,72 @@ mod tests {
     fn images_share_the_azimuth_at_another_elevation() {
         let talker = unit_from_angles(-90.0, 15.0);
         // Its floor image as measured on the tetrahedron (docs/tracking.md).
-        assert!(is_vertical_image(&unit_from_angles(-90.2, -46.4), &talker));
-        assert!(is_vertical_image(&unit_from_angles(-86.0, 70.0), &talker));
+        assert!(is_vertical_image(
+            &unit_from_angles(-90.2, -46.4),
+            0.0,
+            &talker
+        ));
+        assert!(is_vertical_image(
+            &unit_from_angles(-86.0, 70.0),
+            0.0,
+            &talker
+        ));
         // Another talker beside it, or just above it, is not.
-        assert!(!is_vertical_image(&unit_from_angles(-80.0, -46.4), &talker));
-        assert!(!is_vertical_image(&unit_from_angles(-90.0, 30.0), &talker));
+        assert!(!is_vertical_image(
+            &unit_from_angles(-80.0, -46.4),
+            0.0,
+            &talker
+        ));
+        assert!(!is_vertical_image(
+            &unit_from_angles(-90.0, 30.0),
+            0.0,
+            &talker
+        ));
         // Across the +-180 deg seam.
         let behind = unit_from_angles(179.0, 10.0);
-        assert!(is_vertical_image(&unit_from_angles(-177.0, -45.0), &behind));
+        assert!(is_vertical_image(
+            &unit_from_angles(-177.0, -45.0),
+            0.0,
+            &behind
+        ));
         // Near the zenith, azimuths are not compared.
-        assert!(!is_vertical_image(&unit_from_angles(-90.0, 85.0), &talker));
+        assert!(!is_vertical_image(
+            &unit_from_angles(-90.0, 85.0),
+            0.0,
+            &talker
+        ));
+    }
+
+    #[test]
+    fn an_image_whose_cone_holds_the_zenith_is_at_any_azimuth() {
+        // The 6-mic circle's ceiling image (benches/voices.py --seed 300): 75 deg from
+        // the talker's azimuth at 68 deg of elevation, its cone 68 deg wide.
+        let talker = unit_from_angles(4.1, 29.9);
+        let image = unit_from_angles(-70.8, 67.9);
+        assert!(is_vertical_image(&image, 68.0, &talker));
+        assert!(!is_vertical_image(&image, 10.0, &talker));
+        // A cone short of the pole leaves the azimuth to compare.
+        assert!(!is_vertical_image(
+            &unit_from_angles(-16.0, 67.9),
+            20.0,
+            &talker
+        ));
+        assert!(is_vertical_image(
+            &unit_from_angles(-16.0, 67.9),
+            23.0,
+            &talker
+        ));
+        // Another talker 40 deg away in azimuth, whatever his elevation, is not an image
+        // under a cone of a tetrahedron's size; nor is the talker himself 10 deg away.
+        assert!(!is_vertical_image(
+            &unit_from_angles(44.0, -10.0),
+            12.0,
+            &talker
+        ));
+        assert!(!is_vertical_image(
+            &unit_from_angles(-6.0, 5.0),
+            15.0,
+            &talker
+        ));
     }
 }

@@ -652,7 +652,8 @@ impl Tracker {
         // heard within `IMAGE_TALKING_S`, whether its stretch of activity has ended or
         // not (with the evidence a short one ends after 0.3 s of silence).
         if self.tracks.iter().any(|t| {
-            now - t.last_s <= IMAGE_TALKING_S && is_vertical_image(&c.direction, &t.predicted(now))
+            now - t.last_s <= IMAGE_TALKING_S
+                && is_vertical_image(&c.direction, c.uncertainty_deg(), &t.predicted(now))
         }) {
             for (row, _) in &c.hits {
                 self.resolved.insert(*row, None);

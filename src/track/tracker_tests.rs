@@ -719,3 +719,35 @@ fn a_talkers_scatter_within_reach_is_his_even_heard_in_his_frames() {
     assert!(sources.len() >= 100, "{}", sources.len());
     assert!(sources.iter().all(|&s| s == sources[0]), "{sources:?}");
 }
+
+/// A talker on a 6-mic circle of radius 4.63 cm read 30 deg up, and in a pause of his
+/// a few strong detections at 68 deg of elevation, 75 deg from his azimuth, with a cone
+/// of 68 deg (`benches/voices.py --seed 300`): his ceiling image, whose azimuth the
+/// array cannot tell so high above its plane. It starts no source of its own.
+#[test]
+fn a_ceiling_image_whose_cone_holds_the_zenith_starts_nothing() {
+    let image = |frame: u64| Detection {
+        elevation_deg: 67.9,
+        direction: unit_from_angles(-70.8, 67.9),
+        uncertainty_deg: 68.0,
+        margin: 3.0,
+        peak_margin: 3.0,
+        ..detection(frame, -70.8)
+    };
+    let talker = |frame: u64| Detection {
+        elevation_deg: 30.0,
+        direction: unit_from_angles(4.1, 30.0),
+        uncertainty_deg: 33.0,
+        margin: 1.2,
+        peak_margin: 1.2,
+        ..detection(frame, 4.1)
+    };
+    let sources = small_circle_sources((0..160u64).map(|f| match f {
+        0..=79 => vec![talker(f)],
+        80..=85 => vec![image(f)],
+        86..=139 => vec![talker(f)],
+        _ => Vec::new(),
+    }));
+    assert!(sources.len() >= 120, "{}", sources.len());
+    assert!(sources.iter().all(|&s| s == sources[0]), "{sources:?}");
+}
