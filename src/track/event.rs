@@ -102,6 +102,11 @@ impl Accumulator {
         self.start_s
     }
 
+    /// Its last detection's time.
+    pub fn end_s(&self) -> f64 {
+        self.end_s
+    }
+
     /// The mean of its detections' [`Detection::uncertainty_deg`] so far.
     pub fn uncertainty_deg(&self) -> f64 {
         self.uncertainty / self.count as f64

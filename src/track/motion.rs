@@ -63,6 +63,10 @@ pub(super) struct Track {
     pub direction: Vector3<f64>,
     pub last_s: f64,
     pub event: Option<Accumulator>,
+    /// Its last stretch of activity, ended but held for the tracker's delay: a
+    /// candidate confirmed later whose detections began before it ended joins it again
+    /// ([`Track::reopen`]) instead of starting a stretch that overlaps it.
+    ended: Option<Accumulator>,
     /// How its direction moves (per second, tangent to the sphere at `direction`).
     velocity: Vector3<f64>,
     /// Its direction and the time the velocity was last measured from.
@@ -97,6 +101,7 @@ impl Track {
             direction,
             last_s,
             event,
+            ended: None,
             velocity: Vector3::zeros(),
             anchor: (direction, last_s),
             measured: false,
@@ -106,6 +111,34 @@ impl Track {
             bursts,
             fit: Slope::default(),
         }
+    }
+
+    /// Ends its stretch of activity, held ([`Track::ended`]); gives back the one held
+    /// before, to be written.
+    pub fn end_stretch(&mut self) -> Option<Accumulator> {
+        let e = self.event.take()?;
+        self.ended.replace(e)
+    }
+
+    /// Its held stretch, once no candidate still waiting can have begun before it
+    /// ended (`delay_s` after its end, at `now`), or at the end (`now` infinite).
+    pub fn release_ended(&mut self, now: f64, delay_s: f64) -> Option<Accumulator> {
+        self.ended.take_if(|e| now - e.end_s() >= delay_s - 1e-9)
+    }
+
+    /// Whether it holds an ended stretch not yet written.
+    pub fn holds_ended(&self) -> bool {
+        self.ended.is_some()
+    }
+
+    /// Its held stretch opened again, when a candidate joining it began at `start_s`,
+    /// before that stretch ended: the two are one stretch. Whether it was.
+    pub fn reopen(&mut self, start_s: f64) -> bool {
+        if self.event.is_some() || !self.ended.as_ref().is_some_and(|e| start_s <= e.end_s()) {
+            return false;
+        }
+        self.event = self.ended.take();
+        true
     }
 
     /// How fast it turns (degrees per second), once measured; `None` before.
@@ -286,5 +319,27 @@ mod tests {
             let walker = fastest(seed, 2.0, |t| 20.0 + 20.0 * t);
             assert!((15.0..25.0).contains(&walker), "seed {seed}: {walker}");
         }
+    }
+
+    #[test]
+    fn an_ended_stretch_is_held_and_reopened_by_what_began_before_its_end() {
+        let mut t = Track::new(1, unit_from_angles(30.0, 0.0), 0.0, None, Bursts::new(0));
+        let mut first = Accumulator::new(&at(1.0, 30.0, 0.0));
+        first.add(&at(1.2, 30.0, 0.0));
+        t.event = Some(first);
+        // Ended: held, nothing to write yet.
+        assert!(t.end_stretch().is_none());
+        assert!(t.holds_ended() && t.event.is_none());
+        // A candidate that began after its end opens nothing of it...
+        assert!(!t.reopen(1.3));
+        // ...one that began before its end continues it.
+        assert!(t.reopen(1.1));
+        let e = t.event.as_ref().expect("reopened");
+        assert_eq!((e.start_s(), e.end_s()), (1.0, 1.2));
+        // Held for the delay after its end, then given out.
+        assert!(t.end_stretch().is_none());
+        assert!(t.release_ended(2.0, 1.0).is_none());
+        assert!(t.release_ended(2.2, 1.0).is_some());
+        assert!(!t.holds_ended());
     }
 }

@@ -14,7 +14,7 @@ use crate::geometry::angle_between_deg;
 use crate::geometry::{Geometry, Shape};
 use crate::method::Detection;
 use nalgebra::Vector3;
-use std::collections::{HashMap, VecDeque};
+use std::collections::{HashMap, HashSet, VecDeque};
 
 /// For a planar array, how much a difference in the angle out of its plane counts
 /// against one in the plane when detections are associated: its elevation errs by 5-10
@@ -92,6 +92,9 @@ pub struct Tracker {
     candidates: Vec<Candidate>,
     /// Rows not yet given out, in frame order, with what they joined.
     waiting: VecDeque<(Detection, Slot)>,
+    /// The frame last given out (its time's bits) and the sources of its rows: at most
+    /// one row per source per frame (docs/interface.md).
+    given: (u64, Vec<u64>),
     /// The fate of waiting candidates' rows, by row number: their track's id, or `None`
     /// (dropped).
     resolved: HashMap<u64, Option<u64>>,
@@ -164,6 +167,7 @@ impl Tracker {
             tracks: Vec::new(),
             candidates: Vec::new(),
             waiting: VecDeque::new(),
+            given: (f64::NAN.to_bits(), Vec::new()),
             resolved: HashMap::new(),
             next_id: 1,
             next_key: 0,
@@ -696,11 +700,26 @@ impl Tracker {
                 (in_gate || same).then_some((i, angle, in_gate))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1));
-        let opens = near.is_none_or(|(i, _, _)| self.tracks[i].event.is_none());
+        // A candidate that began before its track's last stretch ended is of that
+        // stretch (its detections were beyond the track's gate then, and the stretch
+        // ended while it waited to be confirmed): one stretch, not two that overlap.
+        let reopened = near.is_some_and(|(i, _, _)| self.tracks[i].reopen(c.hits[0].1.time_s));
+        let opens = !reopened && near.is_none_or(|(i, _, _)| self.tracks[i].event.is_none());
+        // At most one row per source per frame (docs/interface.md): a candidate's
+        // detection in a frame that already gave the track one (its scatter, heard in
+        // the track's own frames) is dropped.
+        let taken = near.map_or_else(HashSet::new, |(i, _, _)| self.frames_of(self.tracks[i].id));
+        let (hits, doubles): (Vec<_>, Vec<_>) = c
+            .hits
+            .iter()
+            .partition(|(_, d)| !taken.contains(&d.time_s.to_bits()));
+        for &&(row, _) in &doubles {
+            self.resolved.insert(row, None);
+        }
         let id = match near {
             Some((i, _, in_gate)) => {
                 let t = &mut self.tracks[i];
-                for (_, d) in &c.hits {
+                for (_, d) in &hits {
                     match t.event.as_mut() {
                         Some(e) => e.add(d),
                         None => t.event = Some(Accumulator::new(d)),
@@ -728,7 +747,10 @@ impl Tracker {
                         .min_by(|a, b| a.1.last_s.total_cmp(&b.1.last_s))
                         .map(|(i, _)| i)
                     {
-                        self.tracks.remove(oldest);
+                        let mut t = self.tracks.remove(oldest);
+                        if let Some(e) = t.release_ended(f64::INFINITY, 0.0) {
+                            self.events.push(e.finish(t.id));
+                        }
                     }
                 }
                 let mut event = Accumulator::new(&c.hits[0].1);
@@ -740,12 +762,25 @@ impl Tracker {
                 id
             }
         };
-        for (row, _) in &c.hits {
-            self.resolved.insert(*row, Some(id));
+        for &&(row, _) in &hits {
+            self.resolved.insert(row, Some(id));
         }
         if opens && self.params.confirm_by == ConfirmBy::Evidence {
             self.take_the_floor(id, c.hits[0].1.time_s);
         }
+    }
+
+    /// The frames (their times' bits) of the rows still waiting that source `id` has.
+    fn frames_of(&self, id: u64) -> HashSet<u64> {
+        self.waiting
+            .iter()
+            .filter(|(_, slot)| match *slot {
+                Slot::Track(t) => t == id,
+                Slot::Candidate(_, row) => self.resolved.get(&row) == Some(&Some(id)),
+                Slot::Dropped => false,
+            })
+            .map(|(d, _)| d.time_s.to_bits())
+            .collect()
     }
 
     /// Source `id` starts a stretch of activity at `start_s`: the stretches of the
@@ -754,8 +789,9 @@ impl Tracker {
     fn take_the_floor(&mut self, id: u64, start_s: f64) {
         for t in &mut self.tracks {
             if t.id != id && t.event.is_some() && turn_ended(t.last_s, start_s) {
-                let e = t.event.take().expect("checked");
-                self.events.push(e.finish(t.id));
+                if let Some(e) = t.end_stretch() {
+                    self.events.push(e.finish(t.id));
+                }
             }
         }
     }
@@ -794,12 +830,16 @@ impl Tracker {
                 None => end_s,
             };
             if t.event.is_some() && now - t.last_s > end_s {
-                let e = t.event.take().expect("checked");
+                if let Some(e) = t.end_stretch() {
+                    self.events.push(e.finish(t.id));
+                }
+            }
+            if let Some(e) = t.release_ended(now, delay_s) {
                 self.events.push(e.finish(t.id));
             }
         }
         self.tracks
-            .retain(|t| t.event.is_some() || now - t.last_s <= forget_s);
+            .retain(|t| t.event.is_some() || t.holds_ended() || now - t.last_s <= forget_s);
     }
 
     /// What a track's own detection `d` adds to its evidence as bursts: as a
@@ -891,6 +931,16 @@ impl Tracker {
                 }
             };
             let (detection, _) = self.waiting.pop_front().expect("a front");
+            let frame = detection.time_s.to_bits();
+            if self.given.0 != frame {
+                self.given = (frame, Vec::new());
+            }
+            // A second row of a source in one frame (two of its detections joined it
+            // there, one through a candidate): the first is kept.
+            let source = source.filter(|id| !self.given.1.contains(id));
+            if let Some(id) = source {
+                self.given.1.push(id);
+            }
             match source {
                 Some(_) => self.stats.rows += 1,
                 None => self.stats.unconfirmed += 1,
@@ -911,11 +961,12 @@ impl Tracker {
                 self.resolved.insert(row, None);
             }
         }
-        let mut ending: Vec<Event> = self
-            .tracks
-            .iter_mut()
-            .filter_map(|t| t.event.take().map(|e| e.finish(t.id)))
-            .collect();
+        let mut ending: Vec<Event> = Vec::new();
+        for t in &mut self.tracks {
+            let open = t.event.take();
+            let held = t.release_ended(f64::INFINITY, 0.0);
+            ending.extend(held.into_iter().chain(open).map(|e| e.finish(t.id)));
+        }
         ending.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
         self.events.extend(ending);
         self.release();
@@ -950,7 +1001,8 @@ impl Tracker {
         self.ready.drain(..)
     }
 
-    /// The events completed since the last call, in the order they ended.
+    /// The events completed since the last call: each is given out once no candidate
+    /// still waiting can continue it (the tracker's delay after its end).
     pub fn take_events(&mut self) -> std::vec::Drain<'_, Event> {
         self.events.drain(..)
     }
