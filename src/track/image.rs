@@ -80,28 +80,13 @@ mod tests {
     #[test]
     fn images_share_the_azimuth_at_another_elevation() {
         let talker = unit_from_angles(-90.0, 15.0);
+        let image = |az, el| is_vertical_image(&unit_from_angles(az, el), 0.0, &talker);
         // Its floor image as measured on the tetrahedron (docs/tracking.md).
-        assert!(is_vertical_image(
-            &unit_from_angles(-90.2, -46.4),
-            0.0,
-            &talker
-        ));
-        assert!(is_vertical_image(
-            &unit_from_angles(-86.0, 70.0),
-            0.0,
-            &talker
-        ));
+        assert!(image(-90.2, -46.4));
+        assert!(image(-86.0, 70.0));
         // Another talker beside it, or just above it, is not.
-        assert!(!is_vertical_image(
-            &unit_from_angles(-80.0, -46.4),
-            0.0,
-            &talker
-        ));
-        assert!(!is_vertical_image(
-            &unit_from_angles(-90.0, 30.0),
-            0.0,
-            &talker
-        ));
+        assert!(!image(-80.0, -46.4));
+        assert!(!image(-90.0, 30.0));
         // Across the +-180 deg seam.
         let behind = unit_from_angles(179.0, 10.0);
         assert!(is_vertical_image(
@@ -110,11 +95,7 @@ mod tests {
             &behind
         ));
         // Near the zenith, azimuths are not compared.
-        assert!(!is_vertical_image(
-            &unit_from_angles(-90.0, 85.0),
-            0.0,
-            &talker
-        ));
+        assert!(!image(-90.0, 85.0));
     }
 
     #[test]
@@ -122,31 +103,15 @@ mod tests {
         // The 6-mic circle's ceiling image (benches/voices.py --seed 300): 75 deg from
         // the talker's azimuth at 68 deg of elevation, its cone 68 deg wide.
         let talker = unit_from_angles(4.1, 29.9);
-        let image = unit_from_angles(-70.8, 67.9);
-        assert!(is_vertical_image(&image, 68.0, &talker));
-        assert!(!is_vertical_image(&image, 10.0, &talker));
+        let image = |az, el, cone| is_vertical_image(&unit_from_angles(az, el), cone, &talker);
+        assert!(image(-70.8, 67.9, 68.0));
+        assert!(!image(-70.8, 67.9, 10.0));
         // A cone short of the pole leaves the azimuth to compare.
-        assert!(!is_vertical_image(
-            &unit_from_angles(-16.0, 67.9),
-            20.0,
-            &talker
-        ));
-        assert!(is_vertical_image(
-            &unit_from_angles(-16.0, 67.9),
-            23.0,
-            &talker
-        ));
+        assert!(!image(-16.0, 67.9, 20.0));
+        assert!(image(-16.0, 67.9, 23.0));
         // Another talker 40 deg away in azimuth, whatever his elevation, is not an image
         // under a cone of a tetrahedron's size; nor is the talker himself 10 deg away.
-        assert!(!is_vertical_image(
-            &unit_from_angles(44.0, -10.0),
-            12.0,
-            &talker
-        ));
-        assert!(!is_vertical_image(
-            &unit_from_angles(-6.0, 5.0),
-            15.0,
-            &talker
-        ));
+        assert!(!image(44.0, -10.0, 12.0));
+        assert!(!image(-6.0, 5.0, 15.0));
     }
 }

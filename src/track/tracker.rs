@@ -933,7 +933,8 @@ impl Tracker {
             let (detection, _) = self.waiting.pop_front().expect("a front");
             let frame = detection.time_s.to_bits();
             if self.given.0 != frame {
-                self.given = (frame, Vec::new());
+                self.given.0 = frame;
+                self.given.1.clear();
             }
             // A second row of a source in one frame (two of its detections joined it
             // there, one through a candidate): the first is kept.

@@ -655,6 +655,14 @@ fn a_run_within_a_talkers_cones_is_his_unless_heard_with_him() {
 /// The sources of the rows a tracker on a 6-mic circle of radius 4.63 cm at 16 kHz (a
 /// ReSpeaker-like array) gives for `frames` (frame `f`'s detections at `f` hops).
 fn small_circle_sources(frames: impl Iterator<Item = Vec<Detection>>) -> Vec<u64> {
+    small_circle_rows(frames)
+        .into_iter()
+        .map(|(_, s)| s)
+        .collect()
+}
+
+/// [`small_circle_sources`] with each row's time.
+fn small_circle_rows(frames: impl Iterator<Item = Vec<Detection>>) -> Vec<(f64, u64)> {
     let positions: Vec<[f64; 3]> = (0..6)
         .map(|i| {
             let a = std::f64::consts::TAU * i as f64 / 6.0;
@@ -663,14 +671,15 @@ fn small_circle_sources(frames: impl Iterator<Item = Vec<Detection>>) -> Vec<u64
         .collect();
     let circle = Geometry::from_positions(&positions).unwrap();
     let mut tracker = Tracker::for_array(TrackParams::default(), &circle, 16000.0, 343.0);
-    let mut sources = Vec::new();
+    let tracked = |r: Tracked| r.source.map(|s| (r.detection.time_s, s));
+    let mut rows = Vec::new();
     for (f, ds) in frames.enumerate() {
         tracker.push(f as f64 * HOP, &ds);
-        sources.extend(tracker.take_rows().filter_map(|r| r.source));
+        rows.extend(tracker.take_rows().filter_map(tracked));
     }
     tracker.finish();
-    sources.extend(tracker.take_rows().filter_map(|r| r.source));
-    sources
+    rows.extend(tracker.take_rows().filter_map(tracked));
+    rows
 }
 
 /// A detection at `azimuth` and 33 deg up with a planar array's wide cone.
@@ -709,15 +718,20 @@ fn a_wandering_talker_back_where_he_was_is_one_track() {
 /// together: the candidate is his track's, not a second source.
 #[test]
 fn a_talkers_scatter_within_reach_is_his_even_heard_in_his_frames() {
+    let sources = small_circle_sources(scatter_beside_a_low_voice());
+    assert!(sources.len() >= 90, "{}", sources.len());
+    assert!(sources.iter().all(|&s| s == sources[0]), "{sources:?}");
+}
+
+/// The frames of [`a_talkers_scatter_within_reach_is_his_even_heard_in_his_frames`].
+fn scatter_beside_a_low_voice() -> impl Iterator<Item = Vec<Detection>> {
     let at = high_on_a_circle;
-    let sources = small_circle_sources((0..200u64).map(|f| match f {
+    (0..200u64).map(move |f| match f {
         0..=39 => vec![at(f, 60.0, 2.0)],
         40..=59 => vec![at(f, 60.0, 2.0), at(f, 51.0, 0.7)],
         60..=119 => vec![at(f, 51.0, 0.7)],
         _ => Vec::new(),
-    }));
-    assert!(sources.len() >= 90, "{}", sources.len());
-    assert!(sources.iter().all(|&s| s == sources[0]), "{sources:?}");
+    })
 }
 
 /// A talker on a 6-mic circle of radius 4.63 cm read 30 deg up, and in a pause of his
@@ -757,40 +771,13 @@ fn a_ceiling_image_whose_cone_holds_the_zenith_starts_nothing() {
 /// detections a frame for 20 frames, both his: one row each frame.
 #[test]
 fn a_source_has_at_most_one_row_a_frame() {
-    let positions: Vec<[f64; 3]> = (0..6)
-        .map(|i| {
-            let a = std::f64::consts::TAU * i as f64 / 6.0;
-            [0.0463 * a.cos(), 0.0463 * a.sin(), 0.0]
-        })
-        .collect();
-    let circle = Geometry::from_positions(&positions).unwrap();
-    let mut tracker = Tracker::for_array(TrackParams::default(), &circle, 16000.0, 343.0);
-    let at = high_on_a_circle;
-    let mut rows = Vec::new();
-    for f in 0..200u64 {
-        let ds = match f {
-            0..=39 => vec![at(f, 60.0, 2.0)],
-            40..=59 => vec![at(f, 60.0, 2.0), at(f, 51.0, 0.7)],
-            60..=119 => vec![at(f, 51.0, 0.7)],
-            _ => Vec::new(),
-        };
-        tracker.push(f as f64 * HOP, &ds);
-        rows.extend(
-            tracker
-                .take_rows()
-                .map(|r| (r.detection.time_s.to_bits(), r.source)),
-        );
-    }
-    tracker.finish();
-    rows.extend(
-        tracker
-            .take_rows()
-            .map(|r| (r.detection.time_s.to_bits(), r.source)),
-    );
-    let tracked: Vec<_> = rows.iter().filter(|r| r.1.is_some()).collect();
-    assert!(tracked.len() >= 90, "{}", tracked.len());
+    let rows = small_circle_rows(scatter_beside_a_low_voice());
+    assert!(rows.len() >= 90, "{}", rows.len());
     let mut seen = std::collections::HashSet::new();
-    for r in &tracked {
-        assert!(seen.insert(*r), "two rows of source {:?} in one frame", r.1);
+    for &(t, s) in &rows {
+        assert!(
+            seen.insert((t.to_bits(), s)),
+            "two rows of source {s} at {t} s"
+        );
     }
 }
