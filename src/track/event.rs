@@ -133,6 +133,23 @@ impl Accumulator {
         self.count += 1;
     }
 
+    /// Takes in `other`, a stretch of the same source: one stretch from the earlier
+    /// start to the later end.
+    pub fn merge(&mut self, other: Accumulator) {
+        if other.start_s < self.start_s {
+            self.first = other.first;
+        }
+        if other.end_s >= self.end_s {
+            self.last = other.last;
+        }
+        self.start_s = self.start_s.min(other.start_s);
+        self.end_s = self.end_s.max(other.end_s);
+        self.sum += other.sum;
+        self.score += other.score;
+        self.uncertainty += other.uncertainty;
+        self.count += other.count;
+    }
+
     pub fn finish(&self, source: u64) -> Event {
         let n = self.count as f64;
         let resultant = self.sum.norm() / n;

@@ -67,6 +67,8 @@ pub(super) struct Track {
     /// candidate confirmed later whose detections began before it ended joins it again
     /// ([`Track::reopen`]) instead of starting a stretch that overlaps it.
     ended: Option<Accumulator>,
+    /// The latest frame (its time, seconds) that gave it a row ([`Track::give`]).
+    given_s: f64,
     /// How its direction moves (per second, tangent to the sphere at `direction`).
     velocity: Vector3<f64>,
     /// Its direction and the time the velocity was last measured from.
@@ -100,6 +102,7 @@ impl Track {
             id,
             direction,
             last_s,
+            given_s: event.as_ref().map_or(f64::NEG_INFINITY, |e| e.end_s()),
             event,
             ended: None,
             velocity: Vector3::zeros(),
@@ -111,6 +114,23 @@ impl Track {
             bursts,
             fit: Slope::default(),
         }
+    }
+
+    /// Counts detection `d` in its stretch of activity (opening one), unless `d`'s frame
+    /// is the latest that gave it a row: at most one row per source per frame
+    /// (docs/interface.md). Whether it did. Detections come in frame order but a
+    /// candidate's, given when it is confirmed, which the tracker checks against the
+    /// rows it still holds.
+    pub fn give(&mut self, d: &Detection) -> bool {
+        if d.time_s == self.given_s {
+            return false;
+        }
+        self.given_s = self.given_s.max(d.time_s);
+        match self.event.as_mut() {
+            Some(e) => e.add(d),
+            None => self.event = Some(Accumulator::new(d)),
+        }
+        true
     }
 
     /// Ends its stretch of activity, held ([`Track::ended`]); gives back the one held
@@ -132,12 +152,16 @@ impl Track {
     }
 
     /// Its held stretch opened again, when a candidate joining it began at `start_s`,
-    /// before that stretch ended: the two are one stretch. Whether it was.
+    /// before that stretch ended: the two are one stretch (and one with the stretch
+    /// open since, which the candidate's detections bridge to it). Whether it was.
     pub fn reopen(&mut self, start_s: f64) -> bool {
-        if self.event.is_some() || !self.ended.as_ref().is_some_and(|e| start_s <= e.end_s()) {
+        let Some(ended) = self.ended.take_if(|e| start_s <= e.end_s()) else {
             return false;
+        };
+        match self.event.as_mut() {
+            Some(open) => open.merge(ended),
+            None => self.event = Some(ended),
         }
-        self.event = self.ended.take();
         true
     }
 
@@ -262,7 +286,7 @@ pub(super) fn smooth(old: &Vector3<f64>, new: &Vector3<f64>, since: f64) -> Vect
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::unit_from_angles;
+    use crate::geometry::{angle_between_deg, unit_from_angles};
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
@@ -341,5 +365,23 @@ mod tests {
         assert!(t.release_ended(2.0, 1.0).is_none());
         assert!(t.release_ended(2.2, 1.0).is_some());
         assert!(!t.holds_ended());
+    }
+
+    #[test]
+    fn a_candidate_that_bridges_a_held_stretch_and_an_open_one_makes_them_one() {
+        let mut t = Track::new(1, unit_from_angles(30.0, 0.0), 0.0, None, Bursts::new(0));
+        let mut held = Accumulator::new(&at(0.72, 30.0, 0.0));
+        held.add(&at(0.77, 31.0, 0.0));
+        t.event = Some(held);
+        assert!(t.end_stretch().is_none());
+        // A second stretch opened after the first ended...
+        t.event = Some(Accumulator::new(&at(0.90, 32.0, 0.0)));
+        // ...then a candidate waiting since before the first's end joins: one stretch.
+        assert!(t.reopen(0.74));
+        assert!(!t.holds_ended());
+        let e = t.event.as_ref().expect("open").finish(1);
+        assert_eq!((e.start_s, e.end_s, e.detections), (0.72, 0.90, 3));
+        assert!(angle_between_deg(&e.start_direction, &unit_from_angles(30.0, 0.0)) < 1e-9);
+        assert!(angle_between_deg(&e.end_direction, &unit_from_angles(32.0, 0.0)) < 1e-9);
     }
 }

@@ -92,8 +92,8 @@ pub struct Tracker {
     candidates: Vec<Candidate>,
     /// Rows not yet given out, in frame order, with what they joined.
     waiting: VecDeque<(Detection, Slot)>,
-    /// The frame last given out (its time's bits) and the sources of its rows: at most
-    /// one row per source per frame (docs/interface.md).
+    /// The frame last given out (its time's bits) and the sources of its rows
+    /// ([`Tracker::frames_of`]).
     given: (u64, Vec<u64>),
     /// The fate of waiting candidates' rows, by row number: their track's id, or `None`
     /// (dropped).
@@ -437,8 +437,8 @@ impl Tracker {
                 .iter_mut()
                 .find(|t| t.id == id)
                 .expect("a live track");
-            if let Some(e) = t.event.as_mut() {
-                e.add(&detections[i]);
+            if !t.give(&detections[i]) {
+                continue;
             }
             used[i] = Some(slot);
             taken.push((true, id));
@@ -554,14 +554,14 @@ impl Tracker {
                     .iter_mut()
                     .find(|t| t.id == id)
                     .expect("a live track");
+                // Its frame gave it a row already (through a candidate confirmed in it).
+                if !t.give(d) {
+                    return Slot::Dropped;
+                }
                 if let Some(nats) = heard {
                     t.bursts.hit(look, Some(nats), &e);
                 }
                 t.update(d, max_speed, plane);
-                match t.event.as_mut() {
-                    Some(e) => e.add(d),
-                    None => t.event = Some(Accumulator::new(d)),
-                }
                 slot
             }
             Slot::Dropped => slot,
@@ -702,28 +702,20 @@ impl Tracker {
             .min_by(|a, b| a.1.total_cmp(&b.1));
         // A candidate that began before its track's last stretch ended is of that
         // stretch (its detections were beyond the track's gate then, and the stretch
-        // ended while it waited to be confirmed): one stretch, not two that overlap.
+        // ended while it waited to be confirmed): one stretch, not two that overlap,
+        // and one with a stretch the track opened since (the candidate bridges them).
         let reopened = near.is_some_and(|(i, _, _)| self.tracks[i].reopen(c.hits[0].1.time_s));
         let opens = !reopened && near.is_none_or(|(i, _, _)| self.tracks[i].event.is_none());
         // At most one row per source per frame (docs/interface.md): a candidate's
         // detection in a frame that already gave the track one (its scatter, heard in
         // the track's own frames) is dropped.
         let taken = near.map_or_else(HashSet::new, |(i, _, _)| self.frames_of(self.tracks[i].id));
-        let (hits, doubles): (Vec<_>, Vec<_>) = c
-            .hits
-            .iter()
-            .partition(|(_, d)| !taken.contains(&d.time_s.to_bits()));
-        for &&(row, _) in &doubles {
-            self.resolved.insert(row, None);
-        }
         let id = match near {
             Some((i, _, in_gate)) => {
                 let t = &mut self.tracks[i];
-                for (_, d) in &hits {
-                    match t.event.as_mut() {
-                        Some(e) => e.add(d),
-                        None => t.event = Some(Accumulator::new(d)),
-                    }
+                for &(row, ref d) in &c.hits {
+                    let given = !taken.contains(&d.time_s.to_bits()) && t.give(d);
+                    self.resolved.insert(row, given.then_some(t.id));
                 }
                 // A track taken up where the candidate is heard; one whose scatter the
                 // candidate was stays where it is.
@@ -759,19 +751,24 @@ impl Tracker {
                 }
                 self.tracks
                     .push(Track::new(id, c.direction, c.last_s, Some(event), c.bursts));
+                for &(row, _) in &c.hits {
+                    self.resolved.insert(row, Some(id));
+                }
                 id
             }
         };
-        for &&(row, _) in &hits {
-            self.resolved.insert(row, Some(id));
-        }
         if opens && self.params.confirm_by == ConfirmBy::Evidence {
             self.take_the_floor(id, c.hits[0].1.time_s);
         }
     }
 
-    /// The frames (their times' bits) of the rows still waiting that source `id` has.
+    /// The frames (their times' bits) that gave source `id` a row a candidate's
+    /// detections may share: the rows still waiting and the frame last given out
+    /// (rows wait in order behind a candidate's first, so only its frame can have
+    /// given out a row of `id` before it). The frame being taken in is
+    /// [`Track::give`]'s to check.
     fn frames_of(&self, id: u64) -> HashSet<u64> {
+        let (frame, sources) = &self.given;
         self.waiting
             .iter()
             .filter(|(_, slot)| match *slot {
@@ -780,6 +777,7 @@ impl Tracker {
                 Slot::Dropped => false,
             })
             .map(|(d, _)| d.time_s.to_bits())
+            .chain(sources.contains(&id).then_some(*frame))
             .collect()
     }
 
@@ -936,10 +934,8 @@ impl Tracker {
                 self.given.0 = frame;
                 self.given.1.clear();
             }
-            // A second row of a source in one frame (two of its detections joined it
-            // there, one through a candidate): the first is kept.
-            let source = source.filter(|id| !self.given.1.contains(id));
             if let Some(id) = source {
+                debug_assert!(!self.given.1.contains(&id), "two rows of {id} in a frame");
                 self.given.1.push(id);
             }
             match source {

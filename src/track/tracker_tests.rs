@@ -663,6 +663,11 @@ fn small_circle_sources(frames: impl Iterator<Item = Vec<Detection>>) -> Vec<u64
 
 /// [`small_circle_sources`] with each row's time.
 fn small_circle_rows(frames: impl Iterator<Item = Vec<Detection>>) -> Vec<(f64, u64)> {
+    small_circle_run(frames).0
+}
+
+/// [`small_circle_rows`] and the events.
+fn small_circle_run(frames: impl Iterator<Item = Vec<Detection>>) -> (Vec<(f64, u64)>, Vec<Event>) {
     let positions: Vec<[f64; 3]> = (0..6)
         .map(|i| {
             let a = std::f64::consts::TAU * i as f64 / 6.0;
@@ -672,14 +677,16 @@ fn small_circle_rows(frames: impl Iterator<Item = Vec<Detection>>) -> Vec<(f64, 
     let circle = Geometry::from_positions(&positions).unwrap();
     let mut tracker = Tracker::for_array(TrackParams::default(), &circle, 16000.0, 343.0);
     let tracked = |r: Tracked| r.source.map(|s| (r.detection.time_s, s));
-    let mut rows = Vec::new();
+    let (mut rows, mut events) = (Vec::new(), Vec::new());
     for (f, ds) in frames.enumerate() {
         tracker.push(f as f64 * HOP, &ds);
         rows.extend(tracker.take_rows().filter_map(tracked));
+        events.extend(tracker.take_events());
     }
     tracker.finish();
     rows.extend(tracker.take_rows().filter_map(tracked));
-    rows
+    events.extend(tracker.take_events());
+    (rows, events)
 }
 
 /// A detection at `azimuth` and 33 deg up with a planar array's wide cone.
@@ -771,13 +778,25 @@ fn a_ceiling_image_whose_cone_holds_the_zenith_starts_nothing() {
 /// detections a frame for 20 frames, both his: one row each frame.
 #[test]
 fn a_source_has_at_most_one_row_a_frame() {
-    let rows = small_circle_rows(scatter_beside_a_low_voice());
+    let (rows, events) = small_circle_run(scatter_beside_a_low_voice());
     assert!(rows.len() >= 90, "{}", rows.len());
     let mut seen = std::collections::HashSet::new();
     for &(t, s) in &rows {
         assert!(
             seen.insert((t.to_bits(), s)),
             "two rows of source {s} at {t} s"
+        );
+    }
+    // Its events count exactly its rows, none dropped after being counted.
+    let mut counted = std::collections::HashMap::new();
+    for e in &events {
+        *counted.entry(e.source).or_insert(0) += e.detections as usize;
+    }
+    for (&s, &n) in &counted {
+        let given = rows.iter().filter(|r| r.1 == s).count();
+        assert_eq!(
+            n, given,
+            "source {s}: its events count {n} detections, {given} rows"
         );
     }
 }
