@@ -2,7 +2,7 @@
 //! measured, its direction predicted on through pauses (see the [`track`](super)
 //! module).
 
-use super::event::Accumulator;
+use super::event::{turn_ended, Accumulator};
 use super::evidence::Bursts;
 use super::slope::Slope;
 use crate::method::Detection;
@@ -58,6 +58,24 @@ const SCATTER_START: f64 = 5.0 * std::f64::consts::PI / 180.0;
 /// A track is predicted at most this far past its last detection (seconds).
 const PREDICT_S: f64 = 1.0;
 
+/// A resumption heard more than this many times is the track's own
+/// ([`Track::resumed_at_onset`]).
+const RESUMED_HEARD: usize = 3;
+
+/// A track's state before it was heard again after a turn's gap of silence.
+struct Resumed {
+    /// When it was heard again (seconds).
+    at_s: f64,
+    /// Its first detections since (their times, and whether each led its frame:
+    /// [`Track::led`]), and how many it has had.
+    heard: [(f64, bool); RESUMED_HEARD],
+    count: usize,
+    event: Option<Accumulator>,
+    last_s: f64,
+    direction: Vector3<f64>,
+    given_s: f64,
+}
+
 pub(super) struct Track {
     pub id: u64,
     pub direction: Vector3<f64>,
@@ -69,6 +87,9 @@ pub(super) struct Track {
     ended: Option<Accumulator>,
     /// The latest frame (its time, seconds) that gave it a row ([`Track::give`]).
     given_s: f64,
+    /// What it was before it was heard again after a turn's gap of silence, until the
+    /// tracker keeps or undoes that ([`Track::resumed_s`]).
+    resumed: Option<Resumed>,
     /// How its direction moves (per second, tangent to the sphere at `direction`).
     velocity: Vector3<f64>,
     /// Its direction and the time the velocity was last measured from.
@@ -105,6 +126,7 @@ impl Track {
             given_s: event.as_ref().map_or(f64::NEG_INFINITY, |e| e.end_s()),
             event,
             ended: None,
+            resumed: None,
             velocity: Vector3::zeros(),
             anchor: (direction, last_s),
             measured: false,
@@ -121,16 +143,80 @@ impl Track {
     /// (docs/interface.md). Whether it did. Detections come in frame order but a
     /// candidate's, given when it is confirmed, which the tracker checks against the
     /// rows it still holds.
+    ///
+    /// A detection after a turn's gap of silence in its stretch of activity resumes
+    /// it: what it was before is kept until the tracker keeps the resumption
+    /// ([`Track::keep_resumed`]) or undoes it ([`Track::undo_resumed`]).
     pub fn give(&mut self, d: &Detection) -> bool {
         if d.time_s == self.given_s {
             return false;
         }
+        if self.resumed.is_none() && self.event.is_some() && turn_ended(self.last_s, d.time_s) {
+            self.resumed = Some(Resumed {
+                at_s: d.time_s,
+                heard: [(0.0, false); RESUMED_HEARD],
+                count: 0,
+                event: self.event.clone(),
+                last_s: self.last_s,
+                direction: self.direction,
+                given_s: self.given_s,
+            });
+        }
         self.given_s = self.given_s.max(d.time_s);
+        if let Some(r) = self.resumed.as_mut() {
+            if r.count < RESUMED_HEARD {
+                r.heard[r.count] = (d.time_s, false);
+            }
+            r.count += 1;
+        }
         match self.event.as_mut() {
             Some(e) => e.add(d),
             None => self.event = Some(Accumulator::new(d)),
         }
         true
+    }
+
+    /// When it was heard again after a turn's gap of silence, while the tracker has
+    /// not yet kept or undone that.
+    pub fn resumed_s(&self) -> Option<f64> {
+        self.resumed.as_ref().map(|r| r.at_s)
+    }
+
+    /// Its detection just given led its frame (nothing there scored more).
+    pub fn led(&mut self) {
+        if let Some(r) = self.resumed.as_mut().filter(|r| r.count <= RESUMED_HEARD) {
+            r.heard[r.count - 1].1 = true;
+        }
+    }
+
+    /// Whether it was heard again only in another source's onset, that source's first
+    /// detection at `start_s`: within `onset_s` of it, and with at most one detection
+    /// since that was its own (before `start_s`, or leading its frame).
+    pub fn resumed_at_onset(&self, start_s: f64, onset_s: f64) -> bool {
+        self.resumed.as_ref().is_some_and(|r| {
+            let own = r.heard[..r.count.min(RESUMED_HEARD)]
+                .iter()
+                .filter(|&&(t, led)| t < start_s || led)
+                .count();
+            (r.at_s - start_s).abs() <= onset_s && r.count <= RESUMED_HEARD && own <= 1
+        })
+    }
+
+    /// Its resumption is its own: what it was before is forgotten.
+    pub fn keep_resumed(&mut self) {
+        self.resumed = None;
+    }
+
+    /// Its resumption was not its own: it is again what it was before it (its stretch of
+    /// activity, when and where it was last heard). Its motion's measures keep what the
+    /// resumption added (a detection or two).
+    pub fn undo_resumed(&mut self) {
+        if let Some(r) = self.resumed.take() {
+            self.event = r.event;
+            self.last_s = r.last_s;
+            self.direction = r.direction;
+            self.given_s = r.given_s;
+        }
     }
 
     /// Ends its stretch of activity, held ([`Track::ended`]); gives back the one held

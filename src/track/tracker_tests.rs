@@ -219,6 +219,38 @@ fn a_silent_talker_takes_no_stray_from_the_next_ones_frames() {
     assert!(!a.is_empty() && a.iter().all(|e| e.end_s < 1.1), "{a:?}");
 }
 
+#[test]
+fn a_silent_talker_heard_again_at_the_next_ones_onset_was_hearing_that_onset() {
+    // A lone detection at A's place, alone in its frame, 30 ms before B's first or 10
+    // ms after it (B under the threshold, confirmed after a few looks): it would have
+    // resumed A's stretch (silent for a turn's gap) and run it into B's turn.
+    for stray in [137, 141] {
+        let (a, b) = a_then_b(0.6, |f| {
+            (f == stray).then(|| Detection {
+                score: 2.0,
+                margin: 1.1,
+                peak_margin: 1.1,
+                ..detection(f, 31.0)
+            })
+        });
+        assert!(
+            !a.is_empty() && a.iter().all(|e| e.end_s < 1.1),
+            "{stray}: {a:?}"
+        );
+        assert_eq!(
+            a.iter().map(|e| e.detections).sum::<u64>(),
+            50,
+            "{stray}: {a:?}"
+        );
+        assert_eq!(b, 1);
+    }
+    // Heard again 0.2 s before B, or twice just before him: his own.
+    let (a, _) = a_then_b(0.6, |f| (f == 120).then(|| detection(f, 31.0)));
+    assert!(a.iter().any(|e| e.end_s >= 1.2), "{a:?}");
+    let (a, _) = a_then_b(0.6, |f| [136, 138].contains(&f).then(|| detection(f, 31.0)));
+    assert!(a.iter().any(|e| e.end_s >= 1.38), "{a:?}");
+}
+
 /// The defaults, confirming by the rules of 0.2.0.
 fn rules() -> TrackParams {
     TrackParams {
