@@ -72,6 +72,7 @@ impl TrackStats {
                 return format!("no source confirmed: {fate} as isolated ({rule}){tail}");
             };
             let (azimuth, elevation) = crate::geometry::angles_deg(&place.direction);
+            let mut advice = "a source too faint to confirm (a talker across a reverberant room, or a steady noise such as a fan; a larger --false-per-hour confirms fainter sources, and more false ones: docs/guide.md)";
             let short = match (place.best_nats, place.needed_nats) {
                 (Some(best), Some(needed)) => format!(
                     "gathered at best {} of the {} nats of evidence a source needs for at most {} false sources an hour (--false-per-hour)",
@@ -79,13 +80,20 @@ impl TrackStats {
                     BriefNumber((needed * 10.0).round() / 10.0),
                     p.false_per_hour
                 ),
-                _ => format!(
-                    "never made a track (a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates)",
-                    p.confirm_hits, p.confirm_candidates, p.confirm_weak
-                ),
+                _ => match p.confirm_by {
+                    super::ConfirmBy::Rules => format!(
+                        "never made a track (a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates)",
+                        p.confirm_hits, p.confirm_candidates, p.confirm_weak
+                    ),
+                    // Only riders: a place that candidates added to has their evidence.
+                    super::ConfirmBy::Evidence => {
+                        advice = "a source too faint even for a candidate (a talker across a reverberant room at about the noise's level), which no --false-per-hour confirms";
+                        "were each heard only in its own frame's correlations, under the candidates' floor (--candidates), which starts nothing and gathers no evidence".to_string()
+                    }
+                },
             };
             format!(
-                "no source confirmed: {fate}; {} of them came from one place, azimuth {} deg, elevation {} deg, from {} to {} s, and {short}: a source too faint to confirm (a talker across a reverberant room, or a steady noise such as a fan; a larger --false-per-hour confirms fainter sources, and more false ones: docs/guide.md){tail}",
+                "no source confirmed: {fate}; {} of them came from one place, azimuth {} deg, elevation {} deg, from {} to {} s, and {short}: {advice}{tail}",
                 place.detections,
                 BriefNumber((azimuth * 10.0).round() / 10.0),
                 BriefNumber((elevation * 10.0).round() / 10.0),
@@ -93,5 +101,42 @@ impl TrackStats {
                 BriefNumber((place.last_s * 100.0).round() / 100.0),
             )
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::unit_from_angles;
+    use crate::track::{ConfirmBy, TrackParams};
+
+    #[test]
+    fn a_faint_place_of_riders_only_is_told_by_the_rule_in_force() {
+        let stats = TrackStats {
+            unconfirmed: 39,
+            faint: Some(FaintPlace {
+                direction: unit_from_angles(-54.5, 7.1),
+                detections: 7,
+                first_s: 0.54,
+                last_s: 4.9,
+                best_nats: None,
+                needed_nats: None,
+            }),
+            ..TrackStats::default()
+        };
+        let evidence = stats.nothing_confirmed(&TrackParams::default()).unwrap();
+        assert!(evidence.contains("azimuth -54.5 deg"), "{evidence}");
+        assert!(
+            evidence.contains("under the candidates' floor"),
+            "{evidence}"
+        );
+        assert!(!evidence.contains("--confirm-s"), "{evidence}");
+        assert!(!evidence.contains("larger --false-per-hour"), "{evidence}");
+        let rules = TrackParams {
+            confirm_by: ConfirmBy::Rules,
+            ..TrackParams::default()
+        };
+        let said = stats.nothing_confirmed(&rules).unwrap();
+        assert!(said.contains("--confirm-s"), "{said}");
     }
 }
