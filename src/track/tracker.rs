@@ -64,20 +64,20 @@ const TOGETHER_SHARE: f64 = 0.1;
 /// the 5.7 cm tetrahedron lost 2 of 150 windows.)
 const STRAY_SHARE: f64 = 0.5;
 
-/// The defaults a tracker assumes before it is told the recording's looks
-/// ([`Tracker::looking`]): 6 hops of 512 samples at 48 kHz, candidates down to 0.4.
-const DEFAULT_LOOK_S: f64 = 0.064;
-
 /// A track heard again after a turn's gap of silence ([`turn_ended`]) within this long
 /// (seconds) of the first detection of another source that then takes the floor, and
 /// since then heard on its own once at most ([`Track::resumed_at_onset`]), was hearing
-/// that source's onset at its own place: its resumption is undone. Five talkers 12-20 deg apart in turn on the
-/// prism at 16 kHz (`benches/words.py --only turns5`): a lone detection at the silent
-/// talker's place 8-32 ms before or 16 ms after the next talker's first ran his event
-/// into the next turn in 3 of 334 turns. (Two talkers at once on a 6-mic circle: one
-/// heard again 50 ms before the other's first detection lost 6 rows when one heard
-/// twice before it was undone too.)
+/// that source's onset at its own place: its resumption is undone. Five talkers 12-20
+/// deg apart in turn on the prism at 16 kHz (`benches/words.py --only turns5`): a lone
+/// detection at the silent talker's place 8-32 ms before or 16 ms after the next
+/// talker's first ran his event into the next turn in 3 of 334 turns. (Two talkers at
+/// once on a 6-mic circle: one heard twice in the 50 ms before the other's first
+/// detection lost 6 rows when that was undone too.)
 const ONSET_S: f64 = 0.05;
+
+/// The defaults a tracker assumes before it is told the recording's looks
+/// ([`Tracker::looking`]): 6 hops of 512 samples at 48 kHz, candidates down to 0.4.
+const DEFAULT_LOOK_S: f64 = 0.064;
 const DEFAULT_FLOOR: f64 = 0.4;
 
 #[derive(Clone, Copy)]
@@ -721,14 +721,14 @@ impl Tracker {
                 (in_gate || same).then_some((i, angle, in_gate))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1));
+        // A candidate of a track heard again after a silence: the track is talking again.
+        if let Some((i, _, _)) = near {
+            self.settle_resumed(i, true);
+        }
         // A candidate that began before its track's last stretch ended is of that
         // stretch (its detections were beyond the track's gate then, and the stretch
         // ended while it waited to be confirmed): one stretch, not two that overlap,
         // and one with a stretch the track opened since (the candidate bridges them).
-        // A candidate of a track heard again: the track is talking again.
-        if let Some((i, _, _)) = near {
-            self.settle_resumed(i, true);
-        }
         let reopened = near.is_some_and(|(i, _, _)| self.tracks[i].reopen(c.hits[0].1.time_s));
         let opens = !reopened && near.is_none_or(|(i, _, _)| self.tracks[i].event.is_none());
         // At most one row per source per frame (docs/interface.md): a candidate's
@@ -813,6 +813,7 @@ impl Tracker {
     /// Source `id` starts a stretch of activity at `start_s`: the stretches of the
     /// tracks that fell silent before it began end there (a turn ends when another
     /// source takes the floor).
+    ///
     /// A track heard again (after a turn's gap of silence) within [`ONSET_S`] of that
     /// start was hearing the new source's onset: its resumption is undone first.
     fn take_the_floor(&mut self, id: u64, start_s: f64) {
@@ -906,13 +907,13 @@ impl Tracker {
         if by_evidence {
             self.weigh(now);
         }
-        // A resumption is kept once no candidate that began within its onset window is
-        // still open to take the floor, or when its stretch ends.
         let by_length = self.params.confirm_by == ConfirmBy::Evidence;
         let ends = |t: &Track| match &t.event {
             Some(e) => super::event::ends_after(t.last_s - e.start_s(), end_s, by_length),
             None => end_s,
         };
+        // A resumption is kept once no candidate that began within its onset window is
+        // still open to take the floor, or when its stretch ends.
         for i in 0..self.tracks.len() {
             let t = &self.tracks[i];
             let Some(at_s) = t.resumed_s() else {
