@@ -51,6 +51,13 @@ impl Candidate {
             / n
     }
 
+    /// The mean direction of its detections (its smoothed direction with none): where
+    /// it was heard over its whole run, not where its latest detections drifted.
+    pub fn mean_direction(&self) -> Vector3<f64> {
+        let sum: Vector3<f64> = self.hits.iter().map(|(_, d)| d.direction).sum();
+        sum.try_normalize(1e-12).unwrap_or(self.direction)
+    }
+
     /// What it tells of its place if it is dropped unconfirmed (`needed_nats`: what a
     /// source needs, with the evidence test).
     pub fn as_place(&self, needed_nats: Option<f64>) -> FaintPlace {

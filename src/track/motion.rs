@@ -87,6 +87,9 @@ pub(super) struct Track {
     ended: Option<Accumulator>,
     /// The latest frame (its time, seconds) that gave it a row ([`Track::give`]).
     given_s: f64,
+    /// The cone (degrees) of its last stretch of activity once ended: where it was
+    /// heard, within what it could tell.
+    pub ended_cone_deg: f64,
     /// What it was before it was heard again after a turn's gap of silence, until the
     /// tracker keeps or undoes that ([`Track::resumed_s`]).
     resumed: Option<Resumed>,
@@ -126,6 +129,7 @@ impl Track {
             given_s: event.as_ref().map_or(f64::NEG_INFINITY, |e| e.end_s()),
             event,
             ended: None,
+            ended_cone_deg: 0.0,
             resumed: None,
             velocity: Vector3::zeros(),
             anchor: (direction, last_s),
@@ -223,6 +227,7 @@ impl Track {
     /// before, to be written.
     pub fn end_stretch(&mut self) -> Option<Accumulator> {
         let e = self.event.take()?;
+        self.ended_cone_deg = e.uncertainty_deg();
         self.ended.replace(e)
     }
 

@@ -688,9 +688,10 @@ impl Tracker {
         }
         // A track in a stretch of activity is the candidate's source, even beyond its
         // gate, when the two (the track where it is predicted or last heard, or its
-        // detections' mean) are closer than the array can tell apart, and the
-        // candidate was not heard in the same frames as the track (two talkers at once,
-        // which the frames tell apart):
+        // detections' mean, against the candidate where it is or its detections' mean)
+        // are closer than the array can tell apart, and the candidate was not heard in
+        // the same frames as the track (two talkers at once, which the frames tell
+        // apart):
         // - within reach (a sample and a half of delay, [`Tracker::reach`]), on any
         //   array: a low voice on the 6-mic circle at 16 kHz, heard 8-10 deg from his
         //   track in azimuth as his words went on, confirmed a second track beside it;
@@ -700,6 +701,17 @@ impl Tracker {
         //   whose cone is mostly its elevation's uncertainty, which association weighs
         //   little (two talkers 30 deg apart on the 6-mic circle at once were taken as
         //   one), nor on a linear one, whose cone holds the circle around its axis.
+        //   The candidate's mean counts: a low voice's candidate heard for a second
+        //   beside his track on the tetrahedron had drifted 29 deg from it by its last
+        //   detections (toward the ceiling's image), its mean 6 deg.
+        // A silent track on a volumetric array is the candidate's source within their
+        // cones combined (its last stretch's and the candidate's), beyond its gate: a
+        // source heard again where it was, within what the array tells apart (the same
+        // place, the same source). The same low voice, heard again 15-16 deg from his
+        // track (its gate 15 deg, cones 13-15), became a second source. A track within
+        // its gate or talking beside the candidate comes first (a talker's second
+        // track talking, his first silent: a stray 20 deg off, cone 27 deg, went to
+        // the silent one and made an event of its own).
         let cone = c.uncertainty_deg();
         let reach = self.reach();
         let near = self
@@ -712,15 +724,21 @@ impl Tracker {
                 let same = t.event.as_ref().is_some_and(|e| {
                     let together = c.together.iter().find(|(id, _)| *id == t.id);
                     let together = together.map_or(0, |&(_, n)| n) as f64;
-                    let mean = self.distance(&c.direction, &e.direction());
+                    let mean = self
+                        .distance(&c.direction, &e.direction())
+                        .min(self.distance(&c.mean_direction(), &e.direction()));
                     together < TOGETHER_SHARE * c.heard as f64
                         && (angle <= reach
                             || self.volumetric
                                 && angle.min(mean) <= e.uncertainty_deg().hypot(cone))
                 });
-                (in_gate || same).then_some((i, angle, in_gate))
+                let heard_again =
+                    self.volumetric && t.event.is_none() && angle <= t.ended_cone_deg.hypot(cone);
+                let rank = u8::from(!(in_gate || same));
+                (in_gate || same || heard_again).then_some((i, angle, in_gate, rank))
             })
-            .min_by(|a, b| a.1.total_cmp(&b.1));
+            .min_by(|a, b| a.3.cmp(&b.3).then(a.1.total_cmp(&b.1)))
+            .map(|(i, angle, in_gate, _)| (i, angle, in_gate));
         // A candidate of a track heard again after a silence: the track is talking again.
         if let Some((i, _, _)) = near {
             self.settle_resumed(i, true);

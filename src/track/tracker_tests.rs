@@ -684,6 +684,94 @@ fn a_run_within_a_talkers_cones_is_his_unless_heard_with_him() {
     assert_eq!(ids(Run::Together, 28.0, 25.0), vec![1, 2]);
 }
 
+/// A candidate confirmed beside a talking track on a 5.7 cm tetrahedron, its latest
+/// detections drifted 30 deg from him (beyond his reach and his and its cones combined)
+/// but heard on average 15 deg from him, is his scatter: its rows are his.
+#[test]
+fn a_candidate_that_drifted_from_a_talking_track_is_his_by_where_it_was_heard() {
+    let a = 0.057 / (2.0 * 2f64.sqrt());
+    let tetra =
+        Geometry::from_positions(&[[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]]).unwrap();
+    let mut tracker = Tracker::for_array(TrackParams::default(), &tetra, 16000.0, 343.0);
+    let at = |f: u64, azimuth: f64, elevation: f64| Detection {
+        elevation_deg: elevation,
+        direction: unit_from_angles(azimuth, elevation),
+        uncertainty_deg: 15.0,
+        ..detection(f, azimuth)
+    };
+    // He is heard in every other frame; the candidate in the others.
+    for f in (0..100).step_by(2) {
+        tracker.push(f as f64 * HOP, &[at(f, 20.0, 10.0)]);
+    }
+    // From 1 deg beside him to 15 deg aside and 28 deg above.
+    let hits: VecDeque<(u64, Detection)> = (0..20)
+        .map(|i| {
+            let x = i as f64 / 19.0;
+            (10_000 + i, at(61 + 2 * i, 19.0 - 14.0 * x, 10.0 + 28.0 * x))
+        })
+        .collect();
+    let last = hits.back().unwrap().1;
+    let look = tracker.evidence.look(last.time_s);
+    tracker.confirm(Candidate {
+        key: 999,
+        direction: last.direction,
+        last_s: last.time_s,
+        hits,
+        alone_s: f64::NEG_INFINITY,
+        test: Test::new(look),
+        bursts: Bursts::new(look),
+        place: None,
+        heard: 20,
+        first_s: 0.61,
+        best_nats: f64::NEG_INFINITY,
+        together: Vec::new(),
+    });
+    for row in 10_000..10_020 {
+        assert_eq!(tracker.resolved.get(&row), Some(&Some(1)), "row {row}");
+    }
+}
+
+/// A talker heard again after his stretch of activity ended, beyond his track's gate
+/// (15 deg on a 5.7 cm tetrahedron at 16 kHz) but within his and the new run's cones
+/// combined, is the same source; one beyond their cones is another.
+#[test]
+fn a_talker_heard_again_within_the_cones_of_where_he_was_keeps_his_id() {
+    let ids = |off: f64, cone: f64| {
+        let frames: Vec<Vec<(f64, f64)>> = (0..400)
+            .map(|f| match f {
+                0..100 => vec![(20.0, 10.0)],
+                250..350 => vec![(20.0 + off, 10.0)],
+                _ => Vec::new(),
+            })
+            .collect();
+        let mut ids = sources_of(&frames, cone);
+        ids.sort();
+        ids.dedup();
+        ids
+    };
+    assert_eq!(ids(17.0, 13.0), vec![1]);
+    assert_eq!(ids(25.0, 13.0), vec![1, 2]);
+}
+
+/// A run between a talking track's detections, beyond its reach but within the cones
+/// (its scatter), that is nearer a silent track, also within the cones: the talking
+/// track's, not the silent one's (which would make an event of its own).
+#[test]
+fn a_talking_track_takes_its_scatter_before_a_silent_one_heard_again() {
+    let frames: Vec<Vec<(f64, f64)>> = (0..500)
+        .map(|f| match f {
+            0..100 => vec![(20.0, 0.0)],
+            200..450 if f % 2 == 0 || !(300..380).contains(&f) => vec![(74.0, 0.0)],
+            300..380 => vec![(46.0, 0.0)],
+            _ => Vec::new(),
+        })
+        .collect();
+    let ids = sources_of(&frames, 22.0);
+    let (first, second): (Vec<u64>, Vec<u64>) = ids.iter().partition(|&&id| id == 1);
+    assert_eq!(first.len(), 100, "{ids:?}");
+    assert!(second.iter().all(|&id| id == 2), "{ids:?}");
+}
+
 /// The sources of the rows a tracker on a 6-mic circle of radius 4.63 cm at 16 kHz (a
 /// ReSpeaker-like array) gives for `frames` (frame `f`'s detections at `f` hops).
 fn small_circle_sources(frames: impl Iterator<Item = Vec<Detection>>) -> Vec<u64> {
