@@ -119,18 +119,7 @@ impl Accumulator {
 
     /// Adds `d` (detections may come out of order: a candidate's, once confirmed).
     pub fn add(&mut self, d: &Detection) {
-        if d.time_s < self.start_s {
-            self.first = d.direction;
-        }
-        if d.time_s >= self.end_s {
-            self.last = d.direction;
-        }
-        self.start_s = self.start_s.min(d.time_s);
-        self.end_s = self.end_s.max(d.time_s);
-        self.sum += d.direction;
-        self.score += d.score;
-        self.uncertainty += d.uncertainty_deg;
-        self.count += 1;
+        self.merge(Accumulator::new(d));
     }
 
     /// Takes in `other`, a stretch of the same source: one stretch from the earlier

@@ -436,15 +436,21 @@ mod tests {
         }
     }
 
-    #[test]
-    fn an_ended_stretch_is_held_and_reopened_by_what_began_before_its_end() {
-        let mut t = Track::new(1, unit_from_angles(30.0, 0.0), 0.0, None, Bursts::new(0));
-        let mut first = Accumulator::new(&at(1.0, 30.0, 0.0));
-        first.add(&at(1.2, 30.0, 0.0));
-        t.event = Some(first);
-        // Ended: held, nothing to write yet.
+    /// A track whose stretch of two detections (times, azimuths at elevation 0) ended:
+    /// held, nothing to write yet.
+    fn ended_track(from: (f64, f64), to: (f64, f64)) -> Track {
+        let mut t = Track::new(1, unit_from_angles(from.1, 0.0), 0.0, None, Bursts::new(0));
+        let mut stretch = Accumulator::new(&at(from.0, from.1, 0.0));
+        stretch.add(&at(to.0, to.1, 0.0));
+        t.event = Some(stretch);
         assert!(t.end_stretch().is_none());
         assert!(t.holds_ended() && t.event.is_none());
+        t
+    }
+
+    #[test]
+    fn an_ended_stretch_is_held_and_reopened_by_what_began_before_its_end() {
+        let mut t = ended_track((1.0, 30.0), (1.2, 30.0));
         // A candidate that began after its end opens nothing of it...
         assert!(!t.reopen(1.3));
         // ...one that began before its end continues it.
@@ -460,11 +466,7 @@ mod tests {
 
     #[test]
     fn a_candidate_that_bridges_a_held_stretch_and_an_open_one_makes_them_one() {
-        let mut t = Track::new(1, unit_from_angles(30.0, 0.0), 0.0, None, Bursts::new(0));
-        let mut held = Accumulator::new(&at(0.72, 30.0, 0.0));
-        held.add(&at(0.77, 31.0, 0.0));
-        t.event = Some(held);
-        assert!(t.end_stretch().is_none());
+        let mut t = ended_track((0.72, 30.0), (0.77, 31.0));
         // A second stretch opened after the first ended...
         t.event = Some(Accumulator::new(&at(0.90, 32.0, 0.0)));
         // ...then a candidate waiting since before the first's end joins: one stretch.

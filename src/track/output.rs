@@ -72,24 +72,24 @@ impl TrackStats {
                 return format!("no source confirmed: {fate} as isolated ({rule}){tail}");
             };
             let (azimuth, elevation) = crate::geometry::angles_deg(&place.direction);
-            let mut advice = "a source too faint to confirm (a talker across a reverberant room, or a steady noise such as a fan; a larger --false-per-hour confirms fainter sources, and more false ones: docs/guide.md)";
-            let short = match (place.best_nats, place.needed_nats) {
-                (Some(best), Some(needed)) => format!(
+            let too_faint = "a source too faint to confirm (a talker across a reverberant room, or a steady noise such as a fan; a larger --false-per-hour confirms fainter sources, and more false ones: docs/guide.md)";
+            let (short, advice) = match (place.best_nats, place.needed_nats) {
+                (Some(best), Some(needed)) => (format!(
                     "gathered at best {} of the {} nats of evidence a source needs for at most {} false sources an hour (--false-per-hour)",
                     BriefNumber((best * 10.0).round() / 10.0),
                     BriefNumber((needed * 10.0).round() / 10.0),
                     p.false_per_hour
-                ),
+                ), too_faint),
                 _ => match p.confirm_by {
-                    super::ConfirmBy::Rules => format!(
+                    super::ConfirmBy::Rules => (format!(
                         "never made a track (a track starts from {} detections above the threshold within --confirm-s, {} of which 1 is above it, or {} candidates)",
                         p.confirm_hits, p.confirm_candidates, p.confirm_weak
-                    ),
+                    ), too_faint),
                     // Only riders: a place that candidates added to has their evidence.
-                    super::ConfirmBy::Evidence => {
-                        advice = "a source too faint even for a candidate (a talker across a reverberant room at about the noise's level), which no --false-per-hour confirms";
-                        "were each heard only in its own frame's correlations, under the candidates' floor (--candidates), which starts nothing and gathers no evidence".to_string()
-                    }
+                    super::ConfirmBy::Evidence => (
+                        "were each heard only in its own frame's correlations, under the candidates' floor (--candidates), which starts nothing and gathers no evidence".to_string(),
+                        "a source too faint even for a candidate (a talker across a reverberant room at about the noise's level), which no --false-per-hour confirms",
+                    ),
                 },
             };
             format!(

@@ -450,15 +450,11 @@ impl Tracker {
                 continue;
             }
             // The track itself is left as it was: where it is, when it was last heard.
-            let t = self
-                .tracks
-                .iter_mut()
-                .find(|t| t.id == id)
-                .expect("a live track");
-            if !t.give(&detections[i]) {
+            let k = self.track_index(id);
+            if !self.tracks[k].give(&detections[i]) {
                 continue;
             }
-            used[i] = Some(self.hold_if_resumed(slot));
+            used[i] = Some(self.hold_if_resumed(k));
             taken.push((true, id));
         }
         self.pairs = pairs;
@@ -567,11 +563,8 @@ impl Tracker {
                     (self.params.confirm_by == ConfirmBy::Evidence).then(|| self.track_hit_nats(d));
                 let look = self.evidence.look(d.time_s);
                 let e = self.evidence;
-                let t = self
-                    .tracks
-                    .iter_mut()
-                    .find(|t| t.id == id)
-                    .expect("a live track");
+                let k = self.track_index(id);
+                let t = &mut self.tracks[k];
                 // Its frame gave it a row already (through a candidate confirmed in it).
                 if !t.give(d) {
                     return Slot::Dropped;
@@ -583,7 +576,7 @@ impl Tracker {
                 if d.score >= frame.strongest {
                     t.led();
                 }
-                self.hold_if_resumed(slot)
+                self.hold_if_resumed(k)
             }
             Slot::Dropped | Slot::Held(..) => slot,
             Slot::Candidate(key, _) => {
@@ -874,23 +867,24 @@ impl Tracker {
         self.held.retain(|&(track, _)| track != id);
     }
 
-    /// The slot of a row just given to a track (`Slot::Track`): held (numbered) while
-    /// the track's resumption is neither kept nor undone. Only the evidence's turns undo
-    /// one: by the rules it is kept at once.
-    fn hold_if_resumed(&mut self, slot: Slot) -> Slot {
-        let Slot::Track(id) = slot else {
-            return slot;
-        };
-        let i = self
-            .tracks
+    /// Where live track `id` is in the tracker's list.
+    fn track_index(&self, id: u64) -> usize {
+        self.tracks
             .iter()
             .position(|t| t.id == id)
-            .expect("a live track");
+            .expect("a live track")
+    }
+
+    /// The slot of a row just given to track `i`: its own, or held (numbered) while the
+    /// track's resumption is neither kept nor undone. Only the evidence's turns undo
+    /// one: by the rules it is kept at once.
+    fn hold_if_resumed(&mut self, i: usize) -> Slot {
+        let id = self.tracks[i].id;
         if self.params.confirm_by == ConfirmBy::Rules {
             self.settle_resumed(i, true);
         }
         if self.tracks[i].resumed_s().is_none() {
-            return slot;
+            return Slot::Track(id);
         }
         let row = self.next_row;
         self.next_row += 1;

@@ -619,14 +619,18 @@ fn riders_only_ride_along_a_talking_track() {
 #[path = "evidence_tests.rs"]
 mod evidence;
 
-/// Runs frames of (azimuth, elevation) detections, each with cone `cone_deg`, through a
-/// tracker with the default parameters for a 5.7 cm tetrahedron at 16 kHz: the sources
-/// of the rows given out.
-fn sources_of(frames: &[Vec<(f64, f64)>], cone_deg: f64) -> Vec<u64> {
+/// A tracker with the default parameters for a 5.7 cm tetrahedron at 16 kHz.
+fn tetrahedron_tracker() -> Tracker {
     let a = 0.057 / (2.0 * 2f64.sqrt());
     let tetra =
         Geometry::from_positions(&[[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]]).unwrap();
-    let mut tracker = Tracker::for_array(TrackParams::default(), &tetra, 16000.0, 343.0);
+    Tracker::for_array(TrackParams::default(), &tetra, 16000.0, 343.0)
+}
+
+/// Runs frames of (azimuth, elevation) detections, each with cone `cone_deg`, through
+/// [`tetrahedron_tracker`]: the sources of the rows given out.
+fn sources_of(frames: &[Vec<(f64, f64)>], cone_deg: f64) -> Vec<u64> {
+    let mut tracker = tetrahedron_tracker();
     let mut sources = Vec::new();
     for (i, found) in frames.iter().enumerate() {
         let ds: Vec<Detection> = found
@@ -689,10 +693,7 @@ fn a_run_within_a_talkers_cones_is_his_unless_heard_with_him() {
 /// but heard on average 15 deg from him, is his scatter: its rows are his.
 #[test]
 fn a_candidate_that_drifted_from_a_talking_track_is_his_by_where_it_was_heard() {
-    let a = 0.057 / (2.0 * 2f64.sqrt());
-    let tetra =
-        Geometry::from_positions(&[[a, a, a], [a, -a, -a], [-a, a, -a], [-a, -a, a]]).unwrap();
-    let mut tracker = Tracker::for_array(TrackParams::default(), &tetra, 16000.0, 343.0);
+    let mut tracker = tetrahedron_tracker();
     let at = |f: u64, azimuth: f64, elevation: f64| Detection {
         elevation_deg: elevation,
         direction: unit_from_angles(azimuth, elevation),
