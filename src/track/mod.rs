@@ -17,7 +17,10 @@
 //!   track in a stretch of activity within the candidates' gate that none of the
 //!   frame's other detections joined; the track is left as it was (its direction, and the time it was last
 //!   heard, are the other detections'), and the rider starts, joins and confirms no
-//!   candidate. (Letting weak detections do what candidates do gave a false track next
+//!   candidate. With the evidence test, a detection under the threshold that nothing
+//!   took rides the same way a track that talks, within its gate and its scatter (its
+//!   stretch's cone on a volumetric array, a sample and a half of delay on another).
+//!   (Letting weak detections do what candidates do gave a false track next
 //!   to a fan and a false event a minute in a meeting; searching every frame down to
 //!   0.3 instead of only those that gave nothing took frames from the detections they
 //!   gave before: a third talker lost on the tetrahedron.)

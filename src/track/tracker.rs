@@ -426,6 +426,13 @@ impl Tracker {
 
     /// Riders: rows of the tracks in a stretch of activity near them that the frame's
     /// other detections left, nearest first; the tracks themselves are left as they were.
+    /// With the evidence, a detection under the threshold that nothing took rides a
+    /// track that talks (heard within a turn's gap) when it lies within
+    /// the track's gate and its scatter (its stretch's cone on a volumetric array, its
+    /// reach on another): that track's outlier, which would start nothing. On a small
+    /// array a talker's detections scatter past a candidate's gate (two at once on a
+    /// 5.7 cm tetrahedron and a 6-mic circle, `benches/together.py`: 1-3 more windows
+    /// in a hundred); on the prism its cone holds nothing past that gate.
     fn ride(
         &mut self,
         time_s: f64,
@@ -435,10 +442,26 @@ impl Tracker {
     ) {
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
-        for (i, d) in detections.iter().enumerate().filter(|(_, d)| d.rider) {
+        let by_evidence = self.params.confirm_by == ConfirmBy::Evidence;
+        for (i, d) in detections
+            .iter()
+            .enumerate()
+            .filter(|&(i, d)| d.rider || by_evidence && d.margin < 1.0 && used[i].is_none())
+        {
             for t in self.tracks.iter().filter(|t| t.event.is_some()) {
                 let angle = self.off_track(&d.direction, t, time_s);
-                if angle <= self.candidate_gate && !taken.contains(&(true, t.id)) {
+                let gate = if d.rider {
+                    self.candidate_gate
+                } else if turn_ended(t.last_s, time_s) {
+                    continue;
+                } else {
+                    let scatter = match &t.event {
+                        Some(e) if self.volumetric => e.uncertainty_deg(),
+                        _ => self.reach(),
+                    };
+                    self.track_gate(t, time_s).min(scatter)
+                };
+                if angle <= gate && !taken.contains(&(true, t.id)) {
                     pairs.push((angle, i, Slot::Track(t.id)));
                 }
             }
@@ -509,7 +532,8 @@ impl Tracker {
                 continue;
             }
             // A rider that rides along nothing starts nothing; nor does a candidate near
-            // a live track but not near enough to join it: that track's outlier.
+            // a live track but not near enough to join it: that track's outlier (which
+            // rides it when the track talks and it lies within the track's scatter).
             if d.rider
                 || d.margin < 1.0
                     && self.tracks.iter().any(|t| {

@@ -732,6 +732,36 @@ fn a_candidate_that_drifted_from_a_talking_track_is_his_by_where_it_was_heard() 
     }
 }
 
+/// A detection at (`azimuth`, 10 deg) in frame `f` with `margin` and cone `cone_deg`.
+fn weak_at(f: u64, azimuth: f64, margin: f64, cone_deg: f64) -> Detection {
+    Detection {
+        elevation_deg: 10.0,
+        direction: unit_from_angles(azimuth, 10.0),
+        uncertainty_deg: cone_deg,
+        margin,
+        peak_margin: margin,
+        ..detection(f, azimuth)
+    }
+}
+
+/// Runs 300 frames, `frame(f)` the detections of frame `f`, through
+/// [`tetrahedron_tracker`]: the sources of the rows given out of detections under the
+/// threshold.
+fn weak_rows_sources(frame: impl Fn(u64) -> Vec<Detection>) -> Vec<Option<u64>> {
+    let mut tracker = tetrahedron_tracker();
+    let mut rows = Vec::new();
+    for f in 0..300u64 {
+        tracker.push(f as f64 * HOP, &frame(f));
+        rows.extend(tracker.take_rows().map(|r| (r.detection, r.source)));
+    }
+    tracker.finish();
+    rows.extend(tracker.take_rows().map(|r| (r.detection, r.source)));
+    rows.into_iter()
+        .filter(|(d, _)| d.margin < 1.0)
+        .map(|(_, s)| s)
+        .collect()
+}
+
 /// Detections under the threshold 15 deg from a talking track on a 5.7 cm tetrahedron
 /// (beyond his gate, 12 deg, within his stretch's cone, 20 deg), in frames he is not
 /// heard in, are his scatter: their candidate, muted beside him, gives him its rows
@@ -740,14 +770,7 @@ fn a_candidate_that_drifted_from_a_talking_track_is_his_by_where_it_was_heard() 
 /// heard with him, nor when it lies within another talking stretch's cone too.
 #[test]
 fn a_muted_candidate_beside_a_talking_track_gives_him_its_rows() {
-    let at = |f: u64, azimuth: f64, margin: f64| Detection {
-        elevation_deg: 10.0,
-        direction: unit_from_angles(azimuth, 10.0),
-        uncertainty_deg: 20.0,
-        margin,
-        peak_margin: margin,
-        ..detection(f, azimuth)
-    };
+    let at = |f: u64, azimuth: f64, margin: f64| weak_at(f, azimuth, margin, 20.0);
     #[derive(Clone, Copy, PartialEq)]
     enum Run {
         Alone,
@@ -759,9 +782,7 @@ fn a_muted_candidate_beside_a_talking_track_gives_him_its_rows() {
     }
     // The run's rows and their sources.
     let run = |run: Run| {
-        let mut tracker = tetrahedron_tracker();
-        let mut rows = Vec::new();
-        for f in 0..300u64 {
+        weak_rows_sources(|f| {
             let mut found = match f {
                 0..100 | 130..200 => vec![at(f, 20.0, 2.0)],
                 100..130 if run == Run::Together => vec![at(f, 20.0, 2.0), at(f, 35.0, 0.6)],
@@ -771,15 +792,8 @@ fn a_muted_candidate_beside_a_talking_track_gives_him_its_rows() {
             if run == Run::Between && !(100..130).contains(&f) && f < 200 {
                 found.push(at(f, 50.0, 2.0));
             }
-            tracker.push(f as f64 * HOP, &found);
-            rows.extend(tracker.take_rows().map(|r| (r.detection, r.source)));
-        }
-        tracker.finish();
-        rows.extend(tracker.take_rows().map(|r| (r.detection, r.source)));
-        rows.into_iter()
-            .filter(|(d, _)| d.margin < 1.0)
-            .map(|(_, s)| s)
-            .collect::<Vec<_>>()
+            found
+        })
     };
     assert_eq!(run(Run::Alone), vec![Some(1); 30]);
     // Heard with him, it is someone else (here never confirmed: no row of his); between
@@ -790,6 +804,27 @@ fn a_muted_candidate_beside_a_talking_track_gives_him_its_rows() {
         run(Run::Together)
     );
     assert_eq!(run(Run::Between), Vec::new());
+}
+
+/// A detection under the threshold 10 deg from a talking track on a 5.7 cm tetrahedron
+/// (beyond a candidate's gate, within the track's gate and its stretch's cone) rides
+/// the track: a row of his that would have started nothing. Not after a turn's gap of
+/// silence (another's turn may have begun), nor beyond the stretch's cone.
+#[test]
+fn a_talking_tracks_outlier_within_its_scatter_rides_it() {
+    // The weak detections' sources: he talks in even frames to 200 with cone `cone`;
+    // they come in odd frames 101-149, or from frame 230 on with `after_a_gap`.
+    let weak = |cone: f64, after_a_gap: bool| {
+        weak_rows_sources(|f| match f {
+            230..240 if after_a_gap => vec![weak_at(f, 30.0, 0.6, cone)],
+            101..150 if f % 2 == 1 && !after_a_gap => vec![weak_at(f, 30.0, 0.6, cone)],
+            0..200 if f % 2 == 0 => vec![weak_at(f, 20.0, 2.0, cone)],
+            _ => Vec::new(),
+        })
+    };
+    assert_eq!(weak(20.0, false), vec![Some(1); 25]);
+    assert_eq!(weak(20.0, true), Vec::new());
+    assert_eq!(weak(6.0, false), Vec::new());
 }
 
 /// A talker heard again after his stretch of activity ended, beyond his track's gate
