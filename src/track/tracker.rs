@@ -455,11 +455,7 @@ impl Tracker {
                 } else if turn_ended(t.last_s, time_s) {
                     continue;
                 } else {
-                    let scatter = match &t.event {
-                        Some(e) if self.volumetric => e.uncertainty_deg(),
-                        _ => self.reach(),
-                    };
-                    self.track_gate(t, time_s).min(scatter)
+                    self.track_gate(t, time_s).min(self.scatter_deg(t))
                 };
                 if angle <= gate && !taken.contains(&(true, t.id)) {
                     pairs.push((angle, i, Slot::Track(t.id)));
@@ -1023,7 +1019,6 @@ impl Tracker {
     /// apart at once on a 6.5 cm tetrahedron: the second's rows erred by 4.7 deg
     /// instead of 2.4 when it went to the nearer).
     fn give_expiring_scatter(&mut self, now: f64, delay_s: f64) {
-        let reach = self.reach();
         for i in (0..self.candidates.len()).rev() {
             let c = &self.candidates[i];
             let expires = c
@@ -1033,26 +1028,32 @@ impl Tracker {
             if !expires {
                 continue;
             }
-            let stretches = (0..self.tracks.len())
-                .filter_map(|k| {
-                    let (angle, near, cone_t) =
-                        self.beside_stretch(c, &self.tracks[k], c.last_s)?;
-                    let within = if self.volumetric {
-                        near <= cone_t
-                    } else {
-                        angle <= reach
-                    };
-                    within.then_some(k)
-                })
-                .collect::<Vec<_>>();
+            let mut stretches = (0..self.tracks.len()).filter(|&k| {
+                let t = &self.tracks[k];
+                self.beside_stretch(c, t, c.last_s)
+                    .is_some_and(|(angle, near, _)| {
+                        (if self.volumetric { near } else { angle }) <= self.scatter_deg(t)
+                    })
+            });
             // (Not to a track whose resumption is still to be settled: its rows since
             // are what decides it.)
-            if let [k] = stretches[..] {
-                if self.tracks[k].resumed_s().is_none() {
-                    let c = self.candidates.remove(i);
-                    self.give_scatter(c, k);
-                }
+            let (Some(k), None) = (stretches.next(), stretches.next()) else {
+                continue;
+            };
+            if self.tracks[k].resumed_s().is_none() {
+                let c = self.candidates.remove(i);
+                self.give_scatter(c, k);
             }
+        }
+    }
+
+    /// How far track `t`'s scatter reaches (degrees): its stretch's cone on a volumetric
+    /// array, a sample and a half of delay ([`Tracker::reach`]) on another, whose cones
+    /// are mostly their elevation's.
+    fn scatter_deg(&self, t: &Track) -> f64 {
+        match &t.event {
+            Some(e) if self.volumetric => e.uncertainty_deg(),
+            _ => self.reach(),
         }
     }
 
