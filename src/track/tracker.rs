@@ -529,11 +529,18 @@ impl Tracker {
             }
             // A rider that rides along nothing starts nothing; nor does a candidate near
             // a live track but not near enough to join it: that track's outlier (which
-            // rides it when the track talks and it lies within the track's scatter).
+            // rides it when the track talks and it lies within the track's scatter). A
+            // turning track silent for a turn's gap has no outliers: a walker's next
+            // words come back under the threshold ahead of where it was heard, and
+            // dropped, let a new track take him (a candidate there that is confirmed
+            // takes the track up again, see [`Tracker::confirm`]).
             if d.rider
                 || d.margin < 1.0
                     && self.tracks.iter().any(|t| {
+                        let paused_turning = turn_ended(t.last_s, time_s)
+                            && t.speed_deg_s().is_some_and(|v| v > 0.0);
                         t.event.is_some()
+                            && !paused_turning
                             && self.off_track(&d.direction, t, time_s) <= self.track_gate(t, time_s)
                     })
             {

@@ -353,6 +353,30 @@ fn a_slow_walker_is_followed_through_a_pause() {
     assert!(rows.iter().all(|r| r.1 == 1));
 }
 
+/// A walker turning at 10 deg/s who pauses for 0.6 s and comes back 11 deg ahead of
+/// where his track predicts him, heard under the threshold: beyond a candidate's gate
+/// of his track, within its own. His weak detections start a candidate that takes his
+/// track up again, with every row of his words (before, they were the silent track's
+/// outliers: his first 0.4 s were dropped; on `benches/moving.py`, further ahead, a
+/// second track took him).
+#[test]
+fn a_walker_heard_weakly_after_a_pause_keeps_his_track() {
+    let frames: Vec<Vec<(f64, f64)>> = (0..300)
+        .map(|f| {
+            let t = f as f64 * HOP;
+            match f {
+                0..120 => vec![(-40.0 + 10.0 * t, 2.0)],
+                120..180 => Vec::new(),
+                _ => vec![(-40.0 + 11.0 + 10.0 * t, 0.7)],
+            }
+        })
+        .collect();
+    let (rows, _) = track_with(TrackParams::default(), &frames);
+    let late: Vec<Option<u64>> = rows.iter().filter(|r| r.0 >= 180).map(|r| r.1).collect();
+    assert_eq!(late.len(), 120, "rows after the pause");
+    assert!(late.iter().all(|&s| s == Some(1)), "{late:?}");
+}
+
 #[test]
 fn two_sources_in_the_same_frames_get_one_row_each() {
     let frames: Vec<Vec<f64>> = (0..100).map(|_| vec![10.0, 70.0]).collect();
