@@ -333,18 +333,16 @@ impl Track {
             // deg/s read under [`STILL_SPEED`] from his smoothed direction's ends
             // about half the time, and his track, predicted where he paused, split
             // from him when he spoke again (see [`SLOW_TURN`]).
-            let v = match slope {
-                Some(slope) if stands && speed < STILL_SPEED => slope,
-                _ => v,
+            let turn = match slope {
+                Some(slope) if stands && speed < STILL_SPEED => Some(slope),
+                _ if stands => Some(v),
+                _ => None,
             };
-            let speed = v.norm();
-            self.velocity = if !stands || speed < f64::EPSILON {
+            self.velocity = match turn {
                 // Slower than a half-second span measures: the slow turn, if any.
-                self.slow_velocity
-            } else if speed > max_speed {
-                v * (max_speed / speed)
-            } else {
-                v
+                None => self.slow_velocity,
+                Some(t) if t.norm() > max_speed => t * (max_speed / t.norm()),
+                Some(t) => t,
             };
             self.anchor = (u, d.time_s);
             self.measured = true;
