@@ -122,23 +122,36 @@ pub fn find_peaks(window: &[f32], m: usize, interp: Interpolation, out: &mut Vec
     }
     if interp != Interpolation::None {
         let h = h as isize;
-        for p in out.iter_mut() {
-            let i = (p.lag as isize + h) as usize;
-            let (prev, here, next) = (window[i - 1], p.value, window[i + 1]);
-            let denom = prev - 2.0 * here + next;
-            let parabolic = if denom < 0.0 {
-                (0.5 * (prev - next) / denom).clamp(-0.5, 0.5)
-            } else {
-                0.0
+        // Eight peaks at a time: each one's two neighbours, then their cosine offsets in
+        // one vector pass.
+        for chunk in out.chunks_mut(LANES) {
+            let (mut prev, mut here, mut next) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+            for (j, p) in chunk.iter().enumerate() {
+                let i = (p.lag as isize + h) as usize;
+                (prev[j], here[j], next[j]) = (window[i - 1], p.value, window[i + 1]);
+            }
+            let cosine = match interp {
+                Interpolation::Cosine => cosine_offsets(prev, here, next),
+                _ => [f32::NAN; LANES],
             };
-            let delta = match interp {
-                Interpolation::Cosine => cosine_offset(prev, here, next).unwrap_or(parabolic),
-                _ => parabolic,
-            };
-            *p = Peak {
-                lag: p.lag + delta,
-                value: here - 0.25 * (prev - next) * delta,
-            };
+            for (j, p) in chunk.iter_mut().enumerate() {
+                let (prev, here, next) = (prev[j], here[j], next[j]);
+                let denom = prev - 2.0 * here + next;
+                let parabolic = if denom < 0.0 {
+                    (0.5 * (prev - next) / denom).clamp(-0.5, 0.5)
+                } else {
+                    0.0
+                };
+                let delta = if cosine[j].is_finite() {
+                    cosine[j].clamp(-0.5, 0.5)
+                } else {
+                    parabolic
+                };
+                *p = Peak {
+                    lag: p.lag + delta,
+                    value: here - 0.25 * (prev - next) * delta,
+                };
+            }
         }
         // Refinement can reorder close peaks; the search expects highest first. (A stable
         // insertion sort of at most M entries: no allocation.)
@@ -152,20 +165,26 @@ pub fn find_peaks(window: &[f32], m: usize, interp: Interpolation, out: &mut Vec
     }
 }
 
-/// Where `A cos(w (x - d))` through `(-1, prev)`, `(0, here)`, `(1, next)` peaks: `d`
-/// in `[-0.5, 0.5]`, or `None` when no such cosine exists (a peak not above zero, or
-/// neighbours not under it).
-fn cosine_offset(prev: f32, here: f32, next: f32) -> Option<f32> {
-    if here <= 0.0 {
-        return None;
-    }
-    let c = (prev + next) / (2.0 * here);
-    if !(c > -1.0 && c < 1.0) {
-        return None;
-    }
-    let (w, sin) = (c.acos(), (1.0 - c * c).sqrt());
-    let d = ((next - prev) / (2.0 * here * sin)).atan() / w;
-    d.is_finite().then(|| d.clamp(-0.5, 0.5))
+/// Peaks refined together ([`cosine_offsets`]).
+const LANES: usize = 8;
+
+/// Where `A cos(w (x - d))` through `(-1, prev)`, `(0, here)`, `(1, next)` peaks, for
+/// eight peaks at once: `d` unclamped, or NaN where no such cosine exists (a peak not
+/// above zero, or neighbours not under it). wide's vector `acos` and `atan` (Agner
+/// Fog's polynomials, within a few units in the last place of libm's) cost an eighth
+/// of libm's one at a time, which took 3.5% of a meeting's time.
+#[inline(always)]
+fn cosine_offsets(prev: [f32; LANES], here: [f32; LANES], next: [f32; LANES]) -> [f32; LANES] {
+    use wide::{f32x8, CmpGt, CmpLt};
+    let (prev, here, next) = (f32x8::from(prev), f32x8::from(here), f32x8::from(next));
+    let two = f32x8::splat(2.0);
+    let c = (prev + next) / (two * here);
+    let exists = here.cmp_gt(f32x8::ZERO) & c.cmp_gt(-f32x8::ONE) & c.cmp_lt(f32x8::ONE);
+    // Lanes with no cosine compute on c = 0 (no NaN inside) and are replaced after.
+    let c = exists.blend(c, f32x8::ZERO);
+    let (w, sin) = (c.acos(), (f32x8::ONE - c * c).sqrt());
+    let d = ((next - prev) / (two * here * sin)).atan() / w;
+    exists.blend(d, f32x8::splat(f32::NAN)).to_array()
 }
 
 /// The `K` highest local maxima of a window seen so far: values, highest first (ties in
@@ -292,6 +311,46 @@ mod tests {
                 (found[0].lag as f64 - delay).abs()
             })
             .fold(0.0, f64::max)
+    }
+
+    /// The vector offsets agree with the cosine's formula in libm's `acos` and `atan`
+    /// (f64) to within 1e-4 sample, and are NaN exactly where no cosine exists.
+    #[test]
+    fn vector_cosine_offsets_match_the_formula() {
+        let formula = |prev: f64, here: f64, next: f64| {
+            let c = (prev + next) / (2.0 * here);
+            (here > 0.0 && c > -1.0 && c < 1.0)
+                .then(|| ((next - prev) / (2.0 * here * (1.0 - c * c).sqrt())).atan() / c.acos())
+        };
+        let mut state = 12345u64;
+        let mut draw = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 0.5
+        };
+        let (mut checked, mut none) = (0, 0);
+        for _ in 0..20_000 {
+            let (mut prev, mut here, mut next) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+            for j in 0..LANES {
+                (prev[j], here[j], next[j]) = (draw(), draw(), draw());
+            }
+            let got = cosine_offsets(prev, here, next);
+            for j in 0..LANES {
+                match formula(prev[j] as f64, here[j] as f64, next[j] as f64) {
+                    Some(d) if d.abs() <= 0.5 => {
+                        assert!((got[j] as f64 - d).abs() < 1e-4, "{} vs {d}", got[j]);
+                        checked += 1;
+                    }
+                    Some(_) => {}
+                    None => {
+                        assert!(got[j].is_nan(), "{} where no cosine", got[j]);
+                        none += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000 && none > 10_000, "{checked} {none}");
     }
 
     /// A cosine through the three samples is less biased toward whole samples than a
