@@ -253,7 +253,7 @@ impl Track {
     /// next ones waited in a candidate, were an event of their own 0.02 s before the
     /// rest: a false event 15 deg off on a 4.6 cm square, and a turn counted twice.)
     pub fn reopen(&mut self, start_s: f64) -> bool {
-        let Some(ended) = self.ended.take_if(|e| start_s <= e.end_s() + TURN_GAP_S) else {
+        let Some(ended) = self.ended.take_if(|e| !turn_ended(e.end_s(), start_s)) else {
             return false;
         };
         match self.event.as_mut() {
