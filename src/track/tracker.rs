@@ -137,6 +137,9 @@ pub struct Tracker {
     spread_deg: f64,
     /// Whether the array is volumetric (see [`WEAK_WIDENING`] and [`Tracker::confirm`]).
     volumetric: bool,
+    /// The tracks' own detections of the last [`ACTIVE_S`]: (track id, time), for
+    /// [`Tracker::outheard`].
+    joins: VecDeque<(u64, f64)>,
     /// Until then (seconds) candidates under the threshold tell nothing (see
     /// [`Tracker::looking`]).
     warmup_s: f64,
@@ -197,6 +200,7 @@ impl Tracker {
             pairs: Vec::new(),
             used: Vec::new(),
             taken: Vec::new(),
+            joins: VecDeque::new(),
             evidence: Evidence::new(DEFAULT_LOOK_S, DEFAULT_FLOOR, params_false_per_hour),
             clutter: Clutter::default(),
             spread_deg: 0.0,
@@ -600,6 +604,15 @@ impl Tracker {
                     t.bursts.hit(look, Some(nats), &e);
                 }
                 t.update(d, max_speed, plane);
+                self.joins.push_back((id, d.time_s));
+                while self
+                    .joins
+                    .front()
+                    .is_some_and(|&(_, at_s)| at_s < d.time_s - ACTIVE_S)
+                {
+                    self.joins.pop_front();
+                }
+                let t = &mut self.tracks[k];
                 if d.score >= frame.strongest {
                     t.led();
                 }
@@ -607,15 +620,16 @@ impl Tracker {
             }
             Slot::Dropped | Slot::Held(..) => slot,
             Slot::Candidate(key, _) => {
-                let weighed = (self.params.confirm_by == ConfirmBy::Evidence)
-                    .then(|| self.hit_nats(d, frame));
-                let row = self.next_row;
-                self.next_row += 1;
                 let i = self
                     .candidates
                     .iter()
                     .position(|c| c.key == key)
                     .expect("an open candidate");
+                let outheard = self.outheard(&self.candidates[i], d.time_s, 1);
+                let weighed = (self.params.confirm_by == ConfirmBy::Evidence)
+                    .then(|| self.hit_nats(d, frame, outheard));
+                let row = self.next_row;
+                self.next_row += 1;
                 // A source in bursts stays at its place: a detection farther from it
                 // than a candidate's gate (a gate widened for a source that might be
                 // moving) is as likely clutter as the area it was taken from is
@@ -652,15 +666,47 @@ impl Tracker {
         }
     }
 
+    /// Whether candidate `c`, with `pending` detections of this frame not yet in it,
+    /// outheard every talking track within reach of it over the last [`ACTIVE_S`]: it
+    /// was heard at least [`evidence::OWN_HITS`] times and [`evidence::OWN_RATIO`]
+    /// times as often as each (their own detections, not what rode them). A talker's
+    /// strays are rarer than his own detections; a run that outnumbers them is a source
+    /// of its own, whose evidence counts (beside a track: within reach of it or in its
+    /// vertical plane, as [`Tracker::beside`] has it).
+    fn outheard(&self, c: &Candidate, now: f64, pending: usize) -> bool {
+        let since = now - ACTIVE_S;
+        let mine = c.hits.iter().filter(|(_, d)| d.time_s > since).count() + pending;
+        if mine < evidence::OWN_HITS {
+            return false;
+        }
+        let reach = self.reach();
+        self.tracks.iter().filter(|t| talks(t, now)).all(|t| {
+            let at = t.predicted(now);
+            let beside =
+                self.distance(&c.direction, &at) <= reach || in_vertical_plane(&c.direction, &at);
+            if !beside {
+                return true;
+            }
+            let theirs = self
+                .joins
+                .iter()
+                .filter(|&&(id, at_s)| id == t.id && at_s > since)
+                .count();
+            mine as f64 >= evidence::OWN_RATIO * theirs as f64
+        })
+    }
+
     /// What detection `d` of a candidate is worth (`evidence`), or `None` when a
-    /// talking track heard beside it makes it tell nothing. Its margin is the largest
+    /// talking track heard beside it makes it tell nothing (unless the candidate
+    /// `outheard` it, [`Tracker::outheard`]). Its margin is the largest
     /// its frame gave it ([`Detection::peak_margin`]: a knock passes the threshold in
     /// its frame's own correlations, not in their average); one over the threshold
     /// weaker than its frame's strongest counts at that margin times its share of the
     /// strongest score: a loud sound's stray is not a second source's evidence.
-    fn hit_nats(&self, d: &Detection, frame: Frame) -> Option<f64> {
+    fn hit_nats(&self, d: &Detection, frame: Frame, outheard: bool) -> Option<f64> {
         let margin = d.peak_margin.max(d.margin);
         let (near, busy) = self.beside(&d.direction, d.time_s);
+        let near = near && !outheard;
         if near || margin < 1.0 && d.time_s < self.warmup_s {
             return None;
         }
@@ -1117,7 +1163,9 @@ impl Tracker {
         }
         let mut i = 0;
         while i < self.candidates.len() {
-            let near = self.beside(&self.candidates[i].direction, now).0 || now < self.warmup_s;
+            let near = self.beside(&self.candidates[i].direction, now).0
+                && !self.outheard(&self.candidates[i], now, 0)
+                || now < self.warmup_s;
             let c = &mut self.candidates[i];
             c.test.close_to(look, &e, near);
             c.bursts.close_to(look, &e, near);

@@ -712,6 +712,27 @@ fn a_run_within_a_talkers_cones_is_his_unless_heard_with_him() {
     assert_eq!(ids(Run::Together, 28.0, 25.0), vec![1, 2]);
 }
 
+/// A candidate of `hits` (row, detection), as `tracker` would hold it with no evidence
+/// yet, where its last detection is.
+fn candidate_of(tracker: &Tracker, hits: VecDeque<(u64, Detection)>) -> Candidate {
+    let (first, last) = (hits.front().unwrap().1, hits.back().unwrap().1);
+    let look = tracker.evidence.look(last.time_s);
+    Candidate {
+        key: 999,
+        direction: last.direction,
+        last_s: last.time_s,
+        heard: hits.len() as u64,
+        first_s: first.time_s,
+        hits,
+        alone_s: f64::NEG_INFINITY,
+        test: Test::new(look),
+        bursts: Bursts::new(look),
+        place: None,
+        best_nats: f64::NEG_INFINITY,
+        together: Vec::new(),
+    }
+}
+
 /// A candidate confirmed beside a talking track on a 5.7 cm tetrahedron, its latest
 /// detections drifted 30 deg from him (beyond his reach and his and its cones combined)
 /// but heard on average 15 deg from him, is his scatter: its rows are his.
@@ -735,22 +756,8 @@ fn a_candidate_that_drifted_from_a_talking_track_is_his_by_where_it_was_heard() 
             (10_000 + i, at(61 + 2 * i, 19.0 - 14.0 * x, 10.0 + 28.0 * x))
         })
         .collect();
-    let last = hits.back().unwrap().1;
-    let look = tracker.evidence.look(last.time_s);
-    tracker.confirm(Candidate {
-        key: 999,
-        direction: last.direction,
-        last_s: last.time_s,
-        hits,
-        alone_s: f64::NEG_INFINITY,
-        test: Test::new(look),
-        bursts: Bursts::new(look),
-        place: None,
-        heard: 20,
-        first_s: 0.61,
-        best_nats: f64::NEG_INFINITY,
-        together: Vec::new(),
-    });
+    let c = candidate_of(&tracker, hits);
+    tracker.confirm(c);
     for row in 10_000..10_020 {
         assert_eq!(tracker.resolved.get(&row), Some(&Some(1)), "row {row}");
     }
@@ -890,6 +897,42 @@ fn a_talking_track_takes_its_scatter_before_a_silent_one_heard_again() {
     let (first, second): (Vec<u64>, Vec<u64>) = ids.iter().partition(|&&id| id == 1);
     assert_eq!(first.len(), 100, "{ids:?}");
     assert!(second.iter().all(|&id| id == 2), "{ids:?}");
+}
+
+/// A run 18 deg from a talking track on a 5.7 cm tetrahedron (within the reach of its
+/// strays) tells nothing while the track is heard as often as it; once it outnumbers
+/// the track's own detections three to one over the last `ACTIVE_S`, it is a source
+/// heard where it is and its detections count as evidence (two talkers 33 deg apart
+/// whose merged peaks confirmed a track between them: that track muted both,
+/// `benches/together.py`).
+#[test]
+fn a_run_that_outhears_a_talking_track_beside_it_counts_as_evidence() {
+    // He is heard in every frame to 100, then in one of `every`; the run at 38 deg
+    // in the others to frame 130.
+    let run = |every: u64| {
+        let mut tracker = tetrahedron_tracker();
+        let mut hits = VecDeque::new();
+        for f in 0..130u64 {
+            if f < 100 || f % every == 0 {
+                tracker.push(f as f64 * HOP, &[weak_at(f, 20.0, 2.0, 10.0)]);
+            } else {
+                tracker.push(f as f64 * HOP, &[]);
+                hits.push_back((f, weak_at(f, 38.0, 0.9, 10.0)));
+            }
+        }
+        let c = candidate_of(&tracker, hits);
+        let outheard = tracker.outheard(&c, 1.3, 1);
+        let next = weak_at(130, 38.0, 0.9, 10.0);
+        let frame = Frame {
+            alone: true,
+            strongest: next.score,
+        };
+        (outheard, tracker.hit_nats(&next, frame, outheard))
+    };
+    let (outheard, nats) = run(5);
+    assert!(outheard && nats.is_some_and(|n| n > 0.0), "{nats:?}");
+    let (outheard, nats) = run(2);
+    assert!(!outheard && nats.is_none(), "{nats:?}");
 }
 
 /// The sources of the rows a tracker on a 6-mic circle of radius 4.63 cm at 16 kHz (a
