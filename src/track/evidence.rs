@@ -79,14 +79,15 @@ pub const ACTIVE_S: f64 = 0.25;
 /// is heard tells nothing about a candidate beside it.
 pub const REACH_SAMPLES: f64 = 1.6;
 
-/// A candidate within reach of a talking track is a source of its own, its evidence
-/// counted, when over the last [`ACTIVE_S`] it was heard at least this many times...
+/// A candidate within reach of a talking track (or in its vertical plane) is a source
+/// of its own, its evidence counted, when over the last [`ACTIVE_S`] it was heard at
+/// least this many times and [`OWN_RATIO`] times as often as the track: a talker's
+/// strays are rarer than his own detections.
 pub const OWN_HITS: usize = 5;
 
-/// ...and at least this many times as often as the track (`benches/together.py`, two
-/// talkers at once on a 5.7 cm tetrahedron: a track confirmed at the midpoint of two
-/// talkers 33 deg apart muted both; 2 let a low voice's strays 21 deg off make a false
-/// event).
+/// See [`OWN_HITS`] (`benches/together.py`: a track confirmed between two talkers 33
+/// deg apart on a 5.7 cm tetrahedron muted both; 2 let a low voice's strays 21 deg off
+/// make a false event on `benches/voices.py`).
 pub const OWN_RATIO: f64 = 3.0;
 
 /// The widest reach (degrees).

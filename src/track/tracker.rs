@@ -625,7 +625,7 @@ impl Tracker {
                     .iter()
                     .position(|c| c.key == key)
                     .expect("an open candidate");
-                let outheard = self.outheard(&self.candidates[i], d.time_s, 1);
+                let outheard = self.outheard(&self.candidates[i], &d.direction, d.time_s, 1);
                 let weighed = (self.params.confirm_by == ConfirmBy::Evidence)
                     .then(|| self.hit_nats(d, frame, outheard));
                 let row = self.next_row;
@@ -667,13 +667,13 @@ impl Tracker {
     }
 
     /// Whether candidate `c`, with `pending` detections of this frame not yet in it,
-    /// outheard every talking track within reach of it over the last [`ACTIVE_S`]: it
+    /// outheard every talking track beside `direction` (within reach of it or in its
+    /// vertical plane, as [`Tracker::beside`] has it) over the last [`ACTIVE_S`]: it
     /// was heard at least [`evidence::OWN_HITS`] times and [`evidence::OWN_RATIO`]
     /// times as often as each (their own detections, not what rode them). A talker's
     /// strays are rarer than his own detections; a run that outnumbers them is a source
-    /// of its own, whose evidence counts (beside a track: within reach of it or in its
-    /// vertical plane, as [`Tracker::beside`] has it).
-    fn outheard(&self, c: &Candidate, now: f64, pending: usize) -> bool {
+    /// of its own, whose evidence counts.
+    fn outheard(&self, c: &Candidate, direction: &Vector3<f64>, now: f64, pending: usize) -> bool {
         let since = now - ACTIVE_S;
         let mine = c.hits.iter().filter(|(_, d)| d.time_s > since).count() + pending;
         if mine < evidence::OWN_HITS {
@@ -683,7 +683,7 @@ impl Tracker {
         self.tracks.iter().filter(|t| talks(t, now)).all(|t| {
             let at = t.predicted(now);
             let beside =
-                self.distance(&c.direction, &at) <= reach || in_vertical_plane(&c.direction, &at);
+                self.distance(direction, &at) <= reach || in_vertical_plane(direction, &at);
             if !beside {
                 return true;
             }
@@ -1163,8 +1163,8 @@ impl Tracker {
         }
         let mut i = 0;
         while i < self.candidates.len() {
-            let near = self.beside(&self.candidates[i].direction, now).0
-                && !self.outheard(&self.candidates[i], now, 0)
+            let c = &self.candidates[i];
+            let near = self.beside(&c.direction, now).0 && !self.outheard(c, &c.direction, now, 0)
                 || now < self.warmup_s;
             let c = &mut self.candidates[i];
             c.test.close_to(look, &e, near);

@@ -921,8 +921,8 @@ fn a_run_that_outhears_a_talking_track_beside_it_counts_as_evidence() {
             }
         }
         let c = candidate_of(&tracker, hits);
-        let outheard = tracker.outheard(&c, 1.3, 1);
         let next = weak_at(130, 38.0, 0.9, 10.0);
+        let outheard = tracker.outheard(&c, &next.direction, 1.3, 1);
         let frame = Frame {
             alone: true,
             strongest: next.score,
