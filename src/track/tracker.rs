@@ -138,7 +138,7 @@ pub struct Tracker {
     /// Whether the array is volumetric (see [`WEAK_WIDENING`] and [`Tracker::confirm`]).
     volumetric: bool,
     /// The tracks' own detections of the last [`ACTIVE_S`]: (track id, time), for
-    /// [`Tracker::outheard`].
+    /// [`Tracker::muted`].
     joins: VecDeque<(u64, f64)>,
     /// Until then (seconds) candidates under the threshold tell nothing (see
     /// [`Tracker::looking`]).
@@ -312,16 +312,32 @@ impl Tracker {
         self.tracks.iter().any(|t| talks(t, now))
     }
 
-    /// Whether a talking track (see [`talks`]) is within reach of `direction` or in its
-    /// vertical plane (its floor and ceiling images, [`in_vertical_plane`]), and whether
-    /// any is talking at all.
-    fn beside(&self, direction: &Vector3<f64>, now: f64) -> (bool, bool) {
+    /// Whether candidate `c`, heard at `direction` (with `pending` detections of this
+    /// frame not yet in it), tells nothing at `now`: a talking track (see [`talks`]) is
+    /// within reach of `direction` or in its vertical plane (its floor and ceiling
+    /// images, [`in_vertical_plane`]), and `c` did not outhear it. To outhear a track,
+    /// `c` was heard over the last [`ACTIVE_S`] at least [`evidence::OWN_HITS`] times
+    /// and [`evidence::OWN_RATIO`] times as often as the track's own detections (not
+    /// what rode it): a talker's strays are rarer than his own detections, and a run
+    /// that outnumbers them is a source of its own, whose evidence counts.
+    fn muted(&self, c: &Candidate, direction: &Vector3<f64>, now: f64, pending: usize) -> bool {
+        let since = now - ACTIVE_S;
+        let mine = || c.hits.iter().filter(|(_, d)| d.time_s > since).count() + pending;
         let reach = self.reach();
-        let near = self.tracks.iter().filter(|t| talks(t, now)).any(|t| {
+        self.tracks.iter().filter(|t| talks(t, now)).any(|t| {
             let at = t.predicted(now);
-            self.distance(direction, &at) <= reach || in_vertical_plane(direction, &at)
-        });
-        (near, near || self.talking(now))
+            let beside =
+                self.distance(direction, &at) <= reach || in_vertical_plane(direction, &at);
+            beside && {
+                let mine = mine();
+                let theirs = self
+                    .joins
+                    .iter()
+                    .filter(|&&(id, at_s)| id == t.id && at_s > since);
+                mine < evidence::OWN_HITS
+                    || (mine as f64) < evidence::OWN_RATIO * theirs.count() as f64
+            }
+        })
     }
 
     /// Takes the detections of the frame at `time_s` (frames in order; none is fine: time
@@ -604,17 +620,14 @@ impl Tracker {
                     t.bursts.hit(look, Some(nats), &e);
                 }
                 t.update(d, max_speed, plane);
-                self.joins.push_back((id, d.time_s));
-                while self
-                    .joins
-                    .front()
-                    .is_some_and(|&(_, at_s)| at_s < d.time_s - ACTIVE_S)
-                {
-                    self.joins.pop_front();
-                }
-                let t = &mut self.tracks[k];
                 if d.score >= frame.strongest {
                     t.led();
+                }
+                // Its own detections of the last `ACTIVE_S`, for `muted`.
+                self.joins.push_back((id, d.time_s));
+                let since = d.time_s - ACTIVE_S;
+                while self.joins.front().is_some_and(|&(_, at_s)| at_s < since) {
+                    self.joins.pop_front();
                 }
                 self.hold_if_resumed(k)
             }
@@ -625,9 +638,9 @@ impl Tracker {
                     .iter()
                     .position(|c| c.key == key)
                     .expect("an open candidate");
-                let outheard = self.outheard(&self.candidates[i], &d.direction, d.time_s, 1);
+                let muted = self.muted(&self.candidates[i], &d.direction, d.time_s, 1);
                 let weighed = (self.params.confirm_by == ConfirmBy::Evidence)
-                    .then(|| self.hit_nats(d, frame, outheard));
+                    .then(|| self.hit_nats(d, frame, muted));
                 let row = self.next_row;
                 self.next_row += 1;
                 // A source in bursts stays at its place: a detection farther from it
@@ -666,48 +679,17 @@ impl Tracker {
         }
     }
 
-    /// Whether candidate `c`, with `pending` detections of this frame not yet in it,
-    /// outheard every talking track beside `direction` (within reach of it or in its
-    /// vertical plane, as [`Tracker::beside`] has it) over the last [`ACTIVE_S`]: it
-    /// was heard at least [`evidence::OWN_HITS`] times and [`evidence::OWN_RATIO`]
-    /// times as often as each (their own detections, not what rode them). A talker's
-    /// strays are rarer than his own detections; a run that outnumbers them is a source
-    /// of its own, whose evidence counts.
-    fn outheard(&self, c: &Candidate, direction: &Vector3<f64>, now: f64, pending: usize) -> bool {
-        let since = now - ACTIVE_S;
-        let mine = c.hits.iter().filter(|(_, d)| d.time_s > since).count() + pending;
-        if mine < evidence::OWN_HITS {
-            return false;
-        }
-        let reach = self.reach();
-        self.tracks.iter().filter(|t| talks(t, now)).all(|t| {
-            let at = t.predicted(now);
-            let beside =
-                self.distance(direction, &at) <= reach || in_vertical_plane(direction, &at);
-            if !beside {
-                return true;
-            }
-            let theirs = self
-                .joins
-                .iter()
-                .filter(|&&(id, at_s)| id == t.id && at_s > since)
-                .count();
-            mine as f64 >= evidence::OWN_RATIO * theirs as f64
-        })
-    }
-
     /// What detection `d` of a candidate is worth (`evidence`), or `None` when a
-    /// talking track heard beside it makes it tell nothing (unless the candidate
-    /// `outheard` it, [`Tracker::outheard`]). Its margin is the largest
+    /// talking track heard beside it makes it tell nothing (`muted`, [`Tracker::muted`]).
+    /// Its margin is the largest
     /// its frame gave it ([`Detection::peak_margin`]: a knock passes the threshold in
     /// its frame's own correlations, not in their average); one over the threshold
     /// weaker than its frame's strongest counts at that margin times its share of the
     /// strongest score: a loud sound's stray is not a second source's evidence.
-    fn hit_nats(&self, d: &Detection, frame: Frame, outheard: bool) -> Option<f64> {
+    fn hit_nats(&self, d: &Detection, frame: Frame, muted: bool) -> Option<f64> {
         let margin = d.peak_margin.max(d.margin);
-        let (near, busy) = self.beside(&d.direction, d.time_s);
-        let near = near && !outheard;
-        if near || margin < 1.0 && d.time_s < self.warmup_s {
+        let busy = self.talking(d.time_s);
+        if muted || margin < 1.0 && d.time_s < self.warmup_s {
             return None;
         }
         let m = if margin > 1.0 && frame.strongest > 0.0 {
@@ -1164,8 +1146,7 @@ impl Tracker {
         let mut i = 0;
         while i < self.candidates.len() {
             let c = &self.candidates[i];
-            let near = self.beside(&c.direction, now).0 && !self.outheard(c, &c.direction, now, 0)
-                || now < self.warmup_s;
+            let near = self.muted(c, &c.direction, now, 0) || now < self.warmup_s;
             let c = &mut self.candidates[i];
             c.test.close_to(look, &e, near);
             c.bursts.close_to(look, &e, near);

@@ -922,17 +922,17 @@ fn a_run_that_outhears_a_talking_track_beside_it_counts_as_evidence() {
         }
         let c = candidate_of(&tracker, hits);
         let next = weak_at(130, 38.0, 0.9, 10.0);
-        let outheard = tracker.outheard(&c, &next.direction, 1.3, 1);
+        let muted = tracker.muted(&c, &next.direction, 1.3, 1);
         let frame = Frame {
             alone: true,
             strongest: next.score,
         };
-        (outheard, tracker.hit_nats(&next, frame, outheard))
+        (muted, tracker.hit_nats(&next, frame, muted))
     };
-    let (outheard, nats) = run(5);
-    assert!(outheard && nats.is_some_and(|n| n > 0.0), "{nats:?}");
-    let (outheard, nats) = run(2);
-    assert!(!outheard && nats.is_none(), "{nats:?}");
+    let (muted, nats) = run(5);
+    assert!(!muted && nats.is_some_and(|n| n > 0.0), "{nats:?}");
+    let (muted, nats) = run(2);
+    assert!(muted && nats.is_none(), "{nats:?}");
 }
 
 /// The sources of the rows a tracker on a 6-mic circle of radius 4.63 cm at 16 kHz (a
