@@ -392,16 +392,21 @@ impl Patterns {
     }
 
     /// The best direction of `residual` (the longer average, less what was removed) with
-    /// `directions` cleared, down to the candidates' share of the longer average's own
-    /// threshold (the frame's with its chance part scaled by the exponential average's
-    /// spread over independent frames), fitting one source, and heard in the frame's own
-    /// span too: a source that has stopped stays in the longer average a while.
-    fn residual_source(&mut self, setup: &Layout, span: &[FrameState]) -> Option<Heard> {
+    /// `directions` cleared, down to `share` of the longer average's own threshold (the
+    /// frame's with its chance part scaled by the exponential average's spread over
+    /// independent frames), fitting one source, and heard in the frame's own span too: a
+    /// source that has stopped stays in the longer average a while.
+    fn residual_source(
+        &mut self,
+        setup: &Layout,
+        span: &[FrameState],
+        share: f64,
+    ) -> Option<Heard> {
         let state = span.last().expect("a frame");
         let solver = solver(&mut self.solvers, setup, state)?;
         let pairs = pair_count(state.live.len());
         let threshold = self.threshold.per_pair_spread(&state.weights, self.spread) * pairs as f64;
-        let floor = threshold * setup.params.talkers.candidate_share();
+        let floor = threshold * share;
         let steer = self.steered.search(
             &mut self.residual,
             &Query {
@@ -467,7 +472,8 @@ impl Patterns {
         self.directions.clear();
         self.directions
             .extend(found.as_slice().iter().map(|d| d.direction));
-        let Some(heard) = self.residual_source(setup, span) else {
+        let share = setup.params.talkers.candidate_share();
+        let Some(heard) = self.residual_source(setup, span, share) else {
             return;
         };
         let (u, score, uncertainty) = (heard.direction, heard.score, heard.uncertainty_deg);
