@@ -386,3 +386,39 @@ fn a_talker_too_faint_for_each_frame_is_found_by_his_looks_added_up() {
         "{rows:?}"
     );
 }
+
+/// Fainter still: the same words 8 dB under the noise at RT60 0.7 s (seed 21). Added up
+/// over the longer average his looks stand at a third or so of its threshold, under
+/// the candidates' share of it (0.4), where the run confirmed nothing; the accumulated
+/// look counts down to a quarter of it (`CANDIDATES_SHARE`), and his rows are written,
+/// all within 5 deg.
+#[test]
+fn a_talker_8_db_under_the_noise_is_found_by_the_accumulated_look_down_to_a_quarter() {
+    let (dir, _) = prism_with_speech();
+    let d = dir.path();
+    write(
+        d,
+        "fainter.toml",
+        "sample_rate = 16000\nduration = 6.0\nseed = 21\nformat = \"float32\"\n\
+         [room]\ndimensions = [7.0, 5.5, 2.9]\nrt60 = 0.7\n\
+         [array]\ngeometry = \"prism.toml\"\nposition = [4.5, 3.0, 1.2]\nyaw_deg = 10.0\n\
+         [[source]]\nazimuth_deg = -60\nelevation_deg = 5\ndistance = 2.5\n\
+         signal = \"file\"\nfile = \"cmu_arctic_us_aew_a0001.wav\"\nlevel_db = -26\n\
+         active = [[0.5, 0.8], [1.5, 1.8], [2.6, 2.9], [3.6, 3.9], [4.7, 5.0]]\n\
+         [noise]\nsnr_db = -8\nsensor_db = -70\n[[noise.fan]]\nposition = [0.4, 0.4, 2.6]\n\
+         signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n",
+    );
+    let run = |args: &[&str]| {
+        let out = ssl().current_dir(d).args(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+        out
+    };
+    run(&["simulate", "fainter.toml", "-o", "fainter.wav"]);
+    let found = run(&["analyze", "fainter.wav", "-g", "prism.toml"]);
+    let rows = parse_csv(&String::from_utf8_lossy(&found.stdout));
+    assert!(rows.len() >= 10, "{} rows: {}", rows.len(), stderr(&found));
+    assert!(
+        rows.iter().all(|r| (r.azimuth_deg + 60.0).abs() < 5.0),
+        "{rows:?}"
+    );
+}

@@ -52,7 +52,8 @@ pub(crate) const OWN_DEG: f64 = 5.0;
 /// evidence test, not this floor, decides what is a source. Words found in rooms of
 /// RT60 0.2-0.8 s at 0-20 dB (`benches/words.py --only hard`, the four draws it was
 /// chosen on, 384 words): 308 at the candidates' share, 315 at 0.75 of it, 330 at 0.625,
-/// 332 at 0.5 (docs/experiments.md, 2026-12-07, seventh session).
+/// 332 at 0.5 (docs/experiments.md, 2026-12-07, seventh session). Tested by
+/// `tests/integration/rooms.rs`: a talker 8 dB under the noise, heard only this way.
 pub(crate) const CANDIDATES_SHARE: f64 = 0.625;
 
 impl Patterns {
