@@ -488,11 +488,7 @@ fn a_file_whose_detections_no_track_confirms_says_so() {
          [noise]\nsnr_db = 10\nsensor_db = -70\n[[noise.fan]]\nposition = [0.3, 0.4, 2.5]\n\
          signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n",
     );
-    let run = |args: &[&str]| {
-        let out = ssl().current_dir(d).args(args).output().unwrap();
-        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
-        out
-    };
+    let run = |args: &[&str]| run_ok_in(d, args);
     run(&["simulate", "bg.toml", "-o", "bg.wav"]);
     let found = run(&["analyze", "bg.wav", "-g", "circle.toml"]);
     let rows = parse_csv(&String::from_utf8_lossy(&found.stdout));

@@ -312,6 +312,21 @@ fn a_fan_next_to_the_array_is_background_with_dereverberation_too() {
     assert!(near >= 50 && near + 3 >= rows.len() - before);
 }
 
+/// A scene for `ssl simulate`: single words from 2.5 m at azimuth -60 deg in a 7 x 5.5 x
+/// 2.9 m room at `rt60`, `snr_db` against a fan and diffuse noise, on the prism at 16 kHz.
+fn faint_words(seed: u64, rt60: f64, snr_db: f64) -> String {
+    format!(
+        "sample_rate = 16000\nduration = 6.0\nseed = {seed}\nformat = \"float32\"\n\
+         [room]\ndimensions = [7.0, 5.5, 2.9]\nrt60 = {rt60}\n\
+         [array]\ngeometry = \"prism.toml\"\nposition = [4.5, 3.0, 1.2]\nyaw_deg = 10.0\n\
+         [[source]]\nazimuth_deg = -60\nelevation_deg = 5\ndistance = 2.5\n\
+         signal = \"file\"\nfile = \"cmu_arctic_us_aew_a0001.wav\"\nlevel_db = -26\n\
+         active = [[0.5, 0.8], [1.5, 1.8], [2.6, 2.9], [3.6, 3.9], [4.7, 5.0]]\n\
+         [noise]\nsnr_db = {snr_db}\nsensor_db = -70\n[[noise.fan]]\nposition = [0.4, 0.4, 2.6]\n\
+         signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n"
+    )
+}
+
 /// A talker across a reverberant room too faint for each frame: single words from 2.5 m
 /// in a 7 x 5.5 x 2.9 m room at RT60 0.6 s, 5 dB under the fan and diffuse noise, on the
 /// prism at 16 kHz. The defaults find him from his looks added up over the longer
@@ -323,23 +338,8 @@ fn a_fan_next_to_the_array_is_background_with_dereverberation_too() {
 fn a_talker_too_faint_for_each_frame_is_found_by_his_looks_added_up() {
     let (dir, _) = prism_with_speech();
     let d = dir.path();
-    write(
-        d,
-        "faint.toml",
-        "sample_rate = 16000\nduration = 6.0\nseed = 5\nformat = \"float32\"\n\
-         [room]\ndimensions = [7.0, 5.5, 2.9]\nrt60 = 0.6\n\
-         [array]\ngeometry = \"prism.toml\"\nposition = [4.5, 3.0, 1.2]\nyaw_deg = 10.0\n\
-         [[source]]\nazimuth_deg = -60\nelevation_deg = 5\ndistance = 2.5\n\
-         signal = \"file\"\nfile = \"cmu_arctic_us_aew_a0001.wav\"\nlevel_db = -26\n\
-         active = [[0.5, 0.8], [1.5, 1.8], [2.6, 2.9], [3.6, 3.9], [4.7, 5.0]]\n\
-         [noise]\nsnr_db = -5\nsensor_db = -70\n[[noise.fan]]\nposition = [0.4, 0.4, 2.6]\n\
-         signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n",
-    );
-    let run = |args: &[&str]| {
-        let out = ssl().current_dir(d).args(args).output().unwrap();
-        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
-        out
-    };
+    write(d, "faint.toml", faint_words(5, 0.6, -5.0));
+    let run = |args: &[&str]| run_ok_in(d, args);
     run(&["simulate", "faint.toml", "-o", "faint.wav"]);
     let found = run(&["analyze", "faint.wav", "-g", "prism.toml"]);
     let rows = parse_csv(&String::from_utf8_lossy(&found.stdout));
@@ -396,23 +396,8 @@ fn a_talker_too_faint_for_each_frame_is_found_by_his_looks_added_up() {
 fn a_talker_8_db_under_the_noise_is_found_by_the_accumulated_look_down_to_a_quarter() {
     let (dir, _) = prism_with_speech();
     let d = dir.path();
-    write(
-        d,
-        "fainter.toml",
-        "sample_rate = 16000\nduration = 6.0\nseed = 21\nformat = \"float32\"\n\
-         [room]\ndimensions = [7.0, 5.5, 2.9]\nrt60 = 0.7\n\
-         [array]\ngeometry = \"prism.toml\"\nposition = [4.5, 3.0, 1.2]\nyaw_deg = 10.0\n\
-         [[source]]\nazimuth_deg = -60\nelevation_deg = 5\ndistance = 2.5\n\
-         signal = \"file\"\nfile = \"cmu_arctic_us_aew_a0001.wav\"\nlevel_db = -26\n\
-         active = [[0.5, 0.8], [1.5, 1.8], [2.6, 2.9], [3.6, 3.9], [4.7, 5.0]]\n\
-         [noise]\nsnr_db = -8\nsensor_db = -70\n[[noise.fan]]\nposition = [0.4, 0.4, 2.6]\n\
-         signal = \"pink\"\n[noise.diffuse]\nsignal = \"pink\"\nweight_db = -6\n",
-    );
-    let run = |args: &[&str]| {
-        let out = ssl().current_dir(d).args(args).output().unwrap();
-        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
-        out
-    };
+    write(d, "fainter.toml", faint_words(21, 0.7, -8.0));
+    let run = |args: &[&str]| run_ok_in(d, args);
     run(&["simulate", "fainter.toml", "-o", "fainter.wav"]);
     let found = run(&["analyze", "fainter.wav", "-g", "prism.toml"]);
     let rows = parse_csv(&String::from_utf8_lossy(&found.stdout));

@@ -289,6 +289,13 @@ pub fn run(args: &[&str]) -> Output {
     ssl().args(args).stdin(Stdio::null()).output().unwrap()
 }
 
+/// Runs `ssl args` in `dir` and checks that it succeeded (its stderr in the message).
+pub fn run_ok_in(dir: &Path, args: &[&str]) -> Output {
+    let out = ssl().current_dir(dir).args(args).output().unwrap();
+    assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+    out
+}
+
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }

@@ -86,11 +86,11 @@ impl Patterns {
             }
         }
         self.directions.clear();
-        let talkers = &setup.params.talkers;
-        let share = talkers
-            .candidates
-            .filter(|&c| c < 1.0)
-            .map_or(1.0, |c| c * CANDIDATES_SHARE);
+        // With no candidates (a share of 1), none under the threshold here either.
+        let share = match setup.params.talkers.candidate_share() {
+            c if c < 1.0 => c * CANDIDATES_SHARE,
+            _ => 1.0,
+        };
         let found = self.residual_source(setup, span, share)?;
         let u = found.direction;
         let heard = (TALKING_S * setup.rate / setup.hop as f64) as u64;
