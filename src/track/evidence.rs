@@ -222,10 +222,14 @@ impl Test {
 /// (see [`Bursts`]).
 pub const BURST_S: f64 = 0.35;
 
-/// The mean silence of a source between its bursts (seconds): a person who says a word
-/// every few seconds (see [`Bursts`]). A longer silence is evidence against a source
-/// there, at one nat per `PAUSE_S`.
-pub const PAUSE_S: f64 = 3.0;
+/// The mean silence of a source between its bursts (seconds): a talker's pauses between
+/// words and phrases (0.15-0.7 s in the words of `benches/words.py`, 0.3-0.8 s between
+/// the turns of `benches/voices.py`; see [`Bursts`]). A longer silence is evidence
+/// against a source there, at one nat per `PAUSE_S`. It was 3 s (a word every few
+/// seconds); the hard rooms' words found, summed over four draws: 330 at 3 s, 334 at 1
+/// s, 338 at 0.7 s, 342 at 0.5 s with a wall's reflection a false event
+/// (docs/experiments.md, 2026-12-07, eighth session).
+pub const PAUSE_S: f64 = 0.7;
 
 /// The least log odds that a source known at a place sounds now for a candidate there
 /// to be it (nats): a source heard before is not confirmed anew by one stray (at 0, a
@@ -250,7 +254,7 @@ pub const ON_BUSY_NATS: f64 = 4.0;
 /// hypothesis), a burst lasting [`BURST_S`] on average and a silence [`PAUSE_S`].
 /// The likelihood ratio against clutter is the forward sum over both states' paths:
 /// a silent look costs a source that has fallen silent nothing, and each new burst
-/// costs the chance that it starts in that look (`ln(look / PAUSE_S)`, about -3.9 nats
+/// costs the chance that it starts in that look (`ln(look / PAUSE_S)`, about -2.4 nats
 /// at 64 ms looks), so a place that gives a detection now and then, as clutter does,
 /// gains little, while words that each give a few looks add up. The ratio is still a
 /// martingale under clutter, so Wald's bound on false sources holds as for [`Test`].
