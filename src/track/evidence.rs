@@ -227,9 +227,10 @@ pub const BURST_S: f64 = 0.35;
 /// the turns of `benches/voices.py`; see [`Bursts`]). A longer silence is evidence
 /// against a source there, at one nat per `PAUSE_S`. It was 3 s (a word every few
 /// seconds); the hard rooms' words found, summed over four draws: 330 at 3 s, 334 at 1
-/// s, 338 at 0.7 s, 342 at 0.5 s with a wall's reflection a false event
-/// (docs/experiments.md, 2026-12-07, eighth session).
-pub const PAUSE_S: f64 = 0.7;
+/// s, 338 at 0.7 s, 342 at 0.5 s (with a candidate confirmed over its bursts while
+/// another talks only once heard alone, [`Bursts::confirms`]; docs/experiments.md,
+/// 2026-12-07, eighth session).
+pub const PAUSE_S: f64 = 0.5;
 
 /// The least log odds that a source known at a place sounds now for a candidate there
 /// to be it (nats): a source heard before is not confirmed anew by one stray (at 0, a
@@ -254,7 +255,7 @@ pub const ON_BUSY_NATS: f64 = 4.0;
 /// hypothesis), a burst lasting [`BURST_S`] on average and a silence [`PAUSE_S`].
 /// The likelihood ratio against clutter is the forward sum over both states' paths:
 /// a silent look costs a source that has fallen silent nothing, and each new burst
-/// costs the chance that it starts in that look (`ln(look / PAUSE_S)`, about -2.4 nats
+/// costs the chance that it starts in that look (`ln(look / PAUSE_S)`, about -2.1 nats
 /// at 64 ms looks), so a place that gives a detection now and then, as clutter does,
 /// gains little, while words that each give a few looks add up. The ratio is still a
 /// martingale under clutter, so Wald's bound on false sources holds as for [`Test`].
@@ -356,7 +357,12 @@ impl Bursts {
 
     /// Whether the evidence makes a source that sounds now: at least `confirm_nats`
     /// that there is one, and at least [`ON_NATS`] that it is heard in this burst
-    /// ([`ON_BUSY_NATS`] while another source talks: `busy`).
+    /// ([`ON_BUSY_NATS`] while another source talks: `busy`). While another talks the
+    /// tracker also asks that the candidate was once heard alone (no talking track
+    /// heard in the 0.1 s before): a talker's wall reflection 20 deg from him, heard
+    /// with each of his words 0.15-0.7 s apart, added up over them into a false source
+    /// (`benches/words.py --seed 900`, scene 908; docs/experiments.md, 2026-12-07,
+    /// eighth session).
     pub fn confirms(&self, e: &Evidence, busy: bool) -> bool {
         let on = if busy { ON_BUSY_NATS } else { ON_NATS };
         self.total() >= e.confirm_nats && self.on_nats() >= on

@@ -362,3 +362,31 @@ fn a_silent_talkers_place_needs_more_while_another_talks() {
     // ...unless it stands over the threshold.
     assert_eq!(run(600, 1.2), 3);
 }
+
+/// A talker at 0 deg says eight words 0.3 s long, 0.4 s apart; in each, his wall's
+/// reflection 25 deg away is heard three times under the threshold, in his frames.
+/// Over their bursts its looks add up word after word (a source by its second word
+/// when nothing asks more); heard only with him, they never make a source. The same
+/// run heard once alone, just after one of his words, is a source of its own.
+#[test]
+fn a_reflection_heard_only_with_its_talker_is_no_source() {
+    let run = |alone_once: bool| {
+        let mut frames = vec![Vec::new(); 800];
+        for word in 0..8 {
+            let at = 20 + word * 70;
+            for f in (at..at + 30).step_by(2) {
+                frames[f].push((0.0, 2.0));
+            }
+            for f in [at + 6, at + 14, at + 22] {
+                frames[f].push((25.0, 0.55));
+            }
+        }
+        if alone_once {
+            frames[20 + 2 * 70 + 40] = vec![(25.0, 0.55)];
+        }
+        let (rows, _) = confirmed_rows(track_with(evidence(), &frames));
+        rows.iter().filter(|r| (r.2 - 25.0).abs() < 5.0).count()
+    };
+    assert_eq!(run(false), 0);
+    assert!(run(true) >= 5, "{}", run(true));
+}

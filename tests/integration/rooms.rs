@@ -403,7 +403,7 @@ fn a_talker_too_faint_for_each_frame_is_found_by_his_looks_added_up() {
 /// each word's looks stay short of a source, and what carries them from word to word is
 /// the chain of bursts (`Bursts`, src/track/evidence.rs) over the silences between
 /// them, whose new burst costs `ln(look / PAUSE_S)`. At the talker's pauses (`PAUSE_S`
-/// 0.7 s) his rows are written, all within 5 deg; at 3 s (a word every few seconds) the
+/// 0.5 s) his rows are written, all within 5 deg; at 3 s (a word every few seconds) the
 /// run confirmed nothing.
 #[test]
 fn words_in_a_row_add_up_across_their_pauses() {
