@@ -357,15 +357,15 @@ impl Bursts {
 
     /// Whether the evidence makes a source that sounds now: at least `confirm_nats`
     /// that there is one, and at least [`ON_NATS`] that it is heard in this burst
-    /// ([`ON_BUSY_NATS`] while another source talks: `busy`). While another talks the
-    /// tracker also asks that the candidate was once heard alone (no talking track
-    /// heard in the 0.1 s before): a talker's wall reflection 20 deg from him, heard
-    /// with each of his words 0.15-0.7 s apart, added up over them into a false source
-    /// (`benches/words.py --seed 900`, scene 908; docs/experiments.md, 2026-12-07,
-    /// eighth session).
-    pub fn confirms(&self, e: &Evidence, busy: bool) -> bool {
+    /// ([`ON_BUSY_NATS`] while another source talks: `busy`). While another talks, only
+    /// once the candidate was `heard_alone` (a frame's only detection with no talking
+    /// track heard in the 0.1 s before): a talker's wall reflection 20 deg from him,
+    /// heard with each of his words 0.15-0.7 s apart, added up over them into a false
+    /// source (`benches/words.py --seed 900`, scene 908; docs/experiments.md,
+    /// 2026-12-07, eighth session).
+    pub fn confirms(&self, e: &Evidence, busy: bool, heard_alone: bool) -> bool {
         let on = if busy { ON_BUSY_NATS } else { ON_NATS };
-        self.total() >= e.confirm_nats && self.on_nats() >= on
+        self.total() >= e.confirm_nats && self.on_nats() >= on && (heard_alone || !busy)
     }
 }
 

@@ -667,11 +667,8 @@ impl Tracker {
                         c.test.hit(look, weighed.flatten(), e);
                         c.bursts.hit(look, in_place, e);
                         c.best_nats = c.best_nats.max(c.test.total()).max(c.bursts.total());
-                        // Over its bursts while another source talks, only once heard
-                        // alone: a talker's wall reflection comes back word after word,
-                        // but only with him (`evidence::Bursts::confirms`).
-                        let alone = !busy || c.alone_s > f64::NEG_INFINITY;
-                        c.test.total() >= e.confirm_nats || c.bursts.confirms(e, busy) && alone
+                        let heard_alone = c.alone_s > f64::NEG_INFINITY;
+                        c.test.total() >= e.confirm_nats || c.bursts.confirms(e, busy, heard_alone)
                     }
                 };
                 if confirmed {
