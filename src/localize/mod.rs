@@ -282,6 +282,7 @@ impl<S: SampleSource> Recording<'_, S> {
             Tracker::for_array(p, geometry, rate, speed).with_evidence_window(
                 hop * method.room.average_frames as f64,
                 method.talkers.candidate_share(),
+                method.talkers.accumulated_share(),
                 method.room.background_tau_s().map_or(0.0, |_| {
                     hop * crate::method::beyond::background::WARMUP_FRAMES as f64
                 }),

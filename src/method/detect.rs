@@ -102,5 +102,6 @@ pub(crate) fn detection(
         uncertainty_deg,
         rider: false,
         span_s: 0.0,
+        accumulated: false,
     }
 }

@@ -49,6 +49,10 @@ pub struct Detection {
     /// direction is that span's, so a moving source's lags `span_s / 2` behind
     /// [`Detection::time_s`], which the tracker's smoother takes out.
     pub span_s: f64,
+    /// From the accumulated look (the longer average's best direction in a frame that
+    /// gave nothing, its margin over that average's threshold): a tracker weighs it by
+    /// the accumulated looks' own law (see [`track`](crate::track)).
+    pub accumulated: bool,
 }
 
 /// A frame's detections, strongest first (at most 4).

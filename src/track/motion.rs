@@ -412,6 +412,7 @@ mod tests {
             uncertainty_deg: 10.0,
             rider: false,
             span_s: 0.04,
+            accumulated: false,
         }
     }
 

@@ -215,6 +215,7 @@ mod tests {
                 uncertainty_deg: 2.0,
                 rider: false,
                 span_s: 0.0,
+                accumulated: false,
             },
             source,
         }

@@ -5,7 +5,9 @@ use super::clutter::Clutter;
 use super::event::{turn_ended, Accumulator, Event};
 use super::evidence::{self, Bursts, Evidence, Test, ACTIVE_S};
 use super::faint::{self, FaintPlace, FaintPlaces};
-use super::image::{in_vertical_plane, is_vertical_image, IMAGE_TALKING_S};
+use super::image::{
+    in_vertical_plane, is_vertical_image, may_be_image_of, IMAGE_TALKING_S, LOOKED_S,
+};
 use super::motion::{smooth, Track};
 use super::output::{TrackStats, Tracked};
 use super::smoother::Smoother;
@@ -76,9 +78,11 @@ const STRAY_SHARE: f64 = 0.5;
 const ONSET_S: f64 = 0.05;
 
 /// The defaults a tracker assumes before it is told the recording's looks
-/// ([`Tracker::looking`]): 6 hops of 512 samples at 48 kHz, candidates down to 0.4.
+/// ([`Tracker::looking`]): 6 hops of 512 samples at 48 kHz, candidates down to 0.4,
+/// the accumulated look down to 0.25.
 const DEFAULT_LOOK_S: f64 = 0.064;
 const DEFAULT_FLOOR: f64 = 0.4;
+const DEFAULT_LOOK_FLOOR: f64 = 0.25;
 
 #[derive(Clone, Copy)]
 enum Slot {
@@ -104,6 +108,8 @@ pub struct Tracker {
     plane: Option<Vector3<f64>>,
     tracks: Vec<Track>,
     candidates: Vec<Candidate>,
+    /// The accumulated looks' detections of the last [`LOOKED_S`] (time, direction).
+    looked: VecDeque<(f64, Vector3<f64>)>,
     /// Rows not yet given out, in frame order, with what they joined.
     waiting: VecDeque<(Detection, Slot)>,
     /// The frame last given out (its time's bits) and the sources of its rows
@@ -201,8 +207,14 @@ impl Tracker {
             used: Vec::new(),
             taken: Vec::new(),
             joins: VecDeque::new(),
-            evidence: Evidence::new(DEFAULT_LOOK_S, DEFAULT_FLOOR, params_false_per_hour),
+            evidence: Evidence::new(
+                DEFAULT_LOOK_S,
+                DEFAULT_FLOOR,
+                DEFAULT_LOOK_FLOOR,
+                params_false_per_hour,
+            ),
             clutter: Clutter::default(),
+            looked: VecDeque::new(),
             spread_deg: 0.0,
             volumetric: false,
             warmup_s: 0.0,
@@ -211,12 +223,19 @@ impl Tracker {
 
     /// Tells the tracker the recording's looks: each averaged correlation spans
     /// `look_s` seconds, candidates are reported down to `floor` times the threshold
-    /// (see `evidence`), and the method has begun removing the steady background
+    /// and the accumulated look's down to `look_floor` times its own (see `evidence`),
+    /// and the method has begun removing the steady background
     /// after `warmup_s` seconds (0: from the start, or never): until then a candidate
     /// under the threshold may be that background (a fan beside the array), and tells
     /// nothing.
-    pub fn with_evidence_window(mut self, look_s: f64, floor: f64, warmup_s: f64) -> Self {
-        self.evidence = Evidence::new(look_s, floor, self.params.false_per_hour);
+    pub fn with_evidence_window(
+        mut self,
+        look_s: f64,
+        floor: f64,
+        look_floor: f64,
+        warmup_s: f64,
+    ) -> Self {
+        self.evidence = Evidence::new(look_s, floor, look_floor, self.params.false_per_hour);
         self.warmup_s = warmup_s;
         self
     }
@@ -362,6 +381,19 @@ impl Tracker {
         self.associate(time_s, detections, frame, &mut used, &mut taken);
         self.ride(time_s, detections, &mut used, &mut taken);
         self.start(time_s, detections, frame, &mut used);
+        self.looked.extend(
+            detections
+                .iter()
+                .filter(|d| d.accumulated)
+                .map(|d| (d.time_s, d.direction)),
+        );
+        while self
+            .looked
+            .front()
+            .is_some_and(|&(at_s, _)| time_s - at_s > LOOKED_S)
+        {
+            self.looked.pop_front();
+        }
         self.heard_together(detections, &used, &taken);
         self.taken = taken;
         // Rows wait in the frame's order of its detections.
@@ -640,7 +672,7 @@ impl Tracker {
                     .expect("an open candidate");
                 let muted = self.muted(&self.candidates[i], &d.direction, d.time_s, 1);
                 let weighed = (self.params.confirm_by == ConfirmBy::Evidence)
-                    .then(|| self.hit_nats(d, frame, muted));
+                    .then(|| self.hit_nats(d, frame, muted, &self.candidates[i]));
                 let row = self.next_row;
                 self.next_row += 1;
                 // A source in bursts stays at its place: a detection farther from it
@@ -687,7 +719,15 @@ impl Tracker {
     /// its frame's own correlations, not in their average); one over the threshold
     /// weaker than its frame's strongest counts at that margin times its share of the
     /// strongest score: a loud sound's stray is not a second source's evidence.
-    fn hit_nats(&self, d: &Detection, frame: Frame, muted: bool) -> Option<f64> {
+    /// An accumulated look's is weighed by the accumulated looks' own law
+    /// ([`Evidence::look_nats`]) when nothing else sounds: no track talking (`busy`), no
+    /// silent track's place but candidate `c`'s heard again within [`ACTIVE_S`] (at a
+    /// talker's onset the longer average named the silent talker before him, a false
+    /// event in `benches/words.py --seed 900`), and it is not maybe the vertical image
+    /// of another accumulated look heard within [`LOOKED_S`] ([`may_be_image_of`]: a
+    /// faint talker's floor image, as loud as he is, became a source in scene 8111 of
+    /// `benches/words.py --seed 8100`).
+    fn hit_nats(&self, d: &Detection, frame: Frame, muted: bool, c: &Candidate) -> Option<f64> {
         let margin = d.peak_margin.max(d.margin);
         let busy = self.talking(d.time_s);
         if muted || margin < 1.0 && d.time_s < self.warmup_s {
@@ -705,6 +745,21 @@ impl Tracker {
         } else {
             evidence::CANDIDATE_RATE_PER_S
         };
+        let own_law = d.accumulated
+            && !busy
+            && !self.candidates.iter().any(|o| {
+                o.place.is_some() && o.place != c.place && d.time_s - o.last_s <= ACTIVE_S
+            })
+            && !self
+                .looked
+                .iter()
+                .any(|(at_s, u)| d.time_s - at_s <= LOOKED_S && may_be_image_of(&d.direction, u));
+        if own_law {
+            let rate = self
+                .clutter
+                .rate(&d.direction, d.time_s, evidence::LOOK_RATE_PER_S);
+            return Some(self.evidence.look_nats(m, rate));
+        }
         let rate = self.clutter.rate(&d.direction, d.time_s, floor);
         Some(self.evidence.hit_nats(m, rate))
     }

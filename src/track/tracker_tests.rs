@@ -22,6 +22,7 @@ fn detection(frame: u64, azimuth: f64) -> Detection {
         uncertainty_deg: 2.0,
         rider: false,
         span_s: 0.0,
+        accumulated: false,
     }
 }
 
@@ -927,7 +928,7 @@ fn a_run_that_outhears_a_talking_track_beside_it_counts_as_evidence() {
             alone: true,
             strongest: next.score,
         };
-        (muted, tracker.hit_nats(&next, frame, muted))
+        (muted, tracker.hit_nats(&next, frame, muted, &c))
     };
     let (muted, nats) = run(5);
     assert!(!muted && nats.is_some_and(|n| n > 0.0), "{nats:?}");

@@ -26,14 +26,17 @@
 //!   loud talker between his words), nor that talker's floor or ceiling image
 //!   ([`IMAGE_ELEVATION_DEG`]).
 //!
-//! Its margin is over the longer average's threshold, so the tracker weighs it as any
-//! candidate: it confirms nothing alone, and a place it names needs the evidence of
-//! looks like any other.
+//! Its margin is over the longer average's threshold, and it is marked
+//! [`Detection::accumulated`]: the tracker weighs it by the accumulated looks' own law
+//! (`Evidence::look_nats` in `src/track/evidence.rs`, measured on training scenes: far
+//! less often clutter than a frame's candidate), and a place it names needs the evidence
+//! of looks like any other.
 
 use super::{
     apart, detection, Correlated, FrameState, Layout, Outcome, Patterns, IMAGE_ELEVATION_DEG,
     SLOT_DEG, TALKING_S,
 };
+use crate::method::beyond::Talkers;
 use crate::method::Detection;
 
 /// A talker heard lately makes what the longer average gives within this many degrees
@@ -55,6 +58,18 @@ pub(crate) const OWN_DEG: f64 = 5.0;
 /// 332 at 0.5 (docs/experiments.md, 2026-12-07, seventh session). Tested by
 /// `tests/integration/rooms.rs`: a talker 8 dB under the noise, heard only this way.
 pub(crate) const CANDIDATES_SHARE: f64 = 0.625;
+
+impl Talkers {
+    /// The share of its own threshold the accumulated look reports down to (1: none,
+    /// with no candidates), reported with
+    /// [`Detection::accumulated`](crate::method::Detection::accumulated).
+    pub(crate) fn accumulated_share(&self) -> f64 {
+        match self.candidate_share() {
+            c if c < 1.0 => c * CANDIDATES_SHARE,
+            _ => 1.0,
+        }
+    }
+}
 
 impl Patterns {
     /// The accumulated look of the frame `span` ends (see the module), when the frame
@@ -87,10 +102,7 @@ impl Patterns {
         }
         self.directions.clear();
         // With no candidates (a share of 1), none under the threshold here either.
-        let share = match setup.params.talkers.candidate_share() {
-            c if c < 1.0 => c * CANDIDATES_SHARE,
-            _ => 1.0,
-        };
+        let share = setup.params.talkers.accumulated_share();
         let found = self.residual_source(setup, span, share)?;
         let u = found.direction;
         let heard = (TALKING_S * setup.rate / setup.hop as f64) as u64;
@@ -107,6 +119,7 @@ impl Patterns {
         let mut d = detection(setup, state, index, u, found.score, found.uncertainty_deg);
         d.margin = found.score / found.threshold;
         d.peak_margin = d.margin;
+        d.accumulated = true;
         Some(d)
     }
 }
