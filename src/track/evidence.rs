@@ -114,7 +114,11 @@ pub(crate) const LOOK_CLUTTER_PARETO: f64 = 2.46;
 /// whole sphere, taken as if all in one gate), and in none of the 30 minutes of
 /// background of `benches/draws.py --seed 100` (the accumulated look skips a frame
 /// with nothing above the noise estimate). Frames' candidates fall in a gate at
-/// [`CANDIDATE_RATE_PER_S`].
+/// [`CANDIDATE_RATE_PER_S`], raised by the clutter map where they keep coming from (a
+/// fan's leaks); this rate is not: the map learns the frames' clutter, which the
+/// accumulated look does not hear, and raised at a faint talker's place by his own
+/// dropped words it cost 6 of the 384 words of the four draws the law was chosen on
+/// (docs/experiments.md, 2026-12-08).
 pub const LOOK_RATE_PER_S: f64 = 0.084;
 
 /// The evidence test's parameters for one recording.

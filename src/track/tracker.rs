@@ -755,10 +755,10 @@ impl Tracker {
                 .iter()
                 .any(|(at_s, u)| d.time_s - at_s <= LOOKED_S && may_be_image_of(&d.direction, u));
         if own_law {
-            let rate = self
-                .clutter
-                .rate(&d.direction, d.time_s, evidence::LOOK_RATE_PER_S);
-            return Some(self.evidence.look_nats(m, rate));
+            // Not the clutter map's rate: the map learns where frames' clutter returns (a
+            // fan's leaks), and the accumulated look skips the steady frames they come
+            // from; its own clutter is measured in `LOOK_RATE_PER_S`.
+            return Some(self.evidence.look_nats(m, evidence::LOOK_RATE_PER_S));
         }
         let rate = self.clutter.rate(&d.direction, d.time_s, floor);
         Some(self.evidence.hit_nats(m, rate))
