@@ -154,32 +154,41 @@ impl Evidence {
     /// The log ratio of margin `m` under the source and clutter laws (nats):
     /// `ln(a1 / a0) + (a0 - a1) ln(m / m0)`. Margins under the floor count as at it.
     pub fn margin_nats(&self, m: f64) -> f64 {
-        let m = if m.is_finite() { m } else { 1e6 };
-        (SOURCE_PARETO / CLUTTER_PARETO).ln()
-            + (CLUTTER_PARETO - SOURCE_PARETO) * (m.max(self.floor) / self.floor).ln()
+        pareto_nats(m, self.floor, SOURCE_PARETO, CLUTTER_PARETO)
     }
 
     /// A look with its best detection at margin `m`, clutter falling in the gate at
     /// `rate` per second (nats).
     pub fn hit_nats(&self, m: f64, rate: f64) -> f64 {
-        self.margin_nats(m) + (P_DETECT / (rate.max(1e-9) * self.look_s)).ln()
+        self.margin_nats(m) + self.rate_nats(rate)
     }
 
     /// A look whose detection is an accumulated look's at margin `m`, weighed by the
     /// accumulated looks' own law from their own floor ([`LOOK_SOURCE_PARETO`],
     /// [`LOOK_CLUTTER_PARETO`]), clutter falling in the gate at `rate` per second (nats).
     pub fn look_nats(&self, m: f64, rate: f64) -> f64 {
-        let m = if m.is_finite() { m } else { 1e6 };
-        let floor = self.look_floor;
-        (LOOK_SOURCE_PARETO / LOOK_CLUTTER_PARETO).ln()
-            + (LOOK_CLUTTER_PARETO - LOOK_SOURCE_PARETO) * (m.max(floor) / floor).ln()
-            + (P_DETECT / (rate.max(1e-9) * self.look_s)).ln()
+        pareto_nats(m, self.look_floor, LOOK_SOURCE_PARETO, LOOK_CLUTTER_PARETO)
+            + self.rate_nats(rate)
+    }
+
+    /// The chance a source is heard in a look against that of clutter falling in the
+    /// gate at `rate` per second: `ln(P_D / (rate x look))` (nats).
+    fn rate_nats(&self, rate: f64) -> f64 {
+        (P_DETECT / (rate.max(1e-9) * self.look_s)).ln()
     }
 
     /// A look without a detection (nats).
     pub fn miss_nats(&self) -> f64 {
         (1.0 - P_DETECT).ln()
     }
+}
+
+/// The log ratio of margin `m` under Pareto laws from floor `m0` with exponent `a1` for
+/// sources and `a0` for clutter (nats): `ln(a1 / a0) + (a0 - a1) ln(m / m0)`, margins
+/// under the floor counted as at it.
+fn pareto_nats(m: f64, m0: f64, a1: f64, a0: f64) -> f64 {
+    let m = if m.is_finite() { m } else { 1e6 };
+    (a1 / a0).ln() + (a0 - a1) * (m.max(m0) / m0).ln()
 }
 
 /// A candidate's running test: the looks counted so far, and the best detection of the
