@@ -3,7 +3,7 @@
 
 use super::evidence::{Bursts, Test};
 use super::faint::FaintPlace;
-use super::motion::Track;
+use super::motion::{smooth, Track};
 use super::{TrackParams, MAX_CANDIDATE_GATE_DEG};
 use crate::geometry::Geometry;
 use crate::method::Detection;
@@ -21,6 +21,10 @@ pub(super) struct Candidate {
     /// Its detections within the tracker's delay ([`TrackParams::delay_s`]) of the
     /// latest frame, oldest first, each with the number of its waiting row.
     pub hits: VecDeque<(u64, Detection)>,
+    /// The rows of those hits heard while a track talked, oldest first.
+    pub beside_talk: VecDeque<u64>,
+    /// Whether an accumulated look ([`Detection::accumulated`]) has heard it.
+    pub accumulated: bool,
     /// The time of its latest detection heard alone (see [`TrackParams::alone_s`]).
     pub alone_s: f64,
     /// Its evidence (with [`ConfirmBy::Evidence`](super::ConfirmBy::Evidence)).
@@ -83,6 +87,23 @@ impl Candidate {
             .filter(move |d| last - d.time_s <= window_s)
     }
 
+    /// Takes detection `d`, waiting as row `row`, heard while a track talked (`busy`)
+    /// or not.
+    pub fn hear(&mut self, row: u64, d: &Detection, busy: bool) {
+        self.direction = smooth(&self.direction, &d.direction, d.time_s - self.last_s);
+        self.last_s = d.time_s;
+        self.heard += 1;
+        self.hits.push_back((row, *d));
+        self.accumulated |= d.accumulated;
+        if busy {
+            self.beside_talk.push_back(row);
+        }
+        let oldest = self.hits.front().map_or(row, |&(r, _)| r);
+        while self.beside_talk.front().is_some_and(|&r| r < oldest) {
+            self.beside_talk.pop_front();
+        }
+    }
+
     /// Takes out its isolated first hits, each followed by a silence longer than
     /// `gap_s` (seconds): no part of the run that confirms the candidate. Gives their
     /// rows.
@@ -90,6 +111,24 @@ impl Candidate {
         let mut rows = Vec::new();
         while self.hits.len() > 1 && self.hits[1].1.time_s - self.hits[0].1.time_s > gap_s {
             rows.extend(self.hits.pop_front().map(|(row, _)| row));
+        }
+        rows
+    }
+
+    /// Takes out its first runs of hits heard while a track talked, each followed by a
+    /// silence longer than `gap_s` (seconds): another source's strays, no part of the
+    /// run that confirms the candidate (with the evidence, a candidate lives on
+    /// through such a silence while its bursts hold). Gives their rows.
+    pub fn strays_beside_talk(&mut self, gap_s: f64) -> Vec<u64> {
+        let mut rows = Vec::new();
+        while let Some(k) = (1..self.hits.len())
+            .find(|&k| self.hits[k].1.time_s - self.hits[k - 1].1.time_s > gap_s)
+        {
+            let talked = |(row, _): &(u64, Detection)| self.beside_talk.contains(row);
+            if !self.hits.range(..k).all(talked) {
+                break;
+            }
+            rows.extend(self.hits.drain(..k).map(|(row, _)| row));
         }
         rows
     }

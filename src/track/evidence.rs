@@ -401,6 +401,11 @@ impl Bursts {
         log_sum_exp(self.on + self.heard(), self.off)
     }
 
+    /// Whether the evidence has fallen to [`REJECT_NATS`].
+    pub fn rejected(&self) -> bool {
+        self.total() <= REJECT_NATS
+    }
+
     /// The log odds that the source sounds in the open look (nats).
     pub fn on_nats(&self) -> f64 {
         self.on + self.heard() - self.off

@@ -723,6 +723,8 @@ fn candidate_of(tracker: &Tracker, hits: VecDeque<(u64, Detection)>) -> Candidat
         direction: last.direction,
         last_s: last.time_s,
         heard: hits.len() as u64,
+        beside_talk: VecDeque::new(),
+        accumulated: false,
         first_s: first.time_s,
         hits,
         alone_s: f64::NEG_INFINITY,
