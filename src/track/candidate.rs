@@ -104,28 +104,24 @@ impl Candidate {
         }
     }
 
-    /// Takes out its isolated first hits, each followed by a silence longer than
-    /// `gap_s` (seconds): no part of the run that confirms the candidate. Gives their
-    /// rows.
-    pub fn strays(&mut self, gap_s: f64) -> Vec<u64> {
-        let mut rows = Vec::new();
-        while self.hits.len() > 1 && self.hits[1].1.time_s - self.hits[0].1.time_s > gap_s {
-            rows.extend(self.hits.pop_front().map(|(row, _)| row));
-        }
-        rows
-    }
-
-    /// Takes out its first runs of hits heard while a track talked, each followed by a
-    /// silence longer than `gap_s` (seconds): another source's strays, no part of the
-    /// run that confirms the candidate (with the evidence, a candidate lives on
-    /// through such a silence while its bursts hold). Gives their rows.
-    pub fn strays_beside_talk(&mut self, gap_s: f64) -> Vec<u64> {
+    /// Takes out its first runs of hits each followed by a silence longer than `gap_s`
+    /// (seconds), no part of the run that confirms the candidate: by the rules, a lone
+    /// first hit; with the evidence (`beside_talk_only`), a run of any length heard
+    /// while a track talked, another source's strays (a stray on its own followed by a
+    /// silence has been rejected, and a faint talker's words before a pause are his).
+    /// Gives their rows.
+    pub fn strays(&mut self, gap_s: f64, beside_talk_only: bool) -> Vec<u64> {
         let mut rows = Vec::new();
         while let Some(k) = (1..self.hits.len())
             .find(|&k| self.hits[k].1.time_s - self.hits[k - 1].1.time_s > gap_s)
         {
-            let talked = |(row, _): &(u64, Detection)| self.beside_talk.contains(row);
-            if !self.hits.range(..k).all(talked) {
+            let stray = if beside_talk_only {
+                let talked = |(row, _): &(u64, Detection)| self.beside_talk.contains(row);
+                self.hits.range(..k).all(talked)
+            } else {
+                k == 1
+            };
+            if !stray {
                 break;
             }
             rows.extend(self.hits.drain(..k).map(|(row, _)| row));

@@ -770,16 +770,11 @@ impl Tracker {
         let now = c.last_s;
         // Detections before a silence longer than the confirmation window are not the
         // run that confirmed it: a stray there would start the event early. With the
-        // evidence, only those heard while a track talked: a stray followed by a
-        // silence on its own has been rejected, and a faint talker's words before a
-        // pause are his (`benches/words.py` turns5-901: a stray at a silent talker's
-        // place during another's turn, kept alive by its bursts, began the event of
-        // his own turn 0.9 s early).
-        let strays = match self.params.confirm_by {
-            ConfirmBy::Rules => c.strays(self.params.confirm_s),
-            ConfirmBy::Evidence => c.strays_beside_talk(self.params.confirm_s),
-        };
-        for row in strays {
+        // evidence, only those heard while a track talked (`benches/words.py`
+        // turns5-901: a stray at a silent talker's place during another's turn, kept
+        // alive by its bursts, began the event of his own turn 0.9 s early).
+        let by_evidence = self.params.confirm_by == ConfirmBy::Evidence;
+        for row in c.strays(self.params.confirm_s, by_evidence) {
             self.resolved.insert(row, None);
         }
         // A talking track's floor or ceiling image starts nothing (see `image`): a track
